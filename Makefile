@@ -1,0 +1,52 @@
+# Each public target sets up what it needs on a fresh machine: Debian GL libraries (as root),
+# a .venv, torch==2.13.0 (CPU) and the package in editable mode, all through constraints.txt.
+# The stamp makes a re-run cost nothing when pyproject.toml and constraints.txt are unchanged.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+GL_STAMP := $(VENV)/.gl-ok
+export MUJOCO_GL ?= egl
+export PYOPENGL_PLATFORM ?= egl
+
+.PHONY: demo test bench lint setup clean-venv
+
+demo: setup
+	$(VENV)/bin/beo-bench demo
+
+test: setup lint
+	$(PY) -m pytest -n 2
+
+bench: setup
+	$(PY) benchmarks/run.py
+
+lint: setup
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+
+setup: $(STAMP) $(GL_STAMP)
+
+# Mesa's EGL (llvmpipe renders on the CPU) and OSMesa as the fallback; see DESIGN.md "Scenes".
+$(GL_STAMP):
+	@mkdir -p $(VENV)
+	@if ldconfig -p | grep -q 'libEGL.so.1' && ldconfig -p | grep -q 'libOpenGL.so.0' \
+	    && ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1; then \
+	  echo "GL libraries present"; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+	    libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libosmesa6 >/dev/null; \
+	else \
+	  echo "Missing GL libraries: install libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 (or libosmesa6) as root." >&2; \
+	  exit 1; \
+	fi
+	@touch $@
+
+$(STAMP): pyproject.toml constraints.txt
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -c constraints.txt torch==2.13.0
+	$(PY) -m pip install -q -c constraints.txt -e '.[dev,viz,ray]'
+	@touch $@
+
+clean-venv:
+	rm -rf $(VENV)

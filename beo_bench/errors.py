@@ -1,0 +1,51 @@
+"""Exceptions of the package: each names what was wrong and how to fix it.
+
+Every error raised on bad input derives from :class:`BeoBenchError`, so callers can catch
+the whole family; the specific classes also derive from the matching builtin
+(``ValueError``, ``KeyError``, ``IndexError``) so generic handlers keep working.
+"""
+
+from __future__ import annotations
+
+
+class BeoBenchError(Exception):
+    """Base class of every error this package raises on bad input or state."""
+
+
+class UnknownCategoryError(BeoBenchError, KeyError):
+    """A category name that no registry or dataset knows."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
+class InstanceIndexError(BeoBenchError, IndexError):
+    """An instance index outside a split's range."""
+
+
+class UnknownSplitError(BeoBenchError, ValueError):
+    """A split name that is not one of the library's splits."""
+
+
+class InvalidKeyError(BeoBenchError, ValueError):
+    """An instance key that cannot be parsed or resolved."""
+
+
+class MeshError(BeoBenchError, ValueError):
+    """A mesh that cannot be used as an object."""
+
+
+class MeshLoadError(MeshError):
+    """A mesh file that is missing, unreadable or corrupt."""
+
+
+class EmptyMeshError(MeshError):
+    """A mesh with no faces or no volume."""
+
+
+class NonWatertightMeshError(MeshError):
+    """A mesh that is not watertight and could not be repaired."""
+
+
+class DatasetLayoutError(BeoBenchError, ValueError):
+    """A dataset folder that does not have the expected layout."""

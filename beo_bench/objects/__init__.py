@@ -1,0 +1,44 @@
+"""The object library: ShapeNet-style procedural categories and real-dataset loaders.
+
+Canonical frame of every instance: +z up, +x front, origin at the bounding-box centre
+(objects are *centred*, not resting on z = 0), real size in metres.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+from beo_bench.objects.instance import ObjectInstance
+from beo_bench.objects.loaders import load_folder, load_modelnet, load_shapenet
+from beo_bench.objects.objectset import ObjectSet, instance_from_key
+from beo_bench.objects.registry import (
+    DEFAULT_SPLIT_SIZES,
+    LIBRARY_VERSION,
+    SPLITS,
+    CategorySpec,
+    categories,
+    get_category,
+    register_category,
+)
+
+# One module per category; importing registers it.
+CATEGORY_MODULES = ("mug",)
+for _m in CATEGORY_MODULES:
+    importlib.import_module(f"beo_bench.objects.{_m}")
+
+
+__all__ = [
+    "DEFAULT_SPLIT_SIZES",
+    "LIBRARY_VERSION",
+    "SPLITS",
+    "CategorySpec",
+    "ObjectInstance",
+    "ObjectSet",
+    "categories",
+    "get_category",
+    "instance_from_key",
+    "load_folder",
+    "load_modelnet",
+    "load_shapenet",
+    "register_category",
+]

@@ -1,0 +1,104 @@
+"""One object instance: its mesh in the canonical frame, symmetry, and cached derived data.
+
+The canonical frame (all categories, all sources): +z up, +x front, origin at the centre of
+the axis-aligned bounding box, metres. ``voxels(D)`` scales that frame uniformly into the
+unit cube (see :func:`beo_bench.objects.processing.voxelize`).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from beo_bench.objects import cache
+from beo_bench.objects.params import Params
+from beo_bench.objects.processing import (
+    DEFAULT_RESOLUTION,
+    convex_decomposition,
+    pack_parts,
+    surface_samples,
+    unpack_parts,
+    voxelize,
+)
+from beo_bench.objects.registry import Generated
+from beo_bench.types import BoolGrid, Symmetry
+
+SURFACE_SAMPLES = 4096
+"""Default number of cached surface samples per instance."""
+
+
+@dataclass(eq=False)
+class ObjectInstance:
+    """An object of the library. Build it through :class:`~beo_bench.objects.ObjectSet`,
+    a loader, or :func:`~beo_bench.objects.instance_from_key`; the mesh is built on first
+    use and kept."""
+
+    key: str
+    """Unique across sets and sources; :func:`instance_from_key` turns it back into this."""
+    category: str
+    split: str
+    index: int
+    source: str
+    """``procedural``, ``shapenet``, ``modelnet`` or ``folder``."""
+    build: Callable[[], Generated] = field(repr=False)
+    """Produces the canonical mesh, its convex parts (None: decompose with CoACD) and the
+    symmetry group."""
+    params: Params = field(default_factory=dict)
+    """Shape parameters of a procedural instance (empty for meshes from files)."""
+    pickable: bool = True
+    path: Path | None = None
+    """The source file of a loaded mesh."""
+
+    @functools.cached_property
+    def _generated(self) -> Generated:
+        return self.build()
+
+    @property
+    def mesh(self) -> trimesh.Trimesh:
+        """The watertight mesh in the canonical frame (metres)."""
+        return self._generated.mesh
+
+    @property
+    def symmetry(self) -> Symmetry:
+        """Symmetry group in BOP's form (continuous axes, discrete 4x4 transforms)."""
+        return self._generated.symmetry
+
+    @property
+    def size(self) -> np.ndarray:
+        """Bounding-box extents (x, y, z) in metres."""
+        return np.asarray(self.mesh.extents, dtype=np.float64)
+
+    @functools.cached_property
+    def content_hash(self) -> str:
+        return cache.mesh_hash(self.mesh)
+
+    def voxels(self, D: int = DEFAULT_RESOLUTION) -> BoolGrid:
+        """Solid occupancy on a D^3 grid over the unit cube that the canonical frame is
+        scaled into (edge = the largest extent), indexed [x, y, z]. Cached on disk."""
+        out = cache.cached("voxels", self.content_hash, {"D": int(D), "v": 1},
+                           lambda: {"occ": np.packbits(voxelize(self.mesh, D))})
+        return np.unpackbits(out["occ"], count=D**3).astype(bool).reshape(D, D, D)
+
+    def surface_points(self, n: int = SURFACE_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
+        """``n`` area-uniform surface points and outward normals (canonical frame, cached)."""
+        out = cache.cached("surface", self.content_hash, {"n": int(n), "seed": 0, "v": 1},
+                           lambda: dict(zip(("points", "normals"),
+                                            surface_samples(self.mesh, n, seed=0))))
+        return out["points"], out["normals"]
+
+    def collision_parts(self) -> list[trimesh.Trimesh]:
+        """Convex collision parts in the canonical frame: the exact primitives of a
+        procedural instance, or CoACD's decomposition of a loaded mesh (cached)."""
+        if self._generated.parts is not None:
+            return self._generated.parts
+        out = cache.cached("coacd", self.content_hash, {"v": 1},
+                           lambda: pack_parts(convex_decomposition(self.mesh)))
+        return unpack_parts(out)
+
+    def __repr__(self) -> str:
+        return f"ObjectInstance({self.key!r})"

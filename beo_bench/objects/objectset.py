@@ -1,0 +1,159 @@
+"""``ObjectSet``: a split of the object library (procedural, or a real dataset), and
+``instance_from_key``.
+
+Keys are ``<source>/<rest>``: ``proc/v1/mug/test/7`` for procedural instances; the loaders
+register a resolver for their own prefixes (``shapenet``, ``modelnet``, ``folder``).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+
+from beo_bench.errors import InstanceIndexError, InvalidKeyError, UnknownCategoryError
+from beo_bench.objects.instance import ObjectInstance
+from beo_bench.objects.registry import (
+    DEFAULT_SPLIT_SIZES,
+    LIBRARY_VERSION,
+    categories as registered_categories,
+    check_split,
+    generate,
+    get_category,
+    instance_params,
+)
+
+KeyResolver = Callable[[str], ObjectInstance]
+_RESOLVERS: dict[str, KeyResolver] = {}
+
+
+def register_key_source(prefix: str, resolver: KeyResolver) -> None:
+    """Let :func:`instance_from_key` resolve keys ``<prefix>/...`` (used by loaders)."""
+    _RESOLVERS[prefix] = resolver
+
+
+def procedural_instance(category: str, split: str, index: int) -> ObjectInstance:
+    """Instance ``index`` of a procedural category in ``split`` (cheap: the mesh is lazy)."""
+    spec = get_category(category)
+    check_split(split)
+    params = instance_params(category, split, index)
+    return ObjectInstance(
+        key=f"proc/v{LIBRARY_VERSION}/{category}/{split}/{index}",
+        category=category, split=split, index=index, source="procedural",
+        build=functools.partial(generate, category, params), params=params,
+        pickable=spec.pickable)
+
+
+def _resolve_procedural(rest: str) -> ObjectInstance:
+    parts = rest.split("/")
+    if len(parts) != 4 or not parts[3].isdigit() or not parts[0].startswith("v"):
+        raise InvalidKeyError(f"procedural key 'proc/{rest}' is not proc/v<N>/<category>/"
+                              f"<split>/<index>")
+    version, category, split, index = parts
+    if version != f"v{LIBRARY_VERSION}":
+        raise InvalidKeyError(
+            f"key 'proc/{rest}' is from library {version}; this package generates "
+            f"v{LIBRARY_VERSION} (install the beo-bench release that made those results)")
+    return procedural_instance(category, split, int(index))
+
+
+register_key_source("proc", _resolve_procedural)
+
+
+def instance_from_key(key: str) -> ObjectInstance:
+    """The instance a key names (keys are unique across sets and sources)."""
+    prefix, sep, rest = key.partition("/")
+    if not sep:
+        raise InvalidKeyError(f"instance key {key!r} has no '<source>/' prefix")
+    if prefix not in _RESOLVERS:
+        # the dataset loaders register their prefixes on import
+        import beo_bench.objects.loaders  # noqa: F401
+    if prefix not in _RESOLVERS:
+        raise InvalidKeyError(f"instance key {key!r}: unknown source {prefix!r}; known: "
+                              f"{', '.join(sorted(_RESOLVERS))}")
+    return _RESOLVERS[prefix](rest)
+
+
+class ObjectSet:
+    """One split of an object library.
+
+    ``ObjectSet(split="test")`` is the procedural library (every registered category,
+    ``DEFAULT_SPLIT_SIZES[split]`` instances each unless ``per_category`` says otherwise).
+    ``root`` points at a real dataset instead (ShapeNetCore v2, ModelNet10/40, or a folder
+    with one sub-folder per category; the layout is detected).
+    """
+
+    def __init__(self, split: str = "test", categories: Sequence[str] | None = None,
+                 root: str | Path | None = None, per_category: int | None = None) -> None:
+        self.split = check_split(split)
+        if root is not None:
+            from beo_bench.objects.loaders import load_any
+
+            other = load_any(root, split=split, categories=categories,
+                             per_category=per_category)
+            self._counts, self._get = other._counts, other._get
+            self.source = other.source
+            return
+        names = tuple(categories) if categories is not None else registered_categories()
+        for c in names:
+            get_category(c)
+        n = DEFAULT_SPLIT_SIZES[split] if per_category is None else int(per_category)
+        self._counts = {c: n for c in names}
+        self._get: Callable[[str, int], ObjectInstance] = functools.partial(
+            _cached_procedural, split=split)
+        self.source = "procedural"
+
+    @classmethod
+    def from_instances(cls, split: str, instances: dict[str, list[ObjectInstance]],
+                       source: str) -> ObjectSet:
+        """A set over given instances (what the dataset loaders build)."""
+        self = cls.__new__(cls)
+        self.split = split
+        self.source = source
+        self._counts = {c: len(v) for c, v in sorted(instances.items())}
+        self._get = lambda c, i: instances[c][i]
+        return self
+
+    @property
+    def categories(self) -> tuple[str, ...]:
+        """Category names, sorted."""
+        return tuple(self._counts)
+
+    def count(self, category: str) -> int:
+        """Instances of ``category`` in this set."""
+        self._check_category(category)
+        return self._counts[category]
+
+    def get(self, category: str, index: int) -> ObjectInstance:
+        """Instance ``index`` of ``category``."""
+        n = self.count(category)
+        if not 0 <= index < n:
+            raise InstanceIndexError(f"index {index} is out of range for {category!r} in "
+                                     f"split {self.split!r}: it has {n} instances (0..{n - 1})")
+        return self._get(category, index)
+
+    def instances(self, category: str) -> list[ObjectInstance]:
+        return [self.get(category, i) for i in range(self.count(category))]
+
+    def __len__(self) -> int:
+        return sum(self._counts.values())
+
+    def __iter__(self) -> Iterator[ObjectInstance]:
+        for c in self.categories:
+            yield from self.instances(c)
+
+    def __repr__(self) -> str:
+        return (f"ObjectSet(split={self.split!r}, source={self.source!r}, "
+                f"categories={len(self._counts)}, instances={len(self)})")
+
+    def _check_category(self, category: str) -> None:
+        if category not in self._counts:
+            raise UnknownCategoryError(
+                f"unknown category {category!r} in this set; it has: "
+                f"{', '.join(self.categories)}")
+
+
+@functools.lru_cache(maxsize=1024)
+def _cached_procedural(category: str, index: int, split: str) -> ObjectInstance:
+    # one instance object per key in a process, so its built mesh is shared
+    return procedural_instance(category, split, index)

@@ -1,0 +1,1 @@
+"""beo_bench.envs (see DESIGN.md); filled in by its issue."""

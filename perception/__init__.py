@@ -1,0 +1,1 @@
+"""beo_bench.perception (see DESIGN.md); filled in by its issue."""

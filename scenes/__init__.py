@@ -1,0 +1,1 @@
+"""beo_bench.scenes (see DESIGN.md); filled in by its issue."""
