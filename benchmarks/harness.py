@@ -1,0 +1,42 @@
+"""Tiny harness for the performance benchmarks: each figure is printed with its target.
+
+Benchmarks measure; they never fail the build. ``make bench`` runs them all.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from collections.abc import Callable
+from typing import Any
+
+RESULTS: list[dict[str, Any]] = []
+
+
+def median_time(
+    fn: Callable[[], Any], repeat: int, setup: Callable[[], Any] | None = None
+) -> float:
+    """Median wall time of ``fn`` over ``repeat`` calls (``setup`` runs untimed before each)."""
+    times = []
+    for _ in range(repeat):
+        if setup is not None:
+            setup()
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def report(
+    name: str,
+    value: float,
+    unit: str,
+    target: str = "report",
+    ok: bool | None = None,
+    note: str = "",
+) -> None:
+    """Print one figure: its value, its target, and whether the target is met."""
+    verdict = "" if ok is None else ("  [meets target]" if ok else "  [MISSES target]")
+    extra = f"  ({note})" if note else ""
+    print(f"  {name:<58} {value:>10.3f} {unit:<10} target: {target}{verdict}{extra}", flush=True)
+    RESULTS.append({"name": name, "value": value, "unit": unit, "target": target, "ok": ok})

@@ -1,0 +1,162 @@
+"""The ``beo-bench`` command."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from beo_bench.errors import BeoBenchError
+
+
+def _fmt_bytes(n: float) -> str:
+    for unit in ("B", "KB", "MB", "GB"):
+        if n < 1024 or unit == "GB":
+            return f"{n:.1f} {unit}"
+        n /= 1024
+    return f"{n:.1f} GB"
+
+
+def library_table(stats: list, split: str) -> str:
+    """A plain-text summary of the object library from per-instance statistics."""
+    from beo_bench.objects import DEFAULT_SPLIT_SIZES, get_category
+
+    by_cat: dict[str, list] = {}
+    for s in stats:
+        by_cat.setdefault(s.category, []).append(s)
+    head = (
+        f"{'category':<10} {'train/val/test/ood':>18} {'params':>6} {'pick':>4}  "
+        f"{'symmetry (' + split + ' split)':<34} {'largest extent cm':>17} "
+        f"{'parts':>5} {'gen ms':>6} {'proc ms':>7}"
+    )
+    lines = [head, "-" * len(head)]
+    sizes = "/".join(str(DEFAULT_SPLIT_SIZES[k]) for k in ("train", "val", "test", "ood"))
+    for cat, ss in sorted(by_cat.items()):
+        spec = get_category(cat) if cat in _registered() else None
+        labels, counts = np.unique([s.symmetry for s in ss], return_counts=True)
+        order = np.argsort(-counts)
+        sym = ", ".join(f"{labels[i]} {100 * counts[i] / len(ss):.0f}%" for i in order)
+        ext = np.array([max(s.extents) for s in ss]) * 100
+        lines.append(
+            f"{cat:<10} {sizes:>18} {len(spec.params) if spec else 0:>6} "
+            f"{'yes' if spec is None or spec.pickable else 'no':>4}  {sym:<34.34} "
+            f"{f'{ext.min():.1f}-{ext.max():.1f}':>17} "
+            f"{np.mean([s.parts for s in ss]):>5.0f} "
+            f"{1000 * np.median([s.generate_s for s in ss]):>6.1f} "
+            f"{1000 * np.median([s.process_s for s in ss]):>7.1f}"
+        )
+    return "\n".join(lines)
+
+
+def _registered() -> tuple[str, ...]:
+    from beo_bench.objects import categories
+
+    return categories()
+
+
+def cmd_objects(args: argparse.Namespace) -> int:
+    from beo_bench.objects import ObjectSet
+    from beo_bench.objects.prepare import prepare
+    from beo_bench.objects.sheet import contact_sheet
+
+    objects = ObjectSet(args.split, args.categories, root=args.root, per_category=args.per_category)
+    t0 = time.perf_counter()
+    stats = prepare(objects, D=args.resolution, workers=args.workers)
+    wall = time.perf_counter() - t0
+    print()
+    print(library_table(stats, args.split))
+    print(
+        f"\n{len(stats)} instances processed in {wall:.1f} s with {args.workers} "
+        f"workers ({len(stats) / wall:.1f} instances/s; voxels {args.resolution}^3, "
+        f"surface samples, collision parts)"
+    )
+    if args.sheet:
+        path = contact_sheet(args.sheet, objects, per_category=6)
+        print(f"contact sheet: {path}")
+    return 0
+
+
+def cmd_cache(args: argparse.Namespace) -> int:
+    from beo_bench.objects import cache
+
+    if args.action == "clear":
+        freed = cache.clear(args.kind)
+        print(f"cleared {_fmt_bytes(freed)} from {cache.cache_root()}")
+        return 0
+    info = cache.info()
+    print(f"cache: {info['root']} ({_fmt_bytes(info['bytes'])})")
+    for kind, k in info["kinds"].items():
+        print(f"  {kind:<10} {k['entries']:>7} entries  {_fmt_bytes(k['bytes']):>10}")
+    return 0
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    print("beo-bench demo: the object library (test split)\n")
+    ns = argparse.Namespace(
+        split="test",
+        categories=None,
+        root=None,
+        per_category=args.per_category,
+        resolution=32,
+        workers=args.workers,
+        sheet=out / "objects.png",
+    )
+    cmd_objects(ns)
+    return cmd_cache(argparse.Namespace(action="info", kind=None))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="beo-bench", description=__doc__)
+    sub = p.add_subparsers(dest="command", required=True)
+
+    d = sub.add_parser("demo", help="the main job on the embedded defaults")
+    d.add_argument("--out", default="out/demo", help="where images and results go")
+    d.add_argument(
+        "--per-category",
+        type=int,
+        default=20,
+        help="test-split instances per category to process and summarise",
+    )
+    d.add_argument("--workers", type=int, default=2)
+    d.set_defaults(func=cmd_demo)
+
+    o = sub.add_parser("objects", help="process and summarise an object set")
+    o.add_argument("--split", default="test", choices=["train", "val", "test", "ood"])
+    o.add_argument("--categories", nargs="+", default=None)
+    o.add_argument(
+        "--root", default=None, help="a ShapeNetCore v2, ModelNet or per-category mesh folder"
+    )
+    o.add_argument(
+        "--per-category",
+        type=int,
+        default=None,
+        help="instances per category (default: the split's size)",
+    )
+    o.add_argument("--resolution", type=int, default=32, help="voxel grid size D")
+    o.add_argument("--workers", type=int, default=2)
+    o.add_argument("--sheet", type=Path, default=None, help="write a contact sheet PNG")
+    o.set_defaults(func=cmd_objects)
+
+    c = sub.add_parser("cache", help="inspect or clear the asset cache")
+    c.add_argument("action", choices=["info", "clear"])
+    c.add_argument("--kind", default=None, help="only this kind of entry (with clear)")
+    c.set_defaults(func=cmd_cache)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args))
+    except BeoBenchError as e:
+        print(f"beo-bench: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,76 @@
+"""A contact sheet: several instances per category, shaded, in one PNG a person can read.
+
+Drawn with matplotlib (no GL needed), in a fixed 3/4 view from the front-left-above so the
+canonical +x front faces the viewer; every object is scaled to its own cell with its size
+printed underneath.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from beo_bench.objects.objectset import ObjectSet
+
+_LIGHT = np.array([0.4, -0.3, 0.85]) / np.linalg.norm([0.4, -0.3, 0.85])
+
+
+def contact_sheet(
+    path: str | Path,
+    objects: ObjectSet,
+    per_category: int = 6,
+    categories: Sequence[str] | None = None,
+) -> Path:
+    """Draw ``per_category`` instances of each category (rows) into ``path``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    cats = list(categories or objects.categories)
+    cols = per_category
+    fig = plt.figure(figsize=(1.9 * cols + 1.2, 1.9 * len(cats)), dpi=90)
+    cmap = matplotlib.colormaps["tab10"]
+    for r, cat in enumerate(cats):
+        n = min(cols, objects.count(cat))
+        for c in range(n):
+            inst = objects.get(cat, c)
+            m = inst.mesh
+            ax = fig.add_subplot(len(cats), cols, r * cols + c + 1, projection="3d")
+            tri = m.vertices[m.faces]
+            shade = 0.35 + 0.65 * np.clip(m.face_normals @ _LIGHT, 0, 1)
+            base = np.array(cmap(r % 10)[:3])
+            colors = np.clip(base[None] * shade[:, None] + 0.15 * shade[:, None], 0, 1)
+            ax.add_collection3d(Poly3DCollection(tri, facecolors=colors, linewidths=0))
+            h = m.extents.max() / 2
+            ax.set(xlim=(-h, h), ylim=(-h, h), zlim=(-h, h))
+            ax.set_box_aspect((1, 1, 1))
+            ax.view_init(elev=22, azim=-35)  # camera front-left-above: +x front visible
+            ax.set_axis_off()
+            ex = m.extents * 100
+            ax.set_title(f"{ex[0]:.0f}x{ex[1]:.0f}x{ex[2]:.0f} cm", fontsize=7, pad=-4)
+            if c == 0:
+                ax.text2D(
+                    -0.18,
+                    0.5,
+                    cat,
+                    transform=ax.transAxes,
+                    rotation=90,
+                    va="center",
+                    ha="center",
+                    fontsize=11,
+                    weight="bold",
+                )
+    fig.suptitle(
+        f"beo-bench object library: split {objects.split!r}, first {cols} instances per category",
+        fontsize=12,
+    )
+    fig.subplots_adjust(left=0.04, right=0.99, top=0.95, bottom=0.01, wspace=0.02, hspace=0.15)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
