@@ -34,25 +34,30 @@ def no_symmetry() -> Symmetry:
     return {"continuous": [], "discrete": []}
 
 
-def continuous_symmetry(axis: tuple[float, float, float] = (0.0, 0.0, 1.0),
-                        offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
-                        flips: list[Mat3] | None = None) -> Symmetry:
+def continuous_symmetry(
+    axis: tuple[float, float, float] = (0.0, 0.0, 1.0),
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    flips: list[Mat3] | None = None,
+) -> Symmetry:
     """Continuous symmetry about ``axis`` through ``offset``, plus optional extra
     discrete rotations (e.g. a 180-degree flip of a plain cylinder) about ``offset``."""
-    sym: Symmetry = {"continuous": [{"axis": list(map(float, axis)),
-                                     "offset": list(map(float, offset))}],
-                     "discrete": []}
+    sym: Symmetry = {
+        "continuous": [{"axis": list(map(float, axis)), "offset": list(map(float, offset))}],
+        "discrete": [],
+    }
     for R in flips or []:
         sym["discrete"].append(_about_point(R, offset).tolist())
     return sym
 
 
-def discrete_symmetry(rotations: list[Mat3],
-                      offset: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Symmetry:
+def discrete_symmetry(
+    rotations: list[Mat3], offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+) -> Symmetry:
     """A finite group given by its generators' closure; the identity is dropped (BOP form)."""
     group = close_group([np.asarray(R, dtype=np.float64) for R in rotations])
-    discrete = [_about_point(R, offset).tolist() for R in group
-                if not np.allclose(R, np.eye(3), atol=1e-9)]
+    discrete = [
+        _about_point(R, offset).tolist() for R in group if not np.allclose(R, np.eye(3), atol=1e-9)
+    ]
     return {"continuous": [], "discrete": discrete}
 
 

@@ -58,8 +58,9 @@ def atomic_save_npz(path: Path, **arrays: np.ndarray) -> None:
         raise
 
 
-def cached(kind: str, content: str, settings: dict[str, Any],
-           compute: Callable[[], dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+def cached(
+    kind: str, content: str, settings: dict[str, Any], compute: Callable[[], dict[str, np.ndarray]]
+) -> dict[str, np.ndarray]:
     """Load an entry, or compute and store it. A corrupt entry (e.g. from a disk error) is
     recomputed rather than trusted."""
     path = entry_path(kind, content, settings)
@@ -67,7 +68,7 @@ def cached(kind: str, content: str, settings: dict[str, Any],
         try:
             with np.load(path) as z:
                 return {k: z[k] for k in z.files}
-        except Exception:  # noqa: BLE001 - any unreadable entry is recomputed
+        except Exception:
             path.unlink(missing_ok=True)
     arrays = compute()
     atomic_save_npz(path, **arrays)
@@ -81,10 +82,8 @@ def info() -> dict[str, Any]:
     if root.exists():
         for d in sorted(p for p in root.iterdir() if p.is_dir()):
             files = [f for f in d.rglob("*.npz")]
-            kinds[d.name] = {"entries": len(files),
-                             "bytes": sum(f.stat().st_size for f in files)}
-    return {"root": str(root), "kinds": kinds,
-            "bytes": sum(k["bytes"] for k in kinds.values())}
+            kinds[d.name] = {"entries": len(files), "bytes": sum(f.stat().st_size for f in files)}
+    return {"root": str(root), "kinds": kinds, "bytes": sum(k["bytes"] for k in kinds.values())}
 
 
 def clear(kind: str | None = None) -> int:

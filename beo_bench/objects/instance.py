@@ -80,15 +80,24 @@ class ObjectInstance:
     def voxels(self, D: int = DEFAULT_RESOLUTION) -> BoolGrid:
         """Solid occupancy on a D^3 grid over the unit cube that the canonical frame is
         scaled into (edge = the largest extent), indexed [x, y, z]. Cached on disk."""
-        out = cache.cached("voxels", self.content_hash, {"D": int(D), "v": 1},
-                           lambda: {"occ": np.packbits(voxelize(self.mesh, D))})
+        out = cache.cached(
+            "voxels",
+            self.content_hash,
+            {"D": int(D), "v": 1},
+            lambda: {"occ": np.packbits(voxelize(self.mesh, D))},
+        )
         return np.unpackbits(out["occ"], count=D**3).astype(bool).reshape(D, D, D)
 
     def surface_points(self, n: int = SURFACE_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
         """``n`` area-uniform surface points and outward normals (canonical frame, cached)."""
-        out = cache.cached("surface", self.content_hash, {"n": int(n), "seed": 0, "v": 1},
-                           lambda: dict(zip(("points", "normals"),
-                                            surface_samples(self.mesh, n, seed=0))))
+        out = cache.cached(
+            "surface",
+            self.content_hash,
+            {"n": int(n), "seed": 0, "v": 1},
+            lambda: dict(
+                zip(("points", "normals"), surface_samples(self.mesh, n, seed=0), strict=True)
+            ),
+        )
         return out["points"], out["normals"]
 
     def collision_parts(self) -> list[trimesh.Trimesh]:
@@ -96,8 +105,12 @@ class ObjectInstance:
         procedural instance, or CoACD's decomposition of a loaded mesh (cached)."""
         if self._generated.parts is not None:
             return self._generated.parts
-        out = cache.cached("coacd", self.content_hash, {"v": 1},
-                           lambda: pack_parts(convex_decomposition(self.mesh)))
+        out = cache.cached(
+            "coacd",
+            self.content_hash,
+            {"v": 1},
+            lambda: pack_parts(convex_decomposition(self.mesh)),
+        )
         return unpack_parts(out)
 
     def __repr__(self) -> str:

@@ -57,7 +57,13 @@ def build(p: Params) -> Assembly:
         y[0], y[-1] = wall_r(z_bot), wall_r(z_top)
         path = np.stack([np.zeros_like(t), y, zc + span / 2 * np.sin(t)], axis=1)
     else:
-        path = np.array([[0.0, wall_r(z_top), z_top], [0.0, wall_r(z_top) + reach, z_top],
-                         [0.0, wall_r(z_bot) + reach, z_bot], [0.0, wall_r(z_bot), z_bot]])
+        path = np.array(
+            [
+                [0.0, wall_r(z_top), z_top],
+                [0.0, wall_r(z_top) + reach, z_top],
+                [0.0, wall_r(z_bot) + reach, z_bot],
+                [0.0, wall_r(z_bot), z_bot],
+            ]
+        )
     parts += tube(path, rad)
     return Assembly(parts, no_symmetry())

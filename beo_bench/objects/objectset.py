@@ -16,11 +16,13 @@ from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.registry import (
     DEFAULT_SPLIT_SIZES,
     LIBRARY_VERSION,
-    categories as registered_categories,
     check_split,
     generate,
     get_category,
     instance_params,
+)
+from beo_bench.objects.registry import (
+    categories as registered_categories,
 )
 
 KeyResolver = Callable[[str], ObjectInstance]
@@ -39,21 +41,28 @@ def procedural_instance(category: str, split: str, index: int) -> ObjectInstance
     params = instance_params(category, split, index)
     return ObjectInstance(
         key=f"proc/v{LIBRARY_VERSION}/{category}/{split}/{index}",
-        category=category, split=split, index=index, source="procedural",
-        build=functools.partial(generate, category, params), params=params,
-        pickable=spec.pickable)
+        category=category,
+        split=split,
+        index=index,
+        source="procedural",
+        build=functools.partial(generate, category, params),
+        params=params,
+        pickable=spec.pickable,
+    )
 
 
 def _resolve_procedural(rest: str) -> ObjectInstance:
     parts = rest.split("/")
     if len(parts) != 4 or not parts[3].isdigit() or not parts[0].startswith("v"):
-        raise InvalidKeyError(f"procedural key 'proc/{rest}' is not proc/v<N>/<category>/"
-                              f"<split>/<index>")
+        raise InvalidKeyError(
+            f"procedural key 'proc/{rest}' is not proc/v<N>/<category>/<split>/<index>"
+        )
     version, category, split, index = parts
     if version != f"v{LIBRARY_VERSION}":
         raise InvalidKeyError(
             f"key 'proc/{rest}' is from library {version}; this package generates "
-            f"v{LIBRARY_VERSION} (install the beo-bench release that made those results)")
+            f"v{LIBRARY_VERSION} (install the beo-bench release that made those results)"
+        )
     return procedural_instance(category, split, int(index))
 
 
@@ -69,8 +78,10 @@ def instance_from_key(key: str) -> ObjectInstance:
         # the dataset loaders register their prefixes on import
         import beo_bench.objects.loaders  # noqa: F401
     if prefix not in _RESOLVERS:
-        raise InvalidKeyError(f"instance key {key!r}: unknown source {prefix!r}; known: "
-                              f"{', '.join(sorted(_RESOLVERS))}")
+        raise InvalidKeyError(
+            f"instance key {key!r}: unknown source {prefix!r}; known: "
+            f"{', '.join(sorted(_RESOLVERS))}"
+        )
     return _RESOLVERS[prefix](rest)
 
 
@@ -83,14 +94,18 @@ class ObjectSet:
     with one sub-folder per category; the layout is detected).
     """
 
-    def __init__(self, split: str = "test", categories: Sequence[str] | None = None,
-                 root: str | Path | None = None, per_category: int | None = None) -> None:
+    def __init__(
+        self,
+        split: str = "test",
+        categories: Sequence[str] | None = None,
+        root: str | Path | None = None,
+        per_category: int | None = None,
+    ) -> None:
         self.split = check_split(split)
         if root is not None:
             from beo_bench.objects.loaders import load_any
 
-            other = load_any(root, split=split, categories=categories,
-                             per_category=per_category)
+            other = load_any(root, split=split, categories=categories, per_category=per_category)
             self._counts, self._get = other._counts, other._get
             self.source = other.source
             return
@@ -100,12 +115,14 @@ class ObjectSet:
         n = DEFAULT_SPLIT_SIZES[split] if per_category is None else int(per_category)
         self._counts = {c: n for c in names}
         self._get: Callable[[str, int], ObjectInstance] = functools.partial(
-            _cached_procedural, split=split)
+            _cached_procedural, split=split
+        )
         self.source = "procedural"
 
     @classmethod
-    def from_instances(cls, split: str, instances: dict[str, list[ObjectInstance]],
-                       source: str) -> ObjectSet:
+    def from_instances(
+        cls, split: str, instances: dict[str, list[ObjectInstance]], source: str
+    ) -> ObjectSet:
         """A set over given instances (what the dataset loaders build)."""
         self = cls.__new__(cls)
         self.split = split
@@ -128,8 +145,10 @@ class ObjectSet:
         """Instance ``index`` of ``category``."""
         n = self.count(category)
         if not 0 <= index < n:
-            raise InstanceIndexError(f"index {index} is out of range for {category!r} in "
-                                     f"split {self.split!r}: it has {n} instances (0..{n - 1})")
+            raise InstanceIndexError(
+                f"index {index} is out of range for {category!r} in "
+                f"split {self.split!r}: it has {n} instances (0..{n - 1})"
+            )
         return self._get(category, index)
 
     def instances(self, category: str) -> list[ObjectInstance]:
@@ -143,14 +162,16 @@ class ObjectSet:
             yield from self.instances(c)
 
     def __repr__(self) -> str:
-        return (f"ObjectSet(split={self.split!r}, source={self.source!r}, "
-                f"categories={len(self._counts)}, instances={len(self)})")
+        return (
+            f"ObjectSet(split={self.split!r}, source={self.source!r}, "
+            f"categories={len(self._counts)}, instances={len(self)})"
+        )
 
     def _check_category(self, category: str) -> None:
         if category not in self._counts:
             raise UnknownCategoryError(
-                f"unknown category {category!r} in this set; it has: "
-                f"{', '.join(self.categories)}")
+                f"unknown category {category!r} in this set; it has: {', '.join(self.categories)}"
+            )
 
 
 @functools.lru_cache(maxsize=1024)

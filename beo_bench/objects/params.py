@@ -9,11 +9,11 @@ every ``ood`` instance is out of the training distribution by construction.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Union
+from typing import Any
 
 import numpy as np
 
-ParamValue = Union[float, int, bool, str]
+ParamValue = float | int | bool | str
 Params = dict[str, ParamValue]
 
 
@@ -89,11 +89,12 @@ class Choice:
         return True
 
 
-ParamSpec = Union[Uniform, Integer, Flag, Choice]
+ParamSpec = Uniform | Integer | Flag | Choice
 
 
-def sample_params(specs: dict[str, ParamSpec], rng: np.random.Generator, ood: bool,
-                  max_tries: int = 1000) -> Params:
+def sample_params(
+    specs: dict[str, ParamSpec], rng: np.random.Generator, ood: bool, max_tries: int = 1000
+) -> Params:
     """Draw one parameter set. Specs are drawn in declaration order, so adding a parameter
     at the end of a category's dict keeps earlier draws (bump the library version anyway)."""
     for _ in range(max_tries):

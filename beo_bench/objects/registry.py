@@ -54,18 +54,28 @@ class CategorySpec:
 _REGISTRY: dict[str, CategorySpec] = {}
 
 
-def register_category(name: str, *, params: dict[str, ParamSpec], pickable: bool = True,
-                      shapenet_synsets: tuple[str, ...] = (),
-                      modelnet_names: tuple[str, ...] = ()) -> Callable[[Builder], Builder]:
+def register_category(
+    name: str,
+    *,
+    params: dict[str, ParamSpec],
+    pickable: bool = True,
+    shapenet_synsets: tuple[str, ...] = (),
+    modelnet_names: tuple[str, ...] = (),
+) -> Callable[[Builder], Builder]:
     """Register ``build`` as the generator of category ``name``."""
 
     def deco(build: Builder) -> Builder:
         if name in _REGISTRY:
             raise ValueError(f"category {name!r} is already registered")
-        _REGISTRY[name] = CategorySpec(name=name, params=params, build=build,
-                                       pickable=pickable, shapenet_synsets=shapenet_synsets,
-                                       modelnet_names=modelnet_names,
-                                       description=(build.__doc__ or "").strip())
+        _REGISTRY[name] = CategorySpec(
+            name=name,
+            params=params,
+            build=build,
+            pickable=pickable,
+            shapenet_synsets=shapenet_synsets,
+            modelnet_names=modelnet_names,
+            description=(build.__doc__ or "").strip(),
+        )
         return build
 
     return deco
@@ -94,8 +104,12 @@ def check_split(split: str) -> str:
 def instance_rng(category: str, split: str, index: int) -> np.random.Generator:
     """The generator of one instance's parameters. crc32, unlike ``hash()``, is stable
     across processes and runs."""
-    entropy = [LIBRARY_VERSION, zlib.crc32(category.encode()), SPLITS.index(check_split(split)),
-               int(index)]
+    entropy = [
+        LIBRARY_VERSION,
+        zlib.crc32(category.encode()),
+        SPLITS.index(check_split(split)),
+        int(index),
+    ]
     return np.random.default_rng(np.random.SeedSequence(entropy))
 
 
@@ -120,8 +134,7 @@ def generate(category: str, params: Params) -> Generated:
     from beo_bench.objects.processing import check_solid  # avoid an import cycle
 
     asm = get_category(category).build(params)
-    mesh = trimesh.boolean.union(asm.parts, engine="manifold") if len(asm.parts) > 1 \
-        else asm.parts[0].copy()
+    mesh = union(asm.parts)
     centre = mesh.bounds.mean(axis=0)
     mesh.apply_translation(-centre)
     parts = []
@@ -133,12 +146,36 @@ def generate(category: str, params: Params) -> Generated:
     return Generated(mesh=mesh, parts=parts, symmetry=_shift_symmetry(asm.symmetry, -centre))
 
 
+def union(parts: list[trimesh.Trimesh]) -> trimesh.Trimesh:
+    """The solid union of watertight parts by manifold3d's batch boolean (called directly:
+    trimesh's wrapper re-checks every part and costs 1.5x as much)."""
+    import manifold3d as mf
+
+    solids = [
+        mf.Manifold(
+            mf.Mesh(
+                vert_properties=np.asarray(p.vertices, np.float32),
+                tri_verts=np.asarray(p.faces, np.uint32),
+            )
+        )
+        for p in parts
+    ]
+    out = mf.Manifold.batch_boolean(solids, mf.OpType.Add).to_mesh()
+    return trimesh.Trimesh(
+        np.asarray(out.vert_properties[:, :3], np.float64),
+        np.asarray(out.tri_verts, np.int64),
+        process=False,
+    )
+
+
 def _shift_symmetry(sym: Symmetry, shift: np.ndarray) -> Symmetry:
     """Express a symmetry group after translating the object by ``shift``."""
     T = np.eye(4)
     T[:3, 3] = shift
     Ti = np.linalg.inv(T)
-    cont = [{"axis": c["axis"], "offset": (np.asarray(c["offset"]) + shift).round(9).tolist()}
-            for c in sym["continuous"]]
+    cont = [
+        {"axis": c["axis"], "offset": (np.asarray(c["offset"]) + shift).round(9).tolist()}
+        for c in sym["continuous"]
+    ]
     disc = [(T @ np.asarray(D) @ Ti).round(9).tolist() for D in sym["discrete"]]
     return {"continuous": cont, "discrete": disc}

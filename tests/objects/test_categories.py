@@ -17,8 +17,7 @@ GRIPPER_OPENING = 0.08
 
 
 def test_at_least_ten_categories() -> None:
-    required = {"mug", "bowl", "bottle", "can", "box", "chair", "table", "sofa", "car",
-                "airplane"}
+    required = {"mug", "bowl", "bottle", "can", "box", "chair", "table", "sofa", "car", "airplane"}
     assert required <= set(CATEGORIES)
 
 
@@ -78,8 +77,10 @@ def _group_samples(sym: dict) -> list[np.ndarray]:
 
 # Rotations that are symmetries of no category in our library unless declared.
 _PROBES = [axis_angle([0, 0, 1], np.deg2rad(a)) for a in (90.0, 60.0, 135.0)] + [
-    axis_angle([1, 0, 0], np.pi / 2), axis_angle([0, 1, 0], np.pi / 2),
-    axis_angle([1, 1, 0], np.pi)]
+    axis_angle([1, 0, 0], np.pi / 2),
+    axis_angle([0, 1, 0], np.pi / 2),
+    axis_angle([1, 1, 0], np.pi),
+]
 
 
 def _in_group(R: np.ndarray, group: list[np.ndarray], tol_deg: float = 2.0) -> bool:
@@ -119,8 +120,9 @@ def pinch_widths(mesh: trimesh.Trimesh, finger: float = 0.012) -> list[float]:
         p = ctr + rng.uniform(lo - ctr, hi - ctr)
         origins.append(p - d * 1.0)
         dirs.append(d)
-    locs, ray_idx, _ = mesh.ray.intersects_location(np.array(origins), np.array(dirs),
-                                                    multiple_hits=True)
+    locs, ray_idx, _ = mesh.ray.intersects_location(
+        np.array(origins), np.array(dirs), multiple_hits=True
+    )
     for r in range(len(origins)):
         pts = locs[ray_idx == r]
         if len(pts) < 2 or len(pts) % 2:
