@@ -30,7 +30,7 @@ def library_table(stats: list, split: str) -> str:
         by_cat.setdefault(s.category, []).append(s)
     head = (
         f"{'category':<10} {'train/val/test/ood':>18} {'params':>6} {'pick':>4}  "
-        f"{'symmetry (' + split + ' split)':<34} {'largest extent cm':>17} "
+        f"{'symmetry (' + split + ' split)':<52} {'largest extent cm':>17} "
         f"{'parts':>5} {'gen ms':>6} {'proc ms':>7}"
     )
     lines = [head, "-" * len(head)]
@@ -43,7 +43,7 @@ def library_table(stats: list, split: str) -> str:
         ext = np.array([max(s.extents) for s in ss]) * 100
         lines.append(
             f"{cat:<10} {sizes:>18} {len(spec.params) if spec else 0:>6} "
-            f"{'yes' if spec is None or spec.pickable else 'no':>4}  {sym:<34.34} "
+            f"{'yes' if spec is None or spec.pickable else 'no':>4}  {sym:<52} "
             f"{f'{ext.min():.1f}-{ext.max():.1f}':>17} "
             f"{np.mean([s.parts for s in ss]):>5.0f} "
             f"{1000 * np.median([s.generate_s for s in ss]):>6.1f} "

@@ -22,7 +22,19 @@ from beo_bench.objects.registry import (
 )
 
 # One module per category; importing registers it.
-CATEGORY_MODULES = ("mug",)
+CATEGORY_MODULES = (
+    "airplane",
+    "bottle",
+    "bowl",
+    "box",
+    "can",
+    "car",
+    "chair",
+    "lamp",
+    "mug",
+    "sofa",
+    "table",
+)
 for _m in CATEGORY_MODULES:
     importlib.import_module(f"beo_bench.objects.{_m}")
 

@@ -18,6 +18,7 @@ import trimesh
 from beo_bench.objects import cache
 from beo_bench.objects.params import Params
 from beo_bench.objects.processing import (
+    COACD_SETTINGS,
     DEFAULT_RESOLUTION,
     convex_decomposition,
     pack_parts,
@@ -28,6 +29,8 @@ from beo_bench.objects.processing import (
 from beo_bench.objects.registry import Generated
 from beo_bench.types import BoolGrid, Symmetry
 
+COACD_CACHE_PARAMS = {"v": 2, **COACD_SETTINGS}
+"""Cache key of CoACD results: format version and the settings that shape them."""
 SURFACE_SAMPLES = 4096
 """Default number of cached surface samples per instance."""
 
@@ -108,7 +111,7 @@ class ObjectInstance:
         out = cache.cached(
             "coacd",
             self.content_hash,
-            {"v": 1},
+            COACD_CACHE_PARAMS,
             lambda: pack_parts(convex_decomposition(self.mesh)),
         )
         return unpack_parts(out)

@@ -34,12 +34,10 @@ from __future__ import annotations
 import functools
 import hashlib
 import io
-import multiprocessing
 import os
 import re
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import parse_qsl, quote, unquote, urlencode
@@ -48,7 +46,6 @@ import numpy as np
 import trimesh
 
 from beo_bench.errors import (
-    BeoBenchError,
     DatasetLayoutError,
     EmptyMeshError,
     InvalidKeyError,

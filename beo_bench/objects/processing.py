@@ -122,20 +122,31 @@ def convex_decomposition(mesh: trimesh.Trimesh, **settings: object) -> list[trim
 
 
 def pack_parts(parts: list[trimesh.Trimesh]) -> dict[str, np.ndarray]:
-    """Convex parts as flat arrays for the cache (vertices and per-part counts)."""
+    """Convex parts as flat arrays for the cache: vertices and faces with per-part counts
+    (faces index each part's own vertices), so loading needs no hull computation."""
     verts = [np.asarray(p.vertices, dtype=np.float64) for p in parts]
+    faces = [np.asarray(p.faces, dtype=np.int32) for p in parts]
     return {
         "vertices": np.concatenate(verts) if verts else np.zeros((0, 3)),
         "counts": np.array([len(v) for v in verts], dtype=np.int64),
+        "faces": np.concatenate(faces) if faces else np.zeros((0, 3), np.int32),
+        "face_counts": np.array([len(f) for f in faces], dtype=np.int64),
     }
 
 
 def unpack_parts(arrays: dict[str, np.ndarray]) -> list[trimesh.Trimesh]:
-    """Inverse of :func:`pack_parts` (each part is rebuilt as a convex hull)."""
-    out, start = [], 0
-    for c in arrays["counts"]:
-        out.append(trimesh.convex.convex_hull(arrays["vertices"][start : start + c]))
-        start += int(c)
+    """Inverse of :func:`pack_parts`."""
+    out = []
+    v_end = np.cumsum(arrays["counts"])
+    f_end = np.cumsum(arrays["face_counts"])
+    for v1, nv, f1, nf in zip(v_end, arrays["counts"], f_end, arrays["face_counts"], strict=True):
+        out.append(
+            trimesh.Trimesh(
+                arrays["vertices"][v1 - nv : v1],
+                arrays["faces"][f1 - nf : f1].astype(np.int64),
+                process=False,
+            )
+        )
     return out
 
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from beo_bench.errors import UnknownCategoryError, UnknownSplitError
+from beo_bench.errors import MeshError, UnknownCategoryError, UnknownSplitError
 from beo_bench.objects.params import Params, ParamSpec, sample_params
 from beo_bench.objects.primitives import Assembly
 from beo_bench.types import Symmetry
@@ -143,6 +143,13 @@ def generate(category: str, params: Params) -> Generated:
         q.apply_translation(-centre)
         parts.append(q)
     check_solid(mesh, f"{category} {params}")
+    if mesh.body_count != 1:
+        # Parts that fail to touch would make a "floating" object that falls apart in the
+        # simulator's eyes (collision parts are welded to one body) - a generator bug.
+        raise MeshError(
+            f"{category} {params}: the parts form {mesh.body_count} separate solids; "
+            "a generator must produce one connected object"
+        )
     return Generated(mesh=mesh, parts=parts, symmetry=_shift_symmetry(asm.symmetry, -centre))
 
 

@@ -33,6 +33,7 @@ def test_solid_centred_and_sized(category: str, split: str) -> None:
         m = inst.mesh
         assert m.is_watertight, inst.key
         assert m.volume > 1e-7, inst.key
+        assert m.body_count == 1, (inst.key, "one connected solid")
         # canonical frame: bounding-box centre at the origin, tabletop size in metres
         np.testing.assert_allclose(m.bounds.mean(axis=0), 0.0, atol=1e-9)
         assert 0.01 < m.extents.max() < 0.45, (inst.key, m.extents)

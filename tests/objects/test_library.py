@@ -109,7 +109,7 @@ def test_surface_points_on_surface() -> None:
     p, n = inst.surface_points(512)
     assert p.shape == (512, 3) and n.shape == (512, 3)
     _, dist, _ = inst.mesh.nearest.on_surface(p)
-    assert dist.max() < 1e-6
+    assert dist.max() < 1e-5  # 10 um: closest-point error on sliver faces
     np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-6)
 
 

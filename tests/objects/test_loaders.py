@@ -31,8 +31,7 @@ from beo_bench.objects import (
     loaders,
 )
 from beo_bench.objects.cache import entry_path
-from beo_bench.objects.instance import ObjectInstance
-from beo_bench.objects.prepare import prepare
+from beo_bench.objects.instance import COACD_CACHE_PARAMS, ObjectInstance
 from beo_bench.objects.loaders import (
     SHAPENET_TO_CANONICAL,
     axes_rotation,
@@ -42,6 +41,7 @@ from beo_bench.objects.loaders import (
     load_any,
     set_dataset_roots,
 )
+from beo_bench.objects.prepare import prepare
 from beo_bench.objects.processing import estimate_symmetry, rotation_iou
 
 REAL_SPLITS = ("train", "val", "test")
@@ -494,7 +494,7 @@ def _mug_like() -> trimesh.Trimesh:
 def test_coacd_collision_parts_are_cached(tmp_path: Path) -> None:
     _write(_mug_like(), tmp_path / "mugs" / "mug" / "m.obj")
     inst = _all(load_folder, tmp_path / "mugs", size="native")[0]
-    path = entry_path("coacd", inst.content_hash, {"v": 1})
+    path = entry_path("coacd", inst.content_hash, COACD_CACHE_PARAMS)
     assert not path.exists()
     t = time.perf_counter()
     parts = inst.collision_parts()
@@ -514,4 +514,4 @@ def test_prepare_collision_in_workers(folder_root: Path) -> None:
     stats = prepare(insts, workers=2, progress=False)
     assert [s.key for s in stats] == [i.key for i in insts] and all(s.parts >= 1 for s in stats)
     for inst in insts:  # filled the cache this process reads
-        assert entry_path("coacd", inst.content_hash, {"v": 1}).exists()
+        assert entry_path("coacd", inst.content_hash, COACD_CACHE_PARAMS).exists()
