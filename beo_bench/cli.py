@@ -94,6 +94,42 @@ def cmd_cache(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_view(args: argparse.Namespace) -> int:
+    from beo_bench.view import view_scene
+
+    kwargs = {"split": args.split, "image_size": tuple(args.image_size)}
+    if args.num_objects is not None:
+        kwargs["num_objects"] = args.num_objects
+    r = view_scene(args.seed, args.out, rrd=not args.no_rrd, **kwargs)
+    print(
+        f"seed {args.seed}: objects {', '.join(r.objects)}; target {r.target}; "
+        f"{r.grasps} ground-truth grasps of the target"
+    )
+    print(f"image:     {r.png}")
+    if r.rrd is not None:
+        print(f"recording: {r.rrd}  (open with `rerun {r.rrd}`)")
+    return 0
+
+
+def cmd_pick_check(args: argparse.Namespace) -> int:
+    from beo_bench.envs.pickcheck import ground_truth_pick_check
+
+    t0 = time.perf_counter()
+    r = ground_truth_pick_check(
+        episodes=args.episodes, seed=args.seed, progress=True, split=args.split
+    )
+    wall = time.perf_counter() - t0
+    print(
+        f"\nBEOPick-v0, split {args.split}, seeds {args.seed}..{args.seed + args.episodes - 1}: "
+        "the ground-truth planner's best grasp of the target, executed once\n"
+    )
+    print(r.table())
+    reasons = ", ".join(f"{k} {v}" for k, v in sorted(r.failure_reasons().items()))
+    per = 1000 * wall / max(args.episodes, 1)
+    print(f"\nfailures: {reasons or 'none'}; {wall:.0f} s ({per:.0f} ms per episode)")
+    return 0
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     print("beo-bench demo: the object library (test split)\n")
@@ -107,6 +143,14 @@ def cmd_demo(args: argparse.Namespace) -> int:
         sheet=out / "objects.png",
     )
     cmd_objects(ns)
+    print("\nbeo-bench demo: one BEOPick-v0 scene\n")
+    cmd_view(
+        argparse.Namespace(
+            seed=0, out=out, split="test", image_size=[640, 480], num_objects=None, no_rrd=False
+        )
+    )
+    print("\nbeo-bench demo: the ground-truth grasp ceiling on 20 episodes\n")
+    cmd_pick_check(argparse.Namespace(episodes=20, seed=0, split="test"))
     return cmd_cache(argparse.Namespace(action="info", kind=None))
 
 
@@ -141,6 +185,23 @@ def build_parser() -> argparse.ArgumentParser:
     o.add_argument("--workers", type=int, default=2)
     o.add_argument("--sheet", type=Path, default=None, help="write a contact sheet PNG")
     o.set_defaults(func=cmd_objects)
+
+    v = sub.add_parser("view", help="write a BEOPick-v0 scene to a rerun .rrd and a PNG")
+    v.add_argument("--seed", type=int, default=0)
+    v.add_argument("--out", type=Path, default=Path("out/view"))
+    v.add_argument("--split", default="test", choices=["train", "val", "test", "ood"])
+    v.add_argument("--num-objects", type=int, default=None, help="default: 1-4")
+    v.add_argument("--image-size", type=int, nargs=2, default=[640, 480], metavar=("W", "H"))
+    v.add_argument("--no-rrd", action="store_true", help="only the PNG")
+    v.set_defaults(func=cmd_view)
+
+    pc = sub.add_parser(
+        "pick-check", help="pick success of the ground-truth grasp planner (the ceiling)"
+    )
+    pc.add_argument("--episodes", type=int, default=100)
+    pc.add_argument("--seed", type=int, default=0, help="first episode seed")
+    pc.add_argument("--split", default="test", choices=["train", "val", "test", "ood"])
+    pc.set_defaults(func=cmd_pick_check)
 
     c = sub.add_parser("cache", help="inspect or clear the asset cache")
     c.add_argument("action", choices=["info", "clear"])

@@ -49,3 +49,11 @@ class NonWatertightMeshError(MeshError):
 
 class DatasetLayoutError(BeoBenchError, ValueError):
     """A dataset folder that does not have the expected layout."""
+
+
+class EnvConfigError(BeoBenchError, ValueError):
+    """An environment setting that is unknown or impossible (raised at ``gym.make``)."""
+
+
+class ActionError(BeoBenchError, ValueError):
+    """An action of the wrong shape, with NaN/inf, or with a zero quaternion."""

@@ -7,6 +7,7 @@ origin at the centre of its axis-aligned bounding box (see ``beo_bench.objects``
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, TypedDict
 
 import numpy as np
@@ -43,3 +44,28 @@ class Symmetry(TypedDict):
 
     continuous: list[ContinuousSymmetry]
     discrete: list[list[list[float]]]
+
+
+@dataclass(frozen=True)
+class ObjectState:
+    """Ground truth of one object in a scene (``env.unwrapped.ground_truth()``).
+
+    Poses map the object's canonical frame (+z up, +x front, bounding-box centre at the
+    origin) to the camera frame (OpenCV axes: x right, y down, z forward) or the world frame
+    (+z up). Metres.
+    """
+
+    label: int
+    """Its value in the segmentation image (1..k)."""
+    category: str
+    key: str
+    """Instance key (``beo_bench.objects.instance_from_key`` rebuilds the instance)."""
+    symmetry: Symmetry
+    size: Vec3
+    """(3,) extents of the canonical bounding box (m)."""
+    R_cam: Mat3
+    t_cam: Vec3
+    R_world: Mat3
+    t_world: Vec3
+    pixels: int
+    """How many pixels of the current observation show it (0: occluded or out of view)."""

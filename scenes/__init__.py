@@ -1,1 +1,48 @@
-"""beo_bench.scenes (see DESIGN.md); filled in by its issue."""
+"""Tabletop scenes and off-screen rendering (``beo_bench.scenes``; DESIGN.md "Scenes").
+
+- :mod:`.camera`: intrinsics (K), the camera rig, the one MuJoCo <-> OpenCV conversion;
+- :mod:`.renderer`: metric depth + instance segmentation (+ RGB) with a reused GL context;
+- :mod:`.builder`: MjSpec models (table, objects, gripper, camera);
+- :mod:`.layout`: rest poses and non-overlapping placement;
+- :mod:`.execute`: scripted, physical grasp execution;
+- :mod:`.isolated`: views of an isolated instance (training data, perception suites);
+- :mod:`.noise`: the optional depth-sensor noise model;
+- :mod:`.gripper`: the gripper's geometry (shared with the grasp planner).
+
+Names are loaded lazily so that importing a light module (``gripper``, ``camera``) does not
+load MuJoCo and a GL platform.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "Intrinsics": "camera",
+    "CameraRig": "camera",
+    "TABLE_RIG": "camera",
+    "OBJECT_RIG": "camera",
+    "look_at": "camera",
+    "backproject": "camera",
+    "project": "camera",
+    "Renderer": "renderer",
+    "Frame": "renderer",
+    "IsolatedRenderer": "isolated",
+    "IsolatedView": "isolated",
+    "render_isolated": "isolated",
+    "DepthNoise": "noise",
+    "apply_noise": "noise",
+    "GRIPPER": "gripper",
+    "GripperGeometry": "gripper",
+    "GLUnavailableError": "gl",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(f"beo_bench.scenes.{_EXPORTS[name]}"), name)
+    raise AttributeError(f"module 'beo_bench.scenes' has no attribute {name!r}")
+
+
+__all__ = sorted(_EXPORTS)

@@ -103,6 +103,12 @@ class ObjectInstance:
         )
         return out["points"], out["normals"]
 
+    @property
+    def exact_parts(self) -> bool:
+        """True when :meth:`collision_parts` are exact (their union is the mesh), as for
+        procedural instances; False when they are CoACD's approximation."""
+        return self._generated.parts is not None
+
     def collision_parts(self) -> list[trimesh.Trimesh]:
         """Convex collision parts in the canonical frame: the exact primitives of a
         procedural instance, or CoACD's decomposition of a loaded mesh (cached)."""

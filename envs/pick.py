@@ -1,0 +1,371 @@
+"""BEOPick-v0: pick the object of a target class from one segmented depth image.
+
+On reset, 1-k objects of distinct categories from a split are placed on a table in their
+rest poses with random yaw, settled by physics, and seen by a depth camera sampled around
+the table. The observation (DESIGN.md "Environments"):
+
+- ``depth``: (H, W) float32, metric z-depth in metres, 0 where nothing was hit;
+- ``segmentation``: (H, W) int32, 0 background and table, 1..k objects;
+- ``target_class``: Discrete over ``env.unwrapped.categories`` ("pick the mug");
+- ``intrinsics``: (3, 3) OpenCV K; ``cam_to_world``: (4, 4), OpenCV camera axes.
+
+The action is a grasp in the world frame, Box(8): TCP position (3), orientation quaternion
+(4, w x y z, normalised by the env) of the gripper frame (+z approach, +y closing axis; see
+``beo_bench.scenes.gripper``) and the finger opening (1, metres, 0-0.08). ``step`` executes
+it physically; reward 1 when an object of the target class ends lifted at least 10 cm above
+its rest height, else 0. The episode terminates on success or after ``max_attempts``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+import trimesh
+from beo_bench.scenes.builder import Scene, TableConfig, build_tabletop
+from beo_bench.scenes.camera import CameraRig, Intrinsics
+from beo_bench.scenes.execute import GraspOutcome, execute_grasp, park, release, settle
+from beo_bench.scenes.gripper import MAX_OPENING
+from beo_bench.scenes.layout import PlacementError, place_objects
+from beo_bench.scenes.noise import DepthNoise, apply_noise
+from beo_bench.scenes.renderer import Renderer
+from gymnasium import spaces
+
+from beo_bench.errors import ActionError, EnvConfigError
+from beo_bench.grasping import Grasp, plan_grasps
+from beo_bench.objects import ObjectSet
+from beo_bench.objects import categories as registered_categories
+from beo_bench.types import ObjectState
+
+FAR_CLIP = 20.0
+"""Largest depth a scene can report (the far clip plane, metres)."""
+
+KWARGS = (
+    "split",
+    "num_objects",
+    "categories",
+    "objects",
+    "image_size",
+    "fovy_deg",
+    "camera",
+    "noise",
+    "max_attempts",
+    "render_mode",
+    "table",
+)
+
+
+class BEOPickEnv(gym.Env):
+    """See the module docstring. Keyword arguments (all optional):
+
+    split: object split ("test"); num_objects: int or (min, max) range ((1, 4)), of
+    distinct categories; categories: names to draw from (default: every pickable
+    category); objects: an ``ObjectSet`` to draw from instead (e.g. a loaded ShapeNet);
+    image_size: (width, height) ((640, 480)); fovy_deg: vertical field of view (45);
+    camera: a ``CameraRig`` or a dict of its fields; noise: False, True (default
+    ``DepthNoise``) or a ``DepthNoise``; max_attempts: grasps per episode (1);
+    render_mode: None or "rgb_array"; table: a ``TableConfig``.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    def __init__(self, **kwargs: Any) -> None:
+        unknown = sorted(set(kwargs) - set(KWARGS))
+        if unknown:
+            raise EnvConfigError(
+                f"BEOPick-v0 got unknown keyword arguments {unknown}; valid ones are {list(KWARGS)}"
+            )
+        self._configure(**kwargs)
+        w, h = self.intrinsics.width, self.intrinsics.height
+        n_cat = len(self.categories)
+        self.observation_space = spaces.Dict(
+            {
+                "depth": spaces.Box(0.0, FAR_CLIP, (h, w), np.float32),
+                "segmentation": spaces.Box(0, self.max_objects, (h, w), np.int32),
+                "target_class": spaces.Discrete(n_cat),
+                "intrinsics": spaces.Box(0.0, 1e6, (3, 3), np.float64),
+                "cam_to_world": spaces.Box(-100.0, 100.0, (4, 4), np.float64),
+            }
+        )
+        half = np.array(self.table.table_half)
+        low = np.array([-half[0], -half[1], 0.0, -1, -1, -1, -1, 0.0], np.float32)
+        high = np.array([half[0], half[1], 2.0, 1, 1, 1, 1, MAX_OPENING], np.float32)
+        self.action_space = spaces.Box(low, high, dtype=np.float32)
+        self._renderer: Renderer | None = None
+        self._scene: Scene | None = None
+        self._cam = np.eye(4)
+        self._obs: dict[str, Any] | None = None
+        self._target = 0
+        self._attempts = 0
+
+    # -- configuration -----------------------------------------------------------------------
+    def _configure(
+        self,
+        split: str = "test",
+        num_objects: int | tuple[int, int] = (1, 4),
+        categories: list[str] | tuple[str, ...] | None = None,
+        objects: ObjectSet | None = None,
+        image_size: tuple[int, int] = (640, 480),
+        fovy_deg: float = 45.0,
+        camera: CameraRig | dict[str, Any] | None = None,
+        noise: bool | DepthNoise = False,
+        max_attempts: int = 1,
+        render_mode: str | None = None,
+        table: TableConfig | None = None,
+    ) -> None:
+        if render_mode not in (None, "rgb_array"):
+            raise EnvConfigError(f"render_mode={render_mode!r}: use None or 'rgb_array'")
+        self.render_mode = render_mode
+        try:
+            self.objects = objects if objects is not None else ObjectSet(split, categories)
+        except Exception as e:  # unknown split or category: say so at make time
+            raise EnvConfigError(f"BEOPick-v0: {e}") from e
+        cats = tuple(categories) if categories is not None else self.objects.categories
+        if objects is None and categories is None:
+            cats = tuple(c for c in registered_categories() if _pickable(c))
+        missing = [c for c in cats if c not in self.objects.categories]
+        if missing:
+            raise EnvConfigError(
+                f"categories {missing} are not in the object set "
+                f"{list(self.objects.categories)}; choose among those"
+            )
+        self.categories: tuple[str, ...] = cats
+        lo, hi = (num_objects, num_objects) if np.isscalar(num_objects) else num_objects
+        lo, hi = int(lo), int(hi)
+        if not 1 <= lo <= hi:
+            raise EnvConfigError(
+                f"num_objects={num_objects}: give a count >= 1 or a range (min, max) with "
+                "1 <= min <= max"
+            )
+        if hi > len(cats):
+            raise EnvConfigError(
+                f"num_objects={num_objects}: scenes hold objects of distinct categories, and "
+                f"only {len(cats)} categories are available ({list(cats)}); lower num_objects"
+            )
+        self.num_objects = (lo, hi)
+        self.max_objects = hi
+        try:
+            width, height = (int(v) for v in image_size)
+            self.intrinsics = Intrinsics(width, height, float(fovy_deg))
+        except (TypeError, ValueError) as e:
+            raise EnvConfigError(f"image_size={image_size}, fovy_deg={fovy_deg}: {e}") from e
+        try:
+            self.rig = camera if isinstance(camera, CameraRig) else CameraRig(**(camera or {}))
+        except (TypeError, ValueError) as e:
+            raise EnvConfigError(f"camera={camera}: {e}") from e
+        self.noise = DepthNoise() if noise is True else (noise or None)
+        if self.noise is not None and not isinstance(self.noise, DepthNoise):
+            raise EnvConfigError(f"noise={noise!r}: use False, True or a DepthNoise")
+        if int(max_attempts) < 1:
+            raise EnvConfigError(f"max_attempts={max_attempts}: allow at least one attempt")
+        self.max_attempts = int(max_attempts)
+        self.table = table or TableConfig()
+
+    # -- public state --------------------------------------------------------------------------
+    @property
+    def model(self) -> Any:
+        """The current scene's MjModel (a new one per episode)."""
+        return None if self._scene is None else self._scene.model
+
+    @property
+    def data(self) -> Any:
+        """The current scene's MjData."""
+        return None if self._scene is None else self._scene.data
+
+    @property
+    def scene(self) -> Scene | None:
+        return self._scene
+
+    @property
+    def target_label(self) -> int:
+        """Label (in the segmentation) of the object whose category was asked for."""
+        return self._target
+
+    def ground_truth(self) -> list[ObjectState]:
+        """Per object: label, category, key, symmetry, size, pose in camera and world frames,
+        visible pixels in the current observation. Never part of the observation."""
+        if self._scene is None or self._obs is None:
+            raise RuntimeError("call reset() before ground_truth()")
+        world_to_cam = np.linalg.inv(self._cam)
+        seg = self._obs["segmentation"]
+        counts = np.bincount(seg.ravel(), minlength=len(self._scene.instances) + 1)
+        out = []
+        for i, inst in enumerate(self._scene.instances):
+            Tw = self._scene.object_pose(i)
+            Tc = world_to_cam @ Tw
+            out.append(
+                ObjectState(
+                    label=i + 1,
+                    category=inst.category,
+                    key=inst.key,
+                    symmetry=inst.symmetry,
+                    size=np.asarray(inst.size, dtype=np.float64),
+                    R_cam=Tc[:3, :3].copy(),
+                    t_cam=Tc[:3, 3].copy(),
+                    R_world=Tw[:3, :3].copy(),
+                    t_world=Tw[:3, 3].copy(),
+                    pixels=int(counts[i + 1]),
+                )
+            )
+        return out
+
+    def object_mesh_world(self, label: int) -> trimesh.Trimesh:
+        """The ground-truth mesh of object ``label`` posed in the world frame (a copy)."""
+        if self._scene is None:
+            raise RuntimeError("call reset() before object_mesh_world()")
+        if not 1 <= label <= len(self._scene.instances):
+            raise ValueError(
+                f"label {label}: this scene has objects 1..{len(self._scene.instances)}"
+            )
+        mesh = self._scene.instances[label - 1].mesh.copy()
+        mesh.apply_transform(self._scene.object_pose(label - 1))
+        return mesh
+
+    def ground_truth_grasps(self, label: int | None = None, **planner: Any) -> list[Grasp]:
+        """Grasps of object ``label`` (default: the target) from its true mesh and pose, with
+        the other objects' true surfaces as obstacles: the planner's ceiling, used by the
+        ``oracle`` backend and ``beo-bench pick-check``. ``planner`` goes to ``plan_grasps``."""
+        label = self._target if label is None else int(label)
+        mesh = self.object_mesh_world(label)
+        assert self._scene is not None
+        others = []
+        for i, inst in enumerate(self._scene.instances):
+            if i + 1 == label:
+                continue
+            pts, _ = inst.surface_points()
+            T = self._scene.object_pose(i)
+            others.append(pts @ T[:3, :3].T + T[:3, 3])
+        obstacles = np.concatenate(others) if others else None
+        return plan_grasps(mesh, self.table.table_height, obstacles, **planner)
+
+    # -- gymnasium API -------------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        super().reset(seed=seed)
+        rng = self.np_random
+        if self._renderer is None:
+            self._renderer = Renderer(self.intrinsics)
+        for _ in range(20):
+            k = int(rng.integers(self.num_objects[0], self.num_objects[1] + 1))
+            cats = [self.categories[j] for j in rng.choice(len(self.categories), k, replace=False)]
+            insts = [self.objects.get(c, int(rng.integers(self.objects.count(c)))) for c in cats]
+            try:
+                poses = place_objects(insts, rng, self.table.table_height, self.table.area_half)
+                break
+            except PlacementError:
+                continue  # these did not fit: draw another set (deterministic under the seed)
+        else:
+            raise PlacementError("20 draws of objects did not fit on the table")
+        self._scene = build_tabletop(insts, poses, self.intrinsics, self.table)
+        park(self._scene)
+        settle(self._scene)
+        self._renderer.bind(self._scene.model, self._scene.geom_labels)
+        self._cam = self.rig.sample(rng, np.array([0.0, 0.0, self.table.table_height]))
+        self._target = int(rng.integers(k)) + 1
+        self._attempts = 0
+        obs = self._observe()
+        return _copy(obs), {"num_objects": k, "attempt": 0}
+
+    def _observe(self) -> dict[str, Any]:
+        assert self._scene is not None and self._renderer is not None
+        frame = self._renderer.render(self._scene.data, self._cam)
+        depth = frame.depth
+        if self.noise is not None:
+            depth = apply_noise(depth, self.np_random, self.noise)
+        target_cat = self._scene.instances[self._target - 1].category
+        self._rest = self._scene.object_heights()
+        self._obs = {
+            "depth": depth,
+            "segmentation": frame.segmentation,
+            "target_class": int(self.categories.index(target_cat)),
+            "intrinsics": self.intrinsics.K,
+            "cam_to_world": self._cam.copy(),
+        }
+        return self._obs
+
+    def step(self, action: Any) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
+        if self._scene is None or self._obs is None:
+            raise RuntimeError("call reset() before step()")
+        T, opening = parse_action(action)
+        outcome: GraspOutcome = execute_grasp(self._scene, T, opening, self._rest)
+        self._attempts += 1
+        lifted = outcome.lifted_label
+        lifted_cat = self._scene.instances[lifted - 1].category if lifted else None
+        target_cat = self.categories[self._obs["target_class"]]
+        success = lifted_cat == target_cat
+        reason = "success" if success else outcome.reason
+        if lifted and not success:
+            reason = "wrong_class"
+        terminated = success or self._attempts >= self.max_attempts
+        info = {
+            "success": success,
+            "reason": reason,
+            "lifted_label": lifted,
+            "lifted_category": lifted_cat,
+            "lift_height": outcome.lift_height,
+            "finger_contacts": outcome.touched,
+            "colliding_label": outcome.colliding_label,
+            "attempt": self._attempts,
+        }
+        if not terminated:
+            # another attempt: drop what is held, let the scene come to rest, look again
+            release(self._scene)
+            settle(self._scene, max_steps=500)
+            obs = self._observe()
+        else:
+            obs = self._obs
+        return _copy(obs), float(success), terminated, False, info
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode != "rgb_array":
+            return None
+        if self._scene is None or self._renderer is None:
+            raise RuntimeError("call reset() before render()")
+        return self._renderer.render_rgb(self._scene.data, self._cam)
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        self._scene = None
+        super().close()
+
+
+def _copy(obs: dict[str, Any]) -> dict[str, Any]:
+    # users keep what they are given: never hand out the env's own arrays
+    return {k: v.copy() if isinstance(v, np.ndarray) else v for k, v in obs.items()}
+
+
+def _pickable(category: str) -> bool:
+    from beo_bench.objects import get_category
+
+    return get_category(category).pickable
+
+
+def parse_action(action: Any) -> tuple[np.ndarray, float]:
+    """The gripper pose (4x4, world) and opening of an action; raises :class:`ActionError`
+    on a wrong shape, NaN/inf or a zero quaternion, and normalises the quaternion."""
+    a = np.asarray(action, dtype=np.float64)
+    if a.shape != (8,):
+        raise ActionError(
+            f"action has shape {a.shape}; BEOPick-v0 takes 8 numbers: position x y z (m, "
+            "world), quaternion w x y z of the gripper frame, finger opening (m)"
+        )
+    if not np.all(np.isfinite(a)):
+        raise ActionError(f"action {a.tolist()} contains NaN or inf; every entry must be finite")
+    q = a[3:7]
+    norm = float(np.linalg.norm(q))
+    if norm < 1e-9:
+        raise ActionError(
+            "the action's quaternion (entries 3-6) is zero; give the gripper orientation as a "
+            "unit quaternion w x y z (it is normalised for you)"
+        )
+    from scipy.spatial.transform import Rotation
+
+    w, x, y, z = q / norm
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix()
+    T[:3, 3] = a[:3]
+    return T, float(a[7])

@@ -1,0 +1,132 @@
+"""Render an isolated instance from a camera pose: the small scenes API that training-set
+rendering and the perception suites use without going through the env.
+
+The object sits at the world origin in its canonical frame, so its pose in the camera frame
+is simply the inverse of ``cam_to_world``. A compiled model per instance is kept (LRU) so
+that many views of one instance cost one render each.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from beo_bench.scenes.builder import build_isolated
+from beo_bench.scenes.camera import OBJECT_RIG, CameraRig, Intrinsics
+from beo_bench.scenes.noise import DepthNoise, apply_noise
+from beo_bench.scenes.renderer import Renderer
+
+from beo_bench.objects.instance import ObjectInstance
+from beo_bench.types import Mat3, Mat4, Vec3
+
+
+@dataclass
+class IsolatedView:
+    """One view of an isolated instance.
+
+    ``depth``: (H, W) float32 metric z-depth, 0 = no surface; ``mask``: (H, W) bool, the
+    object's pixels; ``K``: OpenCV intrinsics; ``cam_to_world``: 4x4, OpenCV camera axes;
+    ``R_cam``, ``t_cam``: the object's canonical frame in the camera frame (ground truth).
+    """
+
+    depth: np.ndarray
+    mask: np.ndarray
+    K: Mat3
+    cam_to_world: Mat4
+    R_cam: Mat3
+    t_cam: Vec3
+    key: str
+    category: str
+
+
+class IsolatedRenderer:
+    """Renders views of isolated instances; reuse one for many views (it owns a GL
+    context). ``noise`` applies the sensor model with the generator given per call."""
+
+    def __init__(
+        self,
+        intrinsics: Intrinsics | None = None,
+        rig: CameraRig = OBJECT_RIG,
+        cache_models: int = 8,
+    ) -> None:
+        self.intrinsics = intrinsics or Intrinsics(128, 128, 45.0)
+        self.rig = rig
+        self._renderer = Renderer(self.intrinsics, max_geom=1000)
+        self._models: OrderedDict[str, tuple[Any, Any]] = OrderedDict()
+        self._cache_models = cache_models
+        self._bound: str | None = None
+        self._K = self.intrinsics.K
+
+    def _bind(self, instance: ObjectInstance) -> Any:
+        key = instance.key
+        if key in self._models:
+            self._models.move_to_end(key)
+        else:
+            self._models[key] = build_isolated(instance, self.intrinsics)
+            if len(self._models) > self._cache_models:
+                old, _ = self._models.popitem(last=False)
+                if old == self._bound:
+                    self._bound = None
+        model, data = self._models[key]
+        if self._bound != key:
+            labels = np.ones(model.ngeom, dtype=np.int32)
+            self._renderer.bind(model, labels)
+            self._bound = key
+        return data
+
+    def render(
+        self,
+        instance: ObjectInstance,
+        cam_to_world: Mat4,
+        noise: DepthNoise | None = None,
+        rng: np.random.Generator | None = None,
+    ) -> IsolatedView:
+        """The view of ``instance`` from ``cam_to_world`` (OpenCV axes; the object is at the
+        origin in its canonical frame)."""
+        data = self._bind(instance)
+        T = np.asarray(cam_to_world, dtype=np.float64)
+        frame = self._renderer.render(data, T)
+        depth = frame.depth
+        if noise is not None:
+            depth = apply_noise(depth, rng if rng is not None else np.random.default_rng(0), noise)
+        inv = np.linalg.inv(T)
+        return IsolatedView(
+            depth=depth,
+            mask=(frame.segmentation > 0) & (depth > 0),
+            K=self._K.copy(),
+            cam_to_world=T.copy(),
+            R_cam=inv[:3, :3].copy(),
+            t_cam=inv[:3, 3].copy(),
+            key=instance.key,
+            category=instance.category,
+        )
+
+    def sample_views(
+        self, instance: ObjectInstance, rng: np.random.Generator, n: int
+    ) -> list[IsolatedView]:
+        """``n`` views from cameras sampled by this renderer's rig around the origin."""
+        origin = np.zeros(3)
+        return [self.render(instance, self.rig.sample(rng, origin)) for _ in range(n)]
+
+    def close(self) -> None:
+        """Free the GL context and the cached models."""
+        self._renderer.close()
+        self._models.clear()
+        self._bound = None
+
+    def __enter__(self) -> IsolatedRenderer:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def render_isolated(
+    instance: ObjectInstance, cam_to_world: Mat4, intrinsics: Intrinsics | None = None
+) -> IsolatedView:
+    """One view with a throw-away renderer (convenient, slow: use IsolatedRenderer for
+    many views)."""
+    with IsolatedRenderer(intrinsics) as r:
+        return r.render(instance, cam_to_world)

@@ -1,0 +1,201 @@
+"""BEOPick-v0 as a user drives it: gymnasium conformance, vector envs, determinism, bad
+input, and grasp outcomes."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from beo_bench.envs.pick import parse_action
+
+import beo_bench  # noqa: F401  (registers the ids)
+from beo_bench.errors import ActionError, EnvConfigError
+
+SMALL = {"image_size": (96, 72)}
+DOWN = np.array([0.0, 1.0, 0.0, 0.0])  # wxyz: 180 deg about x, gripper +z = world -z
+
+
+@pytest.fixture
+def env():
+    e = gym.make("BEOPick-v0", **SMALL)
+    yield e
+    e.close()
+
+
+def test_registered_both_ways() -> None:
+    for name in ("BEOPick-v0", "beo_bench:BEOPick-v0"):
+        e = gym.make(name, **SMALL)
+        obs, _ = e.reset(seed=0)
+        assert obs["depth"].shape == (72, 96)
+        e.close()
+
+
+def test_env_checker_passes() -> None:
+    from gymnasium.utils.env_checker import check_env
+
+    e = gym.make("BEOPick-v0", render_mode="rgb_array", **SMALL)
+    check_env(e.unwrapped)
+    e.close()
+
+
+def test_observation_contract(env) -> None:
+    obs, info = env.reset(seed=3)
+    assert env.observation_space.contains(obs)
+    assert obs["depth"].dtype == np.float32 and obs["segmentation"].dtype == np.int32
+    u = env.unwrapped
+    assert u.categories[obs["target_class"]] in {g.category for g in u.ground_truth()}
+    assert 1 <= info["num_objects"] <= 4
+    assert len({g.category for g in u.ground_truth()}) == info["num_objects"]  # distinct
+    T = obs["cam_to_world"]
+    np.testing.assert_allclose(T[:3, :3].T @ T[:3, :3], np.eye(3), atol=1e-9)
+    assert u.model is not None and u.data is not None
+
+
+def test_same_seed_same_everything() -> None:
+    a = gym.make("BEOPick-v0", **SMALL)
+    b = gym.make("BEOPick-v0", **SMALL)
+    for seed in (0, 5):
+        oa, _ = a.reset(seed=seed)
+        a.reset(seed=seed + 100)  # history must not matter
+        oa2, _ = a.reset(seed=seed)
+        ob, _ = b.reset(seed=seed)
+        for k in oa:
+            np.testing.assert_array_equal(oa[k], ob[k])
+            np.testing.assert_array_equal(oa[k], oa2[k])
+        ga, gb = a.unwrapped.ground_truth(), b.unwrapped.ground_truth()
+        assert [g.key for g in ga] == [g.key for g in gb]
+        np.testing.assert_array_equal(ga[0].t_world, gb[0].t_world)
+    oc, _ = a.reset(seed=1)
+    assert not np.array_equal(oc["depth"], oa["depth"])
+    a.close()
+    b.close()
+
+
+def test_async_vector_env_runs() -> None:
+    envs = gym.make_vec("BEOPick-v0", num_envs=2, vectorization_mode="async", **SMALL)
+    obs, _ = envs.reset(seed=11)
+    assert obs["depth"].shape == (2, 72, 96)
+    actions = np.tile(np.r_[0.0, 0.0, 1.0, DOWN, 0.08], (2, 1)).astype(np.float32)
+    _, rew, term, _, _ = envs.step(actions)
+    assert rew.shape == (2,) and term.all()
+    envs.close()
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"colour": "red"}, "unknown keyword"),
+        ({"num_objects": 12}, "distinct categories"),
+        ({"num_objects": 0}, "num_objects"),
+        ({"image_size": (0, 480)}, "image size"),
+        ({"categories": ["spaceship"]}, "spaceship"),
+        ({"split": "holdout"}, "holdout"),
+        ({"max_attempts": 0}, "max_attempts"),
+        ({"render_mode": "depth_video"}, "render_mode"),
+    ],
+)
+def test_bad_settings_rejected_at_make(kwargs, match) -> None:
+    with pytest.raises(EnvConfigError, match=match):
+        gym.make("BEOPick-v0", **kwargs)
+
+
+@pytest.mark.parametrize(
+    "action, match",
+    [
+        (np.zeros(7), "shape"),
+        (np.zeros((2, 8)), "shape"),
+        (np.r_[0, 0, np.nan, 1, 0, 0, 0, 0.05], "NaN"),
+        (np.r_[0, 0, 1, np.inf, 0, 0, 0, 0.05], "NaN or inf"),
+        (np.r_[0, 0, 1, 0, 0, 0, 0, 0.05], "quaternion"),
+    ],
+)
+def test_bad_actions_raise(env, action, match) -> None:
+    env.reset(seed=0)
+    with pytest.raises(ActionError, match=match):
+        env.step(action)
+
+
+def test_quaternion_is_normalised() -> None:
+    T1, o1 = parse_action(np.r_[0.1, 0.2, 0.9, 3 * DOWN, 0.05])
+    T2, _ = parse_action(np.r_[0.1, 0.2, 0.9, DOWN, 0.05])
+    np.testing.assert_allclose(T1, T2, atol=1e-12)
+    np.testing.assert_allclose(T1[:3, 2], [0, 0, -1], atol=1e-12)
+    assert o1 == 0.05
+
+
+def test_grasp_in_empty_air_fails(env) -> None:
+    env.reset(seed=2)
+    u = env.unwrapped
+    corner = np.r_[0.4, 0.3, u.table.table_height + 0.05]  # a table corner, no object there
+    _, reward, terminated, _, info = env.step(np.r_[corner, DOWN, 0.08])
+    assert reward == 0.0 and terminated
+    assert info["reason"] == "nothing_lifted" and info["lifted_label"] == 0
+
+
+def test_grasp_inside_table_fails_cleanly(env) -> None:
+    env.reset(seed=2)
+    u = env.unwrapped
+    before = u.data.qpos.copy()
+    inside = np.r_[0.0, 0.0, u.table.table_height - 0.01]
+    _, reward, terminated, _, info = env.step(np.r_[inside, DOWN, 0.08])
+    assert reward == 0.0 and terminated and info["reason"] == "inside_table"
+    np.testing.assert_array_equal(u.data.qpos[: len(before)], before)  # nothing moved
+
+
+def test_grasp_starting_inside_an_object_fails_cleanly() -> None:
+    e = gym.make("BEOPick-v0", categories=["box"], num_objects=1, **SMALL)
+    e.reset(seed=0)
+    gt = e.unwrapped.ground_truth()[0]
+    # the pre-grasp pose (10 cm back along the approach) sits inside the box: approach upwards
+    up = np.array([1.0, 0.0, 0.0, 0.0])  # identity: gripper +z = world +z
+    pos = gt.t_world + np.array([0.0, 0.0, 0.10])
+    _, reward, _, _, info = e.step(np.r_[pos, up, 0.08])
+    assert reward == 0.0 and info["reason"] in ("pregrasp_in_collision", "inside_table")
+    e.close()
+
+
+def test_render_rgb(env) -> None:
+    e = gym.make("BEOPick-v0", render_mode="rgb_array", **SMALL)
+    e.reset(seed=4)
+    img = e.render()
+    assert img.shape == (72, 96, 3) and img.dtype == np.uint8 and img.std() > 5
+    e.close()
+
+
+def test_close_frees_and_reset_reopens(env) -> None:
+    env.reset(seed=0)
+    env.close()
+    env.close()
+    obs, _ = env.reset(seed=0)  # a closed env can be reset again (new GL context)
+    assert obs["depth"].any()
+
+
+def test_grasp_of_the_wrong_class_fails() -> None:
+    e = gym.make("BEOPick-v0", num_objects=3, **SMALL)
+    u = e.unwrapped
+    for seed in range(20):  # the first scene where another object can be lifted
+        e.reset(seed=seed)
+        other = next(g.label for g in u.ground_truth() if g.label != u.target_label)
+        grasps = u.ground_truth_grasps(other)
+        if not grasps:
+            continue
+        _, reward, terminated, _, info = e.step(grasps[0].action)
+        if info["lifted_label"] == other:
+            assert reward == 0.0 and terminated and not info["success"]
+            assert info["reason"] == "wrong_class"
+            assert info["lifted_category"] != u.categories[u._obs["target_class"]]
+            e.close()
+            return
+    e.close()
+    pytest.fail("no scene in 20 seeds where a non-target object could be lifted")
+
+
+def test_ground_truth_planner_lifts_the_target_in_90_percent() -> None:
+    """The grasp pipeline's ceiling (README "Pick ceiling"): 100 seeded test-split episodes,
+    each grasped with the planner's best grasp from the true mesh and pose."""
+    from beo_bench.envs.pickcheck import ground_truth_pick_check
+
+    result = ground_truth_pick_check(episodes=100, seed=0, image_size=(64, 48))
+    assert len(result.episodes) == 100
+    assert result.success_rate >= 0.90, result.table()
+    assert len(result.per_category()) >= 8  # targets span the pickable categories
