@@ -130,6 +130,101 @@ def cmd_pick_check(args: argparse.Namespace) -> int:
     return 0
 
 
+def _parse_opts(opts: list[str]) -> dict[str, object]:
+    import json
+
+    out: dict[str, object] = {}
+    for o in opts:
+        if "=" not in o:
+            raise BeoBenchError(f"--opt {o!r}: use KEY=VALUE (e.g. --opt samples=25)")
+        k, v = o.split("=", 1)
+        try:
+            out[k] = json.loads(v)
+        except json.JSONDecodeError:
+            out[k] = v  # a plain string
+    return out
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from beo_bench.backend import get_backend, load_plugins
+    from beo_bench.runner import RunConfig, run
+    from beo_bench.suites import get_suite
+
+    load_plugins()
+    suite = get_suite(args.suite).with_overrides(size=args.episodes, seed=args.seed)
+    kwargs = _parse_opts(args.opt)
+    get_backend(args.backend, **kwargs)  # fail here, with its message, not in a worker
+    out = Path(args.out) if args.out else Path("runs") / f"{suite.name}__{args.backend}"
+    summary = run(
+        RunConfig(suite, args.backend, kwargs),
+        out,
+        workers=args.workers,
+        resume=args.resume,
+        use_ray=args.ray,
+    )
+    print(format_runs([summary]))
+    print(f"\nresults: {out / 'results.jsonl'}\nsummary: {out / 'summary.json'}")
+    return 0
+
+
+COLUMNS = (
+    ("class_acc", "class acc", 100, "{:.1f}%"),
+    ("rot_err_deg_mean", "rot mean", 1, "{:.1f}"),
+    ("rot_err_deg_median", "rot med", 1, "{:.1f}"),
+    ("gross_err_rate", ">15deg", 100, "{:.1f}%"),
+    ("trans_err_cm_mean", "trans cm", 1, "{:.2f}"),
+    ("iou_mean", "IoU", 1, "{:.3f}"),
+    ("edt_err_mean", "EDT", 1, "{:.1f}"),
+    ("fscore_mean", "F@1%", 1, "{:.3f}"),
+    ("pick_success", "pick", 100, "{:.1f}%"),
+    ("ms_per_view_median", "ms/view", 1, "{:.1f}"),
+)
+
+
+def format_runs(summaries: list[dict]) -> str:
+    """A plain table of runs: one row per run, the columns that any of them measured."""
+    cols = [c for c in COLUMNS if any(c[0] in s["metrics"] for s in summaries)]
+    head = f"{'suite':<12} {'backend':<22} {'n':>5} {'fail':>4} " + " ".join(
+        f"{c[1]:>9}" for c in cols
+    )
+    lines = [head, "-" * len(head)]
+    for s in summaries:
+        cells = []
+        for key, _, scale, fmt in cols:
+            v = s["metrics"].get(key)
+            cells.append(f"{fmt.format(v * scale) if v is not None else '-':>9}")
+        lines.append(
+            f"{s['suite']:<12} {s['backend']:<22} {s['n']:>5} {s['failures']:>4} " + " ".join(cells)
+        )
+    return "\n".join(lines)
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    import json
+
+    summaries = []
+    for p in args.runs:
+        p = Path(p)
+        f = p / "summary.json" if p.is_dir() else p
+        if not f.exists():
+            raise BeoBenchError(f"{f} does not exist: give run directories or summary.json files")
+        summaries.append(json.loads(f.read_text()))
+    print(format_runs(summaries))
+    return 0
+
+
+def cmd_leaderboard(args: argparse.Namespace) -> int:
+    from beo_bench.leaderboard import regenerate
+
+    written = regenerate(args.runs, args.out)
+    if not written:
+        raise BeoBenchError(f"no summary.json under {args.runs}: run `beo-bench run` first")
+    for p in written:
+        print(p.read_text())
+    print(f"wrote {len(written)} suite tables to {args.out}/")
+    return 0
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     print("beo-bench demo: the object library (test split)\n")
@@ -202,6 +297,27 @@ def build_parser() -> argparse.ArgumentParser:
     pc.add_argument("--seed", type=int, default=0, help="first episode seed")
     pc.add_argument("--split", default="test", choices=["train", "val", "test", "ood"])
     pc.set_defaults(func=cmd_pick_check)
+
+    r = sub.add_parser("run", help="score a backend on a suite")
+    r.add_argument("--suite", required=True)
+    r.add_argument("--backend", required=True)
+    r.add_argument("--episodes", type=int, default=None, help="items (default: the suite's)")
+    r.add_argument("--seed", type=int, default=None, help="replace the suite's base seed")
+    r.add_argument("--workers", type=int, default=1)
+    r.add_argument("--out", default=None, help="default: runs/SUITE__BACKEND")
+    r.add_argument("--resume", action="store_true", help="continue a killed run in --out")
+    r.add_argument("--ray", action="store_true", help="run the items as Ray tasks")
+    r.add_argument("--opt", action="append", default=[], metavar="KEY=VALUE", help="backend option")
+    r.set_defaults(func=cmd_run)
+
+    cp = sub.add_parser("compare", help="a table of several runs")
+    cp.add_argument("runs", nargs="+", help="run directories or summary.json files")
+    cp.set_defaults(func=cmd_compare)
+
+    lb = sub.add_parser("leaderboard", help="regenerate leaderboards/ from run summaries")
+    lb.add_argument("--runs", default="runs")
+    lb.add_argument("--out", default="leaderboards")
+    lb.set_defaults(func=cmd_leaderboard)
 
     c = sub.add_parser("cache", help="inspect or clear the asset cache")
     c.add_argument("action", choices=["info", "clear"])

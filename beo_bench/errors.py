@@ -57,3 +57,18 @@ class EnvConfigError(BeoBenchError, ValueError):
 
 class ActionError(BeoBenchError, ValueError):
     """An action of the wrong shape, with NaN/inf, or with a zero quaternion."""
+
+
+class ViewError(BeoBenchError, ValueError):
+    """A perception input that cannot be used (wrong shape, empty mask, no valid depth)."""
+
+
+class EstimateError(BeoBenchError, ValueError):
+    """A backend's output that breaks the ``Estimate`` contract (shape, range, rotation)."""
+
+
+class BackendError(BeoBenchError, KeyError):
+    """An unknown backend name, or a second registration under a taken name."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""

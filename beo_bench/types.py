@@ -69,3 +69,109 @@ class ObjectState:
     t_world: Vec3
     pixels: int
     """How many pixels of the current observation show it (0: occluded or out of view)."""
+
+
+@dataclass(frozen=True)
+class GroundTruth:
+    """The truth about the object a ``View`` shows; given to metrics, and to a backend only
+    when it declares ``privileged = True`` (the ``oracle`` bound).
+
+    Frames and units as ``ObjectState``: ``R_cam`` (3, 3) and ``t_cam`` (3,) map the
+    canonical frame to the camera frame (OpenCV axes), metres.
+    """
+
+    category: str
+    class_index: int
+    """Index of ``category`` in the view's ``categories``."""
+    key: str
+    symmetry: Symmetry
+    R_cam: Mat3
+    t_cam: Vec3
+    size: Vec3
+    """(3,) canonical bounding-box extents (m)."""
+
+
+@dataclass(frozen=True)
+class View:
+    """One segmented depth observation of one object: what a perception backend sees.
+
+    - ``depth``: (H, W) float32, metric z-depth along the optical axis (m), 0 = no data;
+    - ``mask``: (H, W) bool, the object's pixels (its segment, possibly occluded);
+    - ``K``: (3, 3) OpenCV intrinsics (pixels); ``cam_to_world``: (4, 4), OpenCV camera axes
+      (x right, y down, z forward), world +z up;
+    - ``categories``: the class list that ``Estimate.class_probs`` indexes;
+    - ``segmentation``: optional (H, W) int32 instance labels of the whole image (0 =
+      background), for backends that use context;
+    - ``class_hint``: optional index of the true class, for protocols where the class is
+      given (the dissertation's ICP baseline);
+    - ``up_hint``: optional (3,) unit vector, the object's canonical +z in the camera frame,
+      given when only the rotation about the vertical is unknown (the ``pose-1dof`` protocol,
+      section 3.3.2; on a table it is the world's up);
+    - ``pose_hint``: optional (R_cam, t_cam, size) truth, given by the ``known-pose``
+      protocol (class and completion with the pose known, Table 3.1);
+    - ``ground_truth``: filled only for privileged backends (see ``GroundTruth``).
+    """
+
+    depth: FloatArray
+    mask: NDArray[np.bool_]
+    K: Mat3
+    cam_to_world: Mat4
+    categories: tuple[str, ...]
+    segmentation: NDArray[np.int32] | None = None
+    class_hint: int | None = None
+    up_hint: Vec3 | None = None
+    pose_hint: tuple[Mat3, Vec3, Vec3] | None = None
+    ground_truth: GroundTruth | None = None
+
+    def __post_init__(self) -> None:
+        from beo_bench.errors import ViewError
+
+        d = np.asarray(self.depth)
+        if d.ndim != 2:
+            raise ViewError(f"View.depth must be (H, W), got shape {d.shape}")
+        m = np.asarray(self.mask)
+        if m.shape != d.shape:
+            raise ViewError(f"View.mask must match depth {d.shape}, got {m.shape}")
+        if np.asarray(self.K).shape != (3, 3) or np.asarray(self.cam_to_world).shape != (4, 4):
+            raise ViewError("View.K must be (3, 3) and View.cam_to_world (4, 4)")
+        if not self.categories:
+            raise ViewError("View.categories is empty: give the class list to predict over")
+
+    def points(self) -> Points:
+        """(N, 3) camera-frame points of the mask's pixels with valid depth (OpenCV axes)."""
+        d = np.asarray(self.depth)
+        keep = np.asarray(self.mask, dtype=bool) & np.isfinite(d) & (d > 0)
+        v, u = np.nonzero(keep)
+        z = d[v, u].astype(np.float64)
+        K = np.asarray(self.K, dtype=np.float64)
+        return np.stack([(u - K[0, 2]) * z / K[0, 0], (v - K[1, 2]) * z / K[1, 1], z], axis=1)
+
+
+@dataclass
+class Estimate:
+    """A backend's estimate of one object.
+
+    - ``class_probs``: (C,) probabilities over ``View.categories``, summing to 1;
+    - ``rotation``: (3, 3) canonical -> camera (a proper rotation);
+    - ``translation``: (3,) canonical origin (bounding-box centre) in the camera frame (m);
+    - ``size``: (3,) canonical bounding-box extents (m), all > 0;
+    - ``shape``: (D, D, D) float32 occupancy probabilities in [0, 1], canonical frame scaled
+      into the unit cube (edge = the largest extent), indexed [x, y, z] like
+      ``ObjectInstance.voxels``;
+    - ``pose_samples`` / ``pose_weights``: optional (N, 3, 3) rotations and (N,) weights
+      summing to 1 (HBEO-MDN's samples);
+    - ``info``: free-form extras (JSON-serialisable) a backend wants recorded.
+    """
+
+    class_probs: FloatArray
+    rotation: Mat3
+    translation: Vec3
+    size: Vec3
+    shape: FloatArray
+    pose_samples: FloatArray | None = None
+    pose_weights: FloatArray | None = None
+    info: dict[str, Any] | None = None
+
+    @property
+    def class_index(self) -> int:
+        return int(np.argmax(self.class_probs))

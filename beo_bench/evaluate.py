@@ -1,0 +1,297 @@
+"""Generate a suite's items and score a backend on them (one worker's job).
+
+A :class:`Evaluator` owns what is slow to create (a renderer or an env, the backend) and
+turns item index ``i`` of a suite into result rows: plain JSON-serialisable dicts, one per
+scored view (isolated, tabletop) or episode (pick). A backend that raises or returns
+garbage is recorded as a failure with its reason and scored as wrong; the run goes on.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from beo_bench import metrics
+from beo_bench.backend import PerceptionBackend, get_backend, validate_estimate
+from beo_bench.geometry import rigid
+from beo_bench.objects import ObjectSet, instance_from_key
+from beo_bench.suites import Suite
+from beo_bench.types import Estimate, GroundTruth, View
+
+FSCORE_TAU = 0.01
+"""F-score threshold: 1% of the unit cube's side (Tatarchenko et al. 2019)."""
+
+
+def item_rng(suite: Suite, index: int) -> np.random.Generator:
+    """The generator of item ``index``: depends on the suite's seed and the index only."""
+    return np.random.default_rng(np.random.SeedSequence([suite.seed, index]))
+
+
+def surface_points(grid: np.ndarray, threshold: float = 0.5) -> np.ndarray:
+    """Centres of a grid's filled voxels that touch an empty 6-neighbour, in the unit cube
+    [-0.5, 0.5]^3 (the canonical frame scaled by the largest extent)."""
+    from scipy.ndimage import binary_erosion
+
+    filled = np.asarray(grid) >= threshold
+    surface = filled & ~binary_erosion(filled, border_value=0)
+    D = filled.shape[0]
+    return (np.argwhere(surface) + 0.5) / D - 0.5
+
+
+def _resample(grid: np.ndarray, D: int) -> np.ndarray:
+    g = np.asarray(grid, dtype=np.float32)
+    if g.shape[0] == D:
+        return g
+    idx = ((np.arange(D) + 0.5) * g.shape[0] / D).astype(int)
+    return g[np.ix_(idx, idx, idx)]
+
+
+class Evaluator:
+    """Scores ``backend`` on items of ``suite``. Create one per worker process."""
+
+    def __init__(self, suite: Suite, backend: str, backend_kwargs: dict[str, Any] | None = None):
+        self.suite = suite
+        self.backend_name = backend
+        self.backend: PerceptionBackend = get_backend(backend, **(backend_kwargs or {}))
+        self.privileged = bool(getattr(self.backend, "privileged", False))
+        self.class_hint = bool(getattr(self.backend, "wants_class_hint", False))
+        self._renderer: Any = None
+        self._env: Any = None
+        self._objects: ObjectSet | None = None
+        self._noise: Any = None
+
+    # -- resources -------------------------------------------------------------------------
+    def _isolated(self) -> Any:
+        if self._renderer is None:
+            from beo_bench.scenes.camera import Intrinsics
+            from beo_bench.scenes.isolated import IsolatedRenderer
+            from beo_bench.scenes.noise import DepthNoise
+
+            w, h = self.suite.image_size
+            self._renderer = IsolatedRenderer(Intrinsics(w, h, self.suite.fovy_deg))
+            self._objects = ObjectSet(self.suite.split)
+            self._noise = DepthNoise() if self.suite.noise else None
+        return self._renderer
+
+    def _pick_env(self) -> Any:
+        if self._env is None:
+            from beo_bench.envs.pick import BEOPickEnv
+
+            s = self.suite
+            self._env = BEOPickEnv(
+                split=s.split, image_size=s.image_size, fovy_deg=s.fovy_deg, noise=s.noise
+            )
+        return self._env
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        if self._env is not None:
+            self._env.close()
+            self._env = None
+
+    # -- items -----------------------------------------------------------------------------
+    def run_item(self, index: int) -> list[dict[str, Any]]:
+        """The result rows of item ``index``."""
+        if self.suite.kind == "isolated":
+            view, gt = self.isolated_view(index)
+            return [self._score(index, 0, view, gt)]
+        if self.suite.kind == "tabletop":
+            return self._tabletop(index)
+        return [self._pick(index)]
+
+    def isolated_view(self, index: int) -> tuple[View, GroundTruth]:
+        r = self._isolated()
+        assert self._objects is not None
+        s = self.suite
+        rng = item_rng(s, index)
+        cats = self._objects.categories
+        cat = cats[index % len(cats)]  # classes balanced over items
+        inst = self._objects.get(cat, int(rng.integers(self._objects.count(cat))))
+        T = r.rig.sample(rng, np.zeros(3))
+        iv = r.render(inst, T, self._noise, rng)
+        gt = GroundTruth(
+            category=cat,
+            class_index=cats.index(cat),
+            key=inst.key,
+            symmetry=inst.symmetry,
+            R_cam=iv.R_cam,
+            t_cam=iv.t_cam,
+            size=np.asarray(inst.size, dtype=np.float64),
+        )
+        cam_to_world = iv.cam_to_world
+        if s.protocol == "3dof":
+            # a random world frame: cam_to_world must not reveal the object's up
+            Q = Rotation.random(random_state=rng).as_matrix()
+            cam_to_world = rigid(Q) @ cam_to_world
+        view = View(
+            depth=iv.depth,
+            mask=iv.mask,
+            K=iv.K,
+            cam_to_world=cam_to_world,
+            categories=cats,
+            up_hint=iv.R_cam[:, 2].copy() if s.protocol == "1dof" else None,
+            pose_hint=(iv.R_cam, iv.t_cam, gt.size) if s.protocol == "known-pose" else None,
+        )
+        return view, gt
+
+    def _views_of_scene(self, obs: dict[str, Any], env: Any) -> list[tuple[View, GroundTruth]]:
+        out = []
+        cats = env.categories
+        for g in env.ground_truth():
+            if g.pixels < self.suite.min_pixels:
+                continue
+            view = View(
+                depth=obs["depth"],
+                mask=obs["segmentation"] == g.label,
+                K=obs["intrinsics"],
+                cam_to_world=obs["cam_to_world"],
+                categories=cats,
+                segmentation=obs["segmentation"],
+            )
+            gt = GroundTruth(
+                category=g.category,
+                class_index=cats.index(g.category),
+                key=g.key,
+                symmetry=g.symmetry,
+                R_cam=g.R_cam,
+                t_cam=g.t_cam,
+                size=g.size,
+            )
+            out.append((view, gt))
+        return out
+
+    def _tabletop(self, index: int) -> list[dict[str, Any]]:
+        env = self._pick_env()
+        obs, _ = env.reset(seed=int(item_rng(self.suite, index).integers(2**31)))
+        return [
+            self._score(index, j, v, gt) for j, (v, gt) in enumerate(self._views_of_scene(obs, env))
+        ]
+
+    # -- backend calls ---------------------------------------------------------------------
+    def _predict(self, view: View, gt: GroundTruth) -> tuple[Estimate | None, float, str | None]:
+        if self.privileged:
+            view = replace(view, ground_truth=gt)
+        if self.class_hint:
+            view = replace(view, class_hint=gt.class_index)
+        t0 = time.perf_counter()
+        try:
+            est = validate_estimate(self.backend.predict(view), view)
+            failure = None
+        except Exception as e:  # recorded, scored as wrong; the run goes on
+            est, failure = None, f"{type(e).__name__}: {e}"[:500]
+        return est, time.perf_counter() - t0, failure
+
+    def _score(self, index: int, j: int, view: View, gt: GroundTruth) -> dict[str, Any]:
+        est, seconds, failure = self._predict(view, gt)
+        row: dict[str, Any] = {
+            "item": index,
+            "view": j,
+            "key": gt.key,
+            "category": gt.category,
+            "true_class": gt.class_index,
+            "pixels": int(np.count_nonzero(view.mask)),
+            "ms": 1000 * seconds,
+            "failure": failure,
+        }
+        if est is None:
+            row.update(pred_class=-1, correct=False)
+            return row
+        row["pred_class"] = est.class_index
+        row["correct"] = est.class_index == gt.class_index
+        row["class_prob_true"] = float(est.class_probs[gt.class_index])
+        if self.suite.protocol != "known-pose":
+            row["rot_err_deg"] = metrics.rotation_error(est.rotation, gt.R_cam, gt.symmetry)
+            row["trans_err_cm"] = metrics.translation_error(est.translation, gt.t_cam)
+            row["size_err_pct"] = metrics.size_error(est.size, gt.size)
+        D = self.suite.resolution
+        truth = instance_from_key(gt.key).voxels(D)
+        pred = _resample(est.shape, D)
+        row["iou"] = metrics.voxel_iou(pred, truth)
+        row["edt_err"] = metrics.edt_error(pred >= 0.5, truth)
+        p_pts, t_pts = surface_points(pred), surface_points(truth)
+        row["fscore"] = metrics.fscore(p_pts, t_pts, FSCORE_TAU) if len(p_pts) else 0.0
+        row["chamfer_l1"] = metrics.chamfer_l1(p_pts, t_pts) if len(p_pts) else None
+        return row
+
+    # -- pick ------------------------------------------------------------------------------
+    def _pick(self, index: int) -> dict[str, Any]:
+        from beo_bench.grasping import plan_grasps
+
+        env = self._pick_env()
+        obs, _ = env.reset(seed=int(item_rng(self.suite, index).integers(2**31)))
+        target = int(obs["target_class"])
+        target_label = env.target_label
+        views = self._views_of_scene(obs, env)
+        row: dict[str, Any] = {
+            "item": index,
+            "view": 0,
+            "category": env.categories[target],
+            "true_class": target,
+            "failure": None,
+        }
+        best, best_p, chosen, total = None, -1.0, None, 0.0
+        failures = []
+        label_of = {}
+        for v, gt in views:
+            label = int(np.asarray(v.segmentation)[np.asarray(v.mask)][0])
+            est, seconds, failure = self._predict(v, gt)
+            total += seconds
+            if est is None:
+                failures.append(failure)
+                continue
+            label_of[id(est)] = label
+            p = float(est.class_probs[target])
+            if p > best_p:
+                best, best_p, chosen = est, p, (v, gt)
+        row["ms"] = 1000 * total
+        row["views"] = len(views)
+        if best is None or chosen is None:
+            row.update(success=False, reason="no_estimate", failure=(failures or [None])[0])
+            return row
+        label = label_of[id(best)]
+        row["chosen_label"] = label
+        row["chosen_is_target"] = label == target_label
+        row["chosen_category"] = chosen[1].category
+        mesh = estimate_mesh(best, obs["cam_to_world"])
+        obstacles = [
+            (v.points() @ v.cam_to_world[:3, :3].T + v.cam_to_world[:3, 3])
+            for v, _ in views
+            if v is not chosen[0]
+        ]
+        if mesh is None:
+            row.update(success=False, reason="empty_shape")
+            return row
+        grasps = plan_grasps(
+            mesh, env.table.table_height, np.concatenate(obstacles) if obstacles else None
+        )
+        if not grasps:
+            row.update(success=False, reason="no_grasp")
+            return row
+        _, reward, _, _, info = env.step(grasps[0].action)
+        row.update(success=bool(reward > 0), reason=str(info["reason"]))
+        return row
+
+
+def estimate_mesh(est: Estimate, cam_to_world: np.ndarray) -> Any:
+    """The estimate's shape as a world-frame mesh: marching cubes at 0.5 on the occupancy
+    grid, scaled by the estimated size (the grid's unit cube edge is the largest extent),
+    placed by the estimated pose, then by ``cam_to_world``. ``None`` when the grid is empty."""
+    import trimesh
+    from skimage.measure import marching_cubes
+
+    g = np.pad(np.asarray(est.shape, dtype=np.float32), 1)
+    if g.max() < 0.5:
+        return None
+    verts, faces, _, _ = marching_cubes(g, 0.5)
+    D = g.shape[0] - 2
+    unit = (verts - 1 + 0.5) / D - 0.5  # voxel index space -> unit cube centred at 0
+    local = unit * float(np.max(est.size))
+    cam = local @ np.asarray(est.rotation).T + np.asarray(est.translation)
+    world = cam @ cam_to_world[:3, :3].T + cam_to_world[:3, 3]
+    return trimesh.Trimesh(world, faces, process=False)  # the planner fixes orientation

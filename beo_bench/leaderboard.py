@@ -1,0 +1,144 @@
+"""``beo-bench leaderboard``: regenerate ``leaderboards/`` from run summaries.
+
+Per suite: ``<suite>.md`` (rows are backends; means with bootstrap 95% intervals),
+``<suite>.json`` (the summaries behind the table, with provenance), ``<suite>_rot_cdf.png``
+(rotation-error CDF per backend) and ``<suite>_confusion_<backend>.png``. The oracle and
+random rows are marked as bounds. Only the newest suite version present is tabulated.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+BOUNDS = {"oracle": "upper bound", "random": "lower bound"}
+COLUMNS = (
+    ("rot_err_deg_mean", "rot. error mean (deg)", 1.0, "{:.1f}"),
+    ("rot_err_deg_median", "median (deg)", 1.0, "{:.1f}"),
+    ("gross_err_rate", "> 15 deg", 100.0, "{:.1f}%"),
+    ("trans_err_cm_mean", "transl. (cm)", 1.0, "{:.2f}"),
+    ("class_acc", "class acc.", 100.0, "{:.1f}%"),
+    ("iou_mean", "IoU", 1.0, "{:.3f}"),
+    ("edt_err_mean", "EDT error", 1.0, "{:.1f}"),
+    ("fscore_mean", "F-score@1%", 1.0, "{:.3f}"),
+    ("pick_success", "pick success", 100.0, "{:.1f}%"),
+    ("ms_per_view_median", "ms/view", 1.0, "{:.1f}"),
+)
+
+
+def load_summaries(runs: Path) -> list[dict[str, Any]]:
+    """Every ``summary.json`` under ``runs``."""
+    return [json.loads(p.read_text()) for p in sorted(Path(runs).rglob("summary.json"))]
+
+
+def _cell(s: dict[str, Any], key: str, scale: float, fmt: str) -> str:
+    v = s["metrics"].get(key)
+    if v is None:
+        return "-"
+    text = fmt.format(v * scale)
+    ci = s.get("ci95", {}).get(key)
+    if ci and all(c is not None and np.isfinite(c) for c in ci):
+        lo, hi = (fmt.format(c * scale).rstrip("%") for c in ci)
+        text += f" [{lo}, {hi}]"
+    return text
+
+
+def suite_table(summaries: list[dict[str, Any]]) -> str:
+    cols = [c for c in COLUMNS if any(c[0] in s["metrics"] for s in summaries)]
+    head = "| backend | n | failures | " + " | ".join(c[1] for c in cols) + " |"
+    lines = [head, "|" + "---|" * (3 + len(cols))]
+    for s in sorted(summaries, key=lambda s: (s["backend"] in BOUNDS, s["backend"])):
+        name = s["backend"]
+        if name in BOUNDS:
+            name = f"{name} *({BOUNDS[name]})*"
+        cells = [_cell(s, k, sc, f) for k, _, sc, f in cols]
+        lines.append(f"| {name} | {s['n']} | {s['failures']} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _write(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def _plots(out: Path, suite: str, summaries: list[dict[str, Any]]) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    written = []
+    with_rot = [s for s in summaries if s["metrics"].get("rot_err_deg")]
+    if with_rot:
+        fig, ax = plt.subplots(figsize=(6, 4), constrained_layout=True)
+        for s in sorted(with_rot, key=lambda s: s["backend"]):
+            e = np.sort(np.asarray(s["metrics"]["rot_err_deg"], dtype=float))
+            e = e[np.isfinite(e)]
+            ax.step(e, np.arange(1, len(e) + 1) / len(e), where="post", label=s["backend"])
+        ax.set_xlabel("rotation error (deg, symmetry-aware)")
+        ax.set_ylabel("fraction of views")
+        ax.set_xlim(0, 180)
+        ax.axvline(15, color="grey", lw=0.8, ls="--")
+        ax.legend()
+        ax.set_title(f"{suite}: rotation-error CDF")
+        name = f"{suite}_rot_cdf.png"
+        fig.savefig(out / name, dpi=100)
+        plt.close(fig)
+        written.append(name)
+    for s in summaries:
+        conf = s["metrics"].get("confusion")
+        if not conf:
+            continue
+        c = np.asarray(conf, dtype=float)
+        fig, ax = plt.subplots(figsize=(5, 4.5), constrained_layout=True)
+        norm = c / np.maximum(c.sum(axis=1, keepdims=True), 1)
+        im = ax.imshow(norm, vmin=0, vmax=1, cmap="Blues")
+        ax.set_xlabel("predicted class")
+        ax.set_ylabel("true class")
+        cats = s.get("categories")
+        if cats and len(cats) == len(c):
+            ax.set_xticks(range(len(cats)), cats, rotation=90)
+            ax.set_yticks(range(len(cats)), cats)
+        fig.colorbar(im, ax=ax, shrink=0.8)
+        ax.set_title(f"{suite} / {s['backend']}")
+        name = f"{suite}_confusion_{s['backend']}.png"
+        fig.savefig(out / name, dpi=100)
+        plt.close(fig)
+        written.append(name)
+    return written
+
+
+def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> list[Path]:
+    """Rewrite ``out`` from the summaries under ``runs``; returns the Markdown files."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    by_suite: dict[str, list[dict[str, Any]]] = {}
+    for s in load_summaries(Path(runs)):
+        by_suite.setdefault(s["suite"], []).append(s)
+    written = []
+    index = ["# Leaderboards", "", "Generated by `beo-bench leaderboard` from `runs/`.", ""]
+    for suite, ss in sorted(by_suite.items()):
+        newest = max(s["suite_version"] for s in ss)
+        ss = [s for s in ss if s["suite_version"] == newest]
+        latest: dict[str, dict[str, Any]] = {}
+        for s in ss:  # one row per backend: the largest run
+            b = s["backend"]
+            if b not in latest or s["n"] > latest[b]["n"]:
+                latest[b] = s
+        rows = list(latest.values())
+        plots = _plots(out, suite, rows)
+        md = [f"# {suite} (suite version {newest})", "", suite_table(rows), ""]
+        md.append("Means with bootstrap 95% intervals in brackets; *bounds* are not methods.")
+        md += ["", *[f"![{p}]({p})" for p in plots], ""]
+        path = out / f"{suite}.md"
+        _write(path, "\n".join(md))
+        _write(out / f"{suite}.json", json.dumps(rows, indent=2, sort_keys=True) + "\n")
+        written.append(path)
+        index += [f"## [{suite}]({suite}.md)", "", suite_table(rows), ""]
+    _write(out / "README.md", "\n".join(index))
+    return written

@@ -1,0 +1,679 @@
+"""Evaluation metrics: pure numpy/scipy functions, cheap to import (no torch, no mujoco).
+
+Conventions shared by every function here:
+
+- Rotations are (3, 3) matrices acting on column vectors and map the object's canonical
+  frame (+z up, +x front) to the camera frame (OpenCV axes: x right, y down, z forward),
+  like ``Estimate.rotation`` and ``GroundTruth.R_cam``. Translations and sizes are metres.
+- Symmetry groups are in the BOP toolkit's ``models_info`` form
+  (:class:`beo_bench.types.Symmetry`); a symmetry element ``S`` maps the object onto itself,
+  so poses ``R`` and ``R @ S`` are indistinguishable.
+- Aggregates over many episodes (rates, accuracies, bootstrap intervals) drop NaN entries;
+  an aggregate over nothing is NaN.
+- Shape errors raise ``ValueError`` saying what was expected.
+
+References:
+
+- [BOP] Hodaň et al., "BOP: Benchmark for 6D Object Pose Estimation", ECCV 2018, and the
+  BOP toolkit (``bop_toolkit_lib/pose_error.py``: ``re``, ``te``;
+  ``misc.get_symmetry_transformations``).
+- [NOCS] Wang et al., "Normalized Object Coordinate Space for Category-Level 6D Object Pose
+  and Size Estimation", CVPR 2019 (the 5deg2cm / 5deg5cm / 10deg5cm accuracies; a pose
+  passes when both errors are <= the thresholds).
+- [Pix3D] Sun et al., "Pix3D: Dataset and Methods for Single-Image 3D Shape Modeling",
+  CVPR 2018 (azimuth / elevation bin accuracy, following Pascal3D+'s AVP bins).
+- [Burchfiel] B. Burchfiel, "Bayesian Eigenobjects ..." (PhD dissertation, Duke 2019):
+  EDT error (eq. 4.5), gross-error rate (Table 5.2), entropy "unknown" (section 6.2.4).
+- [ONet] Mescheder et al., "Occupancy Networks", CVPR 2019 (Chamfer-L1, voxel IoU).
+- [Tatarchenko] Tatarchenko et al., "What Do Single-view 3D Reconstruction Networks
+  Learn?", CVPR 2019 (F-score at a distance threshold).
+- [Efron] Efron & Tibshirani, "An Introduction to the Bootstrap", 1993 (percentile CI).
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage
+from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
+
+from beo_bench.types import Symmetry
+
+__all__ = [
+    "AZIMUTH_BINS",
+    "ELEVATION_BINS",
+    "NOCS_THRESHOLDS",
+    "bin_accuracy",
+    "bootstrap_ci",
+    "camera_frame_iou",
+    "chamfer_l1",
+    "class_accuracy",
+    "confusion_matrix",
+    "edt",
+    "edt_error",
+    "edt_error_per_voxel",
+    "entropy",
+    "fscore",
+    "gross_error_rate",
+    "nocs_accuracies",
+    "per_class_accuracy",
+    "pick_summary",
+    "pose_accuracy",
+    "posed_iou",
+    "predict_with_unknown",
+    "rotation_error",
+    "runtime_stats",
+    "size_error",
+    "symmetry_rotations",
+    "translation_error",
+    "viewpoint",
+    "viewpoint_bins",
+    "voxel_iou",
+]
+
+AZIMUTH_BINS: tuple[int, ...] = (4, 8, 12, 24)
+"""Azimuth bin counts of the Pix3D protocol (over 360 degrees)."""
+ELEVATION_BINS: tuple[int, ...] = (4, 6, 12)
+"""Elevation bin counts of the Pix3D protocol (over 180 degrees)."""
+NOCS_THRESHOLDS: dict[str, tuple[float, float]] = {
+    "5deg2cm": (5.0, 2.0),
+    "5deg5cm": (5.0, 5.0),
+    "10deg5cm": (10.0, 5.0),
+}
+"""NOCS accuracy names -> (degrees, centimetres)."""
+
+_ROT_ATOL = 1e-3
+
+
+# --------------------------------------------------------------------------- validation
+
+
+def _array(x: ArrayLike, name: str, shape: tuple[int | None, ...] | None = None) -> np.ndarray:
+    """``x`` as a float64 array, checking ``shape`` (None entries match any length)."""
+    a = np.asarray(x, dtype=np.float64)
+    if shape is not None and (
+        a.ndim != len(shape)
+        or any(s is not None and s != n for s, n in zip(shape, a.shape, strict=True))
+    ):
+        want = str(tuple("N" if s is None else s for s in shape)).replace("'", "")
+        raise ValueError(f"{name} must have shape {want}, got {a.shape}")
+    return a
+
+
+def _rotation(R: ArrayLike, name: str) -> np.ndarray:
+    """A (3, 3) proper rotation (orthonormal, det +1, within 1e-3) as float64."""
+    M = _array(R, name, (3, 3))
+    if not np.isfinite(M).all():
+        raise ValueError(f"{name} must be a finite (3, 3) rotation matrix, got {M.tolist()}")
+    if not np.allclose(M.T @ M, np.eye(3), atol=_ROT_ATOL) or np.linalg.det(M) < 0:
+        raise ValueError(f"{name} must be a proper rotation matrix (R^T R = I, det R = +1)")
+    return M
+
+
+def _vector(x: ArrayLike, name: str) -> np.ndarray:
+    """A 1-D float array (scalars become length 1)."""
+    a = np.atleast_1d(np.asarray(x, dtype=np.float64))
+    if a.ndim != 1:
+        raise ValueError(f"{name} must be a 1-D sequence of numbers, got shape {a.shape}")
+    return a
+
+
+def _labels(x: ArrayLike, name: str) -> np.ndarray:
+    """A 1-D integer label array."""
+    a = np.atleast_1d(np.asarray(x))
+    if a.ndim != 1:
+        raise ValueError(f"{name} must be a 1-D sequence of class indices, got shape {a.shape}")
+    if a.size and not np.issubdtype(a.dtype, np.integer):
+        if not np.all(np.equal(np.mod(a, 1), 0)):
+            raise ValueError(f"{name} must hold integer class indices")
+        a = a.astype(np.int64)
+    return a.astype(np.int64)
+
+
+def _grid(x: ArrayLike, name: str, threshold: float) -> np.ndarray:
+    """A 3-D occupancy grid as bool (bool input as is, numbers ``>= threshold``)."""
+    a = np.asarray(x)
+    if a.ndim != 3:
+        raise ValueError(f"{name} must be a 3-D (D, D, D) occupancy grid, got shape {a.shape}")
+    if a.dtype == np.bool_:
+        return a
+    return a.astype(np.float64) >= threshold
+
+
+# --------------------------------------------------------------------------- pose
+
+
+def symmetry_rotations(symmetry: Symmetry | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """The rotation parts of a BOP symmetry group, split for :func:`rotation_error`.
+
+    Returns ``(discrete, axis)``: ``discrete`` is (K, 3, 3), the identity first, then the
+    rotation part of every ``symmetry["discrete"]`` transform; ``axis`` is the unit (3,)
+    axis of the continuous symmetry, or None. Offsets only move the translation and are
+    ignored. Several parallel continuous axes count as one. Continuous rotations about two
+    non-parallel axes generate all of SO(3) (a sphere); then ``axis`` is ``np.zeros(3)``.
+    """
+    discrete = [np.eye(3)]
+    if symmetry is None:
+        return np.stack(discrete), None
+    for k, T in enumerate(symmetry.get("discrete", []) or []):
+        M = np.asarray(T, dtype=np.float64)
+        if M.shape not in ((4, 4), (3, 3)):
+            raise ValueError(f"symmetry['discrete'][{k}] must be (4, 4), got {M.shape}")
+        discrete.append(_rotation(M[:3, :3], f"symmetry['discrete'][{k}][:3, :3]"))
+    axis: np.ndarray | None = None
+    for k, c in enumerate(symmetry.get("continuous", []) or []):
+        a = _array(c["axis"], f"symmetry['continuous'][{k}]['axis']", (3,))
+        n = np.linalg.norm(a)
+        if not np.isfinite(n) or n == 0:
+            raise ValueError(f"symmetry['continuous'][{k}]['axis'] must be a non-zero 3-vector")
+        a = a / n
+        if axis is None:
+            axis = a
+        elif np.linalg.norm(np.cross(axis, a)) > 1e-9 and np.any(axis):
+            axis = np.zeros(3)
+    return np.stack(discrete), axis
+
+
+def rotation_error(R_est: ArrayLike, R_gt: ArrayLike, symmetry: Symmetry | None = None) -> float:
+    """Geodesic rotation error in degrees, minimised over the object's symmetry group.
+
+    ``min over S in G of angle(R_est^T R_gt S)``, where ``angle(M) = arccos((tr M - 1) / 2)``
+    is the geodesic distance on SO(3) [BOP ``re``, with the symmetric poses ``R_gt S`` as in
+    ``get_symmetry_transformations``]. ``G`` is built from ``symmetry`` like
+    :func:`beo_bench.geometry.symmetry_transformations` (elements ``C(theta) @ D`` with ``C``
+    a rotation about the continuous axis and ``D`` the identity or a discrete element), but
+    the continuous part is minimised exactly instead of on a 5-degree grid:
+
+    with ``N = D R_est^T R_gt`` and ``C(theta) = cos(theta) I + sin(theta) [a]_x +
+    (1 - cos(theta)) a a^T``, ``tr(N C(theta)) = a^T N a + A cos(theta) + B sin(theta)`` with
+    ``A = tr N - a^T N a`` and ``B = tr(N [a]_x)``, maximised at ``theta* = atan2(B, A)``.
+    (With no discrete part this equals the angle between ``R_est a`` and ``R_gt a``.) The
+    angle of ``N C(theta*)`` is then taken with scipy's ``Rotation.magnitude`` (accurate near
+    0, unlike arccos). Vectorised over the discrete elements.
+
+    ``symmetry`` None or empty: the plain geodesic distance. Two non-parallel continuous axes
+    (a sphere) give 0. Raises ``ValueError`` unless both are finite proper (3, 3) rotations.
+    """
+    Re = _rotation(R_est, "R_est")
+    Rg = _rotation(R_gt, "R_gt")
+    discrete, axis = symmetry_rotations(symmetry)
+    M = Re.T @ Rg
+    # trace(M C D) = trace(D M C): the continuous rotation acts last in N = D M.
+    N = discrete @ M  # (K, 3, 3)
+    if axis is not None and not np.any(axis):
+        return 0.0
+    if axis is not None:
+        a = axis
+        ax = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+        aNa = np.einsum("i,kij,j->k", a, N, a)
+        A = np.trace(N, axis1=1, axis2=2) - aNa
+        B = np.einsum("kij,ji->k", N, ax)
+        theta = np.arctan2(B, A)
+        C = Rotation.from_rotvec(theta[:, None] * a[None, :]).as_matrix()
+        N = N @ C
+    # from_matrix re-orthonormalises, so tiny numerical drift cannot produce NaN.
+    angles = Rotation.from_matrix(N).magnitude()
+    return float(np.degrees(angles.min()))
+
+
+def translation_error(t_est: ArrayLike, t_gt: ArrayLike) -> float:
+    """Euclidean translation error ``||t_est - t_gt||`` [BOP ``te``], inputs in metres,
+    result in centimetres."""
+    a = _array(t_est, "t_est", (3,))
+    b = _array(t_gt, "t_gt", (3,))
+    return float(np.linalg.norm(a - b) * 100.0)
+
+
+def size_error(s_est: ArrayLike, s_gt: ArrayLike) -> float:
+    """Size error in percent: the mean over the 3 extents of ``|s_est - s_gt| / s_gt``,
+    times 100. ``s_gt`` must be positive."""
+    a = _array(s_est, "s_est", (3,))
+    b = _array(s_gt, "s_gt", (3,))
+    if not np.all(b > 0):
+        raise ValueError(f"s_gt must have 3 positive extents, got {b.tolist()}")
+    return float(np.mean(np.abs(a - b) / b) * 100.0)
+
+
+def gross_error_rate(errors_deg: ArrayLike, threshold: float = 15.0) -> float:
+    """Fraction (0..1) of rotation errors strictly greater than ``threshold`` degrees
+    ([Burchfiel] Table 5.2 counts errors > 15 degrees). NaNs dropped; empty -> NaN."""
+    e = _vector(errors_deg, "errors_deg")
+    e = e[~np.isnan(e)]
+    return float(np.mean(e > threshold)) if e.size else float("nan")
+
+
+def pose_accuracy(rot_err_deg: ArrayLike, trans_err_cm: ArrayLike, deg: float, cm: float) -> float:
+    """Fraction (0..1) of poses with rotation error <= ``deg`` and translation error <=
+    ``cm`` [NOCS]. Pairs with a NaN are dropped; empty -> NaN."""
+    r = _vector(rot_err_deg, "rot_err_deg")
+    t = _vector(trans_err_cm, "trans_err_cm")
+    if r.shape != t.shape:
+        raise ValueError(
+            f"rot_err_deg and trans_err_cm must have equal lengths: {r.size}, {t.size}"
+        )
+    keep = ~(np.isnan(r) | np.isnan(t))
+    if not keep.any():
+        return float("nan")
+    return float(np.mean((r[keep] <= deg) & (t[keep] <= cm)))
+
+
+def nocs_accuracies(rot_err_deg: ArrayLike, trans_err_cm: ArrayLike) -> dict[str, float]:
+    """``{"5deg2cm", "5deg5cm", "10deg5cm"}`` accuracies (0..1) via :func:`pose_accuracy`."""
+    return {
+        name: pose_accuracy(rot_err_deg, trans_err_cm, deg, cm)
+        for name, (deg, cm) in NOCS_THRESHOLDS.items()
+    }
+
+
+# --------------------------------------------------------------------------- viewpoint
+
+
+def viewpoint(R: ArrayLike) -> tuple[float, float]:
+    """(azimuth, elevation) in degrees of the camera seen from the object.
+
+    ``R`` maps the canonical frame to the camera frame (OpenCV, the camera looks along its
+    +z). The direction from the object towards the camera, in the canonical frame, is
+    ``v = -R^T e_z`` (the reversed optical axis; exact for an object on the optical axis,
+    and independent of the translation, as in [Pix3D]). Azimuth is ``atan2(v_y, v_x)`` in
+    [0, 360) with 0 = seen from the front (+x) and 90 = from the left (+y); elevation is
+    ``asin(v_z)`` in [-90, 90], positive when the camera is above.
+    """
+    M = _rotation(R, "R")
+    v = -M[2, :]  # = -R^T @ [0, 0, 1]
+    az = np.degrees(np.arctan2(v[1], v[0])) % 360.0
+    el = np.degrees(np.arcsin(np.clip(v[2], -1.0, 1.0)))
+    return float(az), float(el)
+
+
+def viewpoint_bins(R: ArrayLike, bins: tuple[int, int]) -> tuple[int, int]:
+    """(azimuth bin, elevation bin) of the viewpoint of ``R`` (see :func:`viewpoint`).
+
+    ``bins = (n_azimuth, n_elevation)``. Azimuth bins have width ``w = 360 / n`` and are
+    centred on the front: bin 0 is ``[-w/2, w/2)``, bin ``i`` is centred on ``i w`` (the
+    Pascal3D+ AVP convention that Pix3D follows). Elevation bins split [-90, 90] evenly from
+    the bottom (bin 0 starts at -90; +90 falls into the last bin).
+    """
+    n_az, n_el = (int(b) for b in bins)
+    if n_az < 1 or n_el < 1:
+        raise ValueError(f"bins must be two positive counts (n_azimuth, n_elevation), got {bins}")
+    az, el = viewpoint(R)
+    w_az = 360.0 / n_az
+    i_az = int(np.floor((az + w_az / 2.0) / w_az)) % n_az
+    i_el = min(int(np.floor((el + 90.0) / (180.0 / n_el))), n_el - 1)
+    return i_az, i_el
+
+
+def bin_accuracy(
+    R_est: ArrayLike | Sequence[ArrayLike],
+    R_gt: ArrayLike | Sequence[ArrayLike],
+    n_azimuth_bins: int,
+    n_elevation_bins: int,
+) -> dict[str, float]:
+    """Pix3D-style viewpoint classification accuracy [Pix3D, Tables 4.5/5.3 of Burchfiel].
+
+    ``R_est`` / ``R_gt``: one (3, 3) rotation or a stack (N, 3, 3). A view counts as correct
+    for azimuth (elevation) when both rotations fall into the same bin of
+    :func:`viewpoint_bins`. Returns ``{"azimuth", "elevation", "both"}`` fractions (0..1).
+    """
+    E = _array(R_est, "R_est")
+    G = _array(R_gt, "R_gt")
+    if E.shape == (3, 3):
+        E = E[None]
+    if G.shape == (3, 3):
+        G = G[None]
+    if E.ndim != 3 or E.shape[1:] != (3, 3) or E.shape != G.shape:
+        raise ValueError(
+            f"R_est and R_gt must both be (3, 3) or (N, 3, 3) with equal N, got {E.shape} "
+            f"and {G.shape}"
+        )
+    if E.shape[0] == 0:
+        return {"azimuth": float("nan"), "elevation": float("nan"), "both": float("nan")}
+    bins = (n_azimuth_bins, n_elevation_bins)
+    be = np.array([viewpoint_bins(r, bins) for r in E])
+    bg = np.array([viewpoint_bins(r, bins) for r in G])
+    same = be == bg
+    return {
+        "azimuth": float(same[:, 0].mean()),
+        "elevation": float(same[:, 1].mean()),
+        "both": float(same.all(axis=1).mean()),
+    }
+
+
+# --------------------------------------------------------------------------- classes
+
+
+def class_accuracy(pred: ArrayLike, true: ArrayLike) -> float:
+    """Fraction of ``pred == true`` (an "unknown" prediction, -1, counts as wrong)."""
+    p, t = _labels(pred, "pred"), _labels(true, "true")
+    if p.shape != t.shape:
+        raise ValueError(f"pred and true must have equal lengths, got {p.size} and {t.size}")
+    return float(np.mean(p == t)) if p.size else float("nan")
+
+
+def per_class_accuracy(pred: ArrayLike, true: ArrayLike, n_classes: int) -> NDArray[np.float64]:
+    """(n_classes,) accuracy over the views of each true class (recall); NaN for a class
+    that has no views."""
+    p, t = _labels(pred, "pred"), _labels(true, "true")
+    if p.shape != t.shape:
+        raise ValueError(f"pred and true must have equal lengths, got {p.size} and {t.size}")
+    if t.size and (t.min() < 0 or t.max() >= n_classes):
+        raise ValueError(f"true labels must be in [0, {n_classes}), got {sorted(set(t.tolist()))}")
+    count = np.bincount(t, minlength=n_classes).astype(np.float64)
+    hit = np.bincount(t[p == t], minlength=n_classes).astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, hit / np.maximum(count, 1), np.nan)
+
+
+def confusion_matrix(
+    pred: ArrayLike, true: ArrayLike, n_classes: int, unknown: bool = False
+) -> NDArray[np.int64]:
+    """Counts with rows = true class, columns = predicted class, (n_classes, n_classes).
+
+    With ``unknown=True`` the matrix has one extra last column counting "unknown" (-1)
+    predictions (see :func:`predict_with_unknown`); otherwise a -1 raises ``ValueError``.
+    """
+    p, t = _labels(pred, "pred"), _labels(true, "true")
+    if p.shape != t.shape:
+        raise ValueError(f"pred and true must have equal lengths, got {p.size} and {t.size}")
+    if t.size and (t.min() < 0 or t.max() >= n_classes):
+        raise ValueError(f"true labels must be in [0, {n_classes}), got {sorted(set(t.tolist()))}")
+    lo = -1 if unknown else 0
+    if p.size and (p.min() < lo or p.max() >= n_classes):
+        raise ValueError(
+            f"pred labels must be in [{lo}, {n_classes}) (unknown={unknown}), "
+            f"got {sorted(set(p.tolist()))}"
+        )
+    cols = n_classes + 1 if unknown else n_classes
+    p = np.where(p < 0, n_classes, p)
+    M = np.zeros((n_classes, cols), dtype=np.int64)
+    np.add.at(M, (t, p), 1)
+    return M
+
+
+def _probs(probs: ArrayLike) -> np.ndarray:
+    P = np.asarray(probs, dtype=np.float64)
+    if P.ndim not in (1, 2) or P.shape[-1] == 0:
+        raise ValueError(f"probs must be (C,) or (N, C) class probabilities, got {P.shape}")
+    if not np.isfinite(P).all() or (P < 0).any():
+        raise ValueError("probs must be finite and non-negative")
+    s = P.sum(axis=-1, keepdims=True)
+    if (s <= 0).any():
+        raise ValueError("probs must not sum to 0")
+    return P / s
+
+
+def entropy(probs: ArrayLike) -> float | NDArray[np.float64]:
+    """Shannon entropy in nats, ``-sum p log p`` (0 log 0 = 0), of (C,) probabilities (a
+    float) or of each row of (N, C) (an (N,) array). Rows are normalised to sum 1 first."""
+    P = _probs(probs)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        terms = np.where(P > 0, -P * np.log(np.where(P > 0, P, 1.0)), 0.0)
+    H = terms.sum(axis=-1)
+    return float(H) if H.ndim == 0 else H
+
+
+def predict_with_unknown(probs: ArrayLike, threshold: float) -> int | NDArray[np.int64]:
+    """The argmax class, or -1 ("unknown") when the entropy (nats) exceeds ``threshold``
+    ([Burchfiel] section 6.2.4). (C,) -> int; (N, C) -> (N,) int array. The maximum entropy
+    of C classes is ``log C``."""
+    P = _probs(probs)
+    H = np.asarray(entropy(P))
+    cls = np.where(H > threshold, -1, np.argmax(P, axis=-1)).astype(np.int64)
+    return int(cls) if cls.ndim == 0 else cls
+
+
+# --------------------------------------------------------------------------- completion
+
+
+def voxel_iou(pred: ArrayLike, gt: ArrayLike, threshold: float = 0.5) -> float:
+    """Intersection over union of two occupancy grids of equal shape [ONet].
+
+    Float grids are occupied where ``>= threshold``; bool grids are used as they are. Both
+    empty: 1.0 (they agree everywhere).
+    """
+    a, b = _grid(pred, "pred", threshold), _grid(gt, "gt", threshold)
+    if a.shape != b.shape:
+        raise ValueError(f"pred and gt must have the same shape, got {a.shape} and {b.shape}")
+    union = np.count_nonzero(a | b)
+    return float(np.count_nonzero(a & b) / union) if union else 1.0
+
+
+def edt(grid: ArrayLike, threshold: float = 0.5) -> NDArray[np.float64]:
+    """Euclidean distance transform of an occupancy grid, in voxel units: each voxel's
+    distance to the nearest occupied voxel (0 on occupied voxels).
+
+    An empty grid has no occupied voxel; its transform is defined as the grid diagonal
+    ``sqrt(sum(shape^2))`` (``D sqrt(3)`` for D^3) everywhere, larger than any distance
+    inside a non-empty grid.
+    """
+    g = _grid(grid, "grid", threshold)
+    if not g.any():
+        return np.full(g.shape, float(np.sqrt(np.sum(np.square(g.shape)))))
+    return ndimage.distance_transform_edt(~g).astype(np.float64)
+
+
+def edt_error(pred: ArrayLike, gt: ArrayLike, threshold: float = 0.5) -> float:
+    """The EDT error ``||EDT(gt) - EDT(pred)||_2`` over all voxels ([Burchfiel] eq. 4.5),
+    with :func:`edt` (voxel units; the empty-grid convention there). Float grids are
+    binarised at ``threshold``."""
+    a, b = _grid(pred, "pred", threshold), _grid(gt, "gt", threshold)
+    if a.shape != b.shape:
+        raise ValueError(f"pred and gt must have the same shape, got {a.shape} and {b.shape}")
+    return float(np.linalg.norm(edt(b) - edt(a)))
+
+
+def edt_error_per_voxel(pred: ArrayLike, gt: ArrayLike, threshold: float = 0.5) -> float:
+    """The EDT error per voxel as a root mean square: ``edt_error / sqrt(N)`` with N the
+    number of voxels (D^3), so grids of different resolution are comparable (voxel units)."""
+    g = np.asarray(gt)
+    return edt_error(pred, gt, threshold) / float(np.sqrt(max(g.size, 1)))
+
+
+def _points(x: ArrayLike, name: str) -> np.ndarray:
+    a = _array(x, name)
+    if a.size == 0:
+        return a.reshape(0, 3)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (N, 3), got {a.shape}")
+    return a
+
+
+def chamfer_l1(points_a: ArrayLike, points_b: ArrayLike) -> float:
+    """Chamfer-L1 distance [ONet; Tatarchenko]: the mean of the two directed mean
+    nearest-neighbour Euclidean (not squared) distances,
+    ``0.5 * (mean_a min_b ||a - b|| + mean_b min_a ||b - a||)`` (ONet's
+    ``0.5 * (accuracy + completeness)``). Same units as the points.
+
+    One set empty: inf; both empty: 0.
+    """
+    a, b = _points(points_a, "points_a"), _points(points_b, "points_b")
+    if len(a) == 0 or len(b) == 0:
+        return 0.0 if len(a) == len(b) else float("inf")
+    d_ab = cKDTree(b).query(a)[0]
+    d_ba = cKDTree(a).query(b)[0]
+    return float(0.5 * (d_ab.mean() + d_ba.mean()))
+
+
+def fscore(points_pred: ArrayLike, points_gt: ArrayLike, tau: float = 0.01) -> float:
+    """F-score at distance ``tau`` [Tatarchenko]: ``2 P R / (P + R)`` where precision ``P``
+    is the fraction of predicted points closer than ``tau`` (strictly) to the ground truth
+    and recall ``R`` the fraction of ground-truth points closer than ``tau`` to the
+    prediction; 0 when ``P + R = 0``. The default ``tau = 0.01`` is 1% of the side of the
+    unit cube the canonical shapes live in.
+
+    One set empty: 0; both empty: 1.
+    """
+    p, g = _points(points_pred, "points_pred"), _points(points_gt, "points_gt")
+    if tau <= 0:
+        raise ValueError(f"tau must be positive, got {tau}")
+    if len(p) == 0 or len(g) == 0:
+        return 1.0 if len(p) == len(g) else 0.0
+    precision = float(np.mean(cKDTree(g).query(p)[0] < tau))
+    recall = float(np.mean(cKDTree(p).query(g)[0] < tau))
+    if precision + recall == 0:
+        return 0.0
+    return 2.0 * precision * recall / (precision + recall)
+
+
+def _pose(pose: Any, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(R, t) from a (4, 4) transform or an (R, t) pair."""
+    if isinstance(pose, tuple | list) and len(pose) == 2:
+        R = _rotation(pose[0], f"{name}[0]")
+        t = _array(pose[1], f"{name}[1]", (3,))
+        return R, t
+    T = _array(pose, name)
+    if T.shape != (4, 4):
+        raise ValueError(f"{name} must be a (4, 4) transform or an (R (3, 3), t (3,)) pair")
+    return _rotation(T[:3, :3], f"{name}[:3, :3]"), T[:3, 3].copy()
+
+
+def _scale(size: ArrayLike, name: str) -> float:
+    s = _array(size, name)
+    if s.shape not in ((), (1,), (3,)) or not np.all(s > 0):
+        raise ValueError(f"{name} must be 3 positive extents (or one scale), got {s.tolist()}")
+    return float(np.max(s))
+
+
+def posed_iou(
+    grid_a: ArrayLike,
+    pose_a: Any,
+    size_a: ArrayLike,
+    grid_b: ArrayLike,
+    pose_b: Any,
+    size_b: ArrayLike,
+    resolution: int = 64,
+    threshold: float = 0.5,
+) -> float:
+    """IoU of two voxelised shapes placed in the camera frame with their poses and sizes.
+
+    Each grid is a canonical-frame (D, D, D) occupancy grid indexed [x, y, z] filling the
+    unit cube centred on the origin (edge = the object's largest extent), like
+    ``Estimate.shape`` and ``ObjectInstance.voxels``. Object ``k`` occupies the cube of edge
+    ``s_k = max(size_k)`` (only the largest extent is used: the grid carries the aspect),
+    posed by ``pose_k`` (a (4, 4) canonical -> camera transform or an ``(R, t)`` pair).
+
+    A common axis-aligned box covering both posed cubes is sampled at ``resolution``^3 cell
+    centres; a sample ``x`` is inside object k when ``p = R_k^T (x - t_k)`` falls in an
+    occupied voxel (nearest voxel: index ``floor((p / s_k + 0.5) D)``). The IoU is the
+    ratio of sample counts (every sample stands for the same volume), accurate to about one
+    sample cell. Both empty: 1.0. This is the overlap a grasp planner would see if it used
+    the estimate; it mixes shape, pose and size errors.
+    """
+    if int(resolution) < 2:
+        raise ValueError(f"resolution must be >= 2, got {resolution}")
+    res = int(resolution)
+    shapes = []
+    for grid, pose, size, tag in ((grid_a, pose_a, size_a, "a"), (grid_b, pose_b, size_b, "b")):
+        g = _grid(grid, f"grid_{tag}", threshold)
+        R, t = _pose(pose, f"pose_{tag}")
+        shapes.append((g, R, t, _scale(size, f"size_{tag}")))
+    corners = np.array(np.meshgrid([-0.5, 0.5], [-0.5, 0.5], [-0.5, 0.5])).reshape(3, -1).T
+    placed = np.concatenate([corners * s @ R.T + t for _, R, t, s in shapes])
+    lo, hi = placed.min(axis=0), placed.max(axis=0)
+    axes = [lo[i] + (np.arange(res) + 0.5) * (hi[i] - lo[i]) / res for i in range(3)]
+    X = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    inside = []
+    for g, R, t, s in shapes:
+        D = np.array(g.shape)
+        idx = np.floor(((X - t) @ R / s + 0.5) * D).astype(np.int64)
+        ok = np.all((idx >= 0) & (idx < D), axis=1)
+        occ = np.zeros(len(X), dtype=bool)
+        occ[ok] = g[idx[ok, 0], idx[ok, 1], idx[ok, 2]]
+        inside.append(occ)
+    union = np.count_nonzero(inside[0] | inside[1])
+    return float(np.count_nonzero(inside[0] & inside[1]) / union) if union else 1.0
+
+
+camera_frame_iou = posed_iou
+"""Alias of :func:`posed_iou` (the design's "camera-frame IoU")."""
+
+
+# --------------------------------------------------------------------------- pick, runtime
+
+
+def pick_summary(
+    successes: Iterable[bool], reasons: Iterable[str | None] | None = None
+) -> dict[str, Any]:
+    """``{"n", "successes", "success_rate", "failure_reasons"}`` of pick attempts.
+
+    ``failure_reasons`` counts the reason of each failed attempt (None or "" as
+    ``"unknown"``), most frequent first; reasons of successful attempts are ignored.
+    ``success_rate`` is NaN for no attempts.
+    """
+    ok = [bool(s) for s in successes]
+    why = list(reasons) if reasons is not None else [None] * len(ok)
+    if len(why) != len(ok):
+        raise ValueError(f"successes and reasons must have equal lengths: {len(ok)}, {len(why)}")
+    counts = Counter(str(r) if r else "unknown" for s, r in zip(ok, why, strict=True) if not s)
+    return {
+        "n": len(ok),
+        "successes": sum(ok),
+        "success_rate": sum(ok) / len(ok) if ok else float("nan"),
+        "failure_reasons": dict(counts.most_common()),
+    }
+
+
+def runtime_stats(seconds: ArrayLike) -> dict[str, float]:
+    """``{"n", "ms_median", "ms_p95", "ms_mean", "hz"}`` of per-view times given in seconds.
+
+    ``hz = 1000 / ms_median`` (views per second at the median time); p95 uses numpy's
+    linear interpolation. NaNs dropped; no times -> NaNs.
+    """
+    s = _vector(seconds, "seconds")
+    s = s[~np.isnan(s)]
+    if s.size == 0:
+        nan = float("nan")
+        return {"n": 0, "ms_median": nan, "ms_p95": nan, "ms_mean": nan, "hz": nan}
+    ms = s * 1000.0
+    med = float(np.median(ms))
+    return {
+        "n": int(s.size),
+        "ms_median": med,
+        "ms_p95": float(np.percentile(ms, 95)),
+        "ms_mean": float(ms.mean()),
+        "hz": 1000.0 / med if med > 0 else float("inf"),
+    }
+
+
+# --------------------------------------------------------------------------- bootstrap
+
+
+def bootstrap_ci(
+    values: ArrayLike,
+    statistic: Callable[..., Any] = np.mean,
+    n_resamples: int = 1000,
+    confidence: float = 0.95,
+    seed: int = 0,
+) -> tuple[float, float]:
+    """Percentile bootstrap confidence interval ``(lo, hi)`` of ``statistic`` [Efron].
+
+    Draws an (n_resamples, n) matrix of indices with replacement from
+    ``numpy.random.default_rng(seed)`` (deterministic), evaluates ``statistic`` on every
+    row (``statistic(samples, axis=1)`` when it accepts ``axis``, else row by row) and
+    returns the ``(1 - confidence) / 2`` and ``(1 + confidence) / 2`` percentiles. NaNs are
+    dropped first; no values -> ``(nan, nan)``; bools count as 0/1.
+    """
+    v = _vector(values, "values")
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
+    if int(n_resamples) < 1:
+        raise ValueError(f"n_resamples must be >= 1, got {n_resamples}")
+    v = v[~np.isnan(v)]
+    if v.size == 0:
+        return float("nan"), float("nan")
+    rng = np.random.default_rng(seed)
+    samples = v[rng.integers(0, v.size, size=(int(n_resamples), v.size))]
+    try:
+        stats = np.asarray(statistic(samples, axis=1), dtype=np.float64)
+        if stats.shape != (int(n_resamples),):
+            raise TypeError("statistic did not reduce along axis 1")
+    except TypeError:
+        stats = np.array([float(statistic(row)) for row in samples])
+    alpha = (1.0 - confidence) / 2.0
+    lo, hi = np.nanpercentile(stats, [100.0 * alpha, 100.0 * (1.0 - alpha)])
+    return float(lo), float(hi)

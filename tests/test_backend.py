@@ -1,0 +1,155 @@
+"""The backend interface: registry, entry-point plugins, the Estimate contract and the
+conformance check on every registered backend."""
+
+from __future__ import annotations
+
+import sys
+import textwrap
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from beo_bench import backend as B
+from beo_bench.errors import BackendError, EstimateError, ViewError
+from beo_bench.types import Estimate, View
+
+# keep the class means small in tests (the default uses the whole train split)
+FAST = {"random": {"mean_instances": 4}}
+
+
+@pytest.fixture(scope="module")
+def views() -> list[View]:
+    return B.sample_views(3)
+
+
+def test_in_tree_backends_are_listed() -> None:
+    assert {"oracle", "random"} <= set(B.list_backends())
+
+
+@pytest.mark.parametrize("name", ["oracle", "random"])
+def test_every_registered_backend_conforms(name, views) -> None:
+    B.check_backend(B.get_backend(name, **FAST.get(name, {})), views)
+
+
+def test_unknown_backend_names_the_registered_ones() -> None:
+    with pytest.raises(BackendError, match=r"registered: .*oracle"):
+        B.get_backend("no-such-backend")
+
+
+def test_duplicate_names_raise() -> None:
+    with pytest.raises(BackendError, match="already registered"):
+
+        @B.register_backend("oracle")
+        class Other:
+            name = "oracle"
+
+            def predict(self, view):  # pragma: no cover
+                raise NotImplementedError
+
+
+def test_oracle_returns_the_truth(views) -> None:
+    o = B.get_backend("oracle")
+    for v in views:
+        e = o.predict(v)
+        gt = v.ground_truth
+        assert e.class_index == gt.class_index
+        np.testing.assert_array_equal(e.rotation, gt.R_cam)
+        np.testing.assert_array_equal(e.translation, gt.t_cam)
+        assert e.shape.shape == (32, 32, 32) and e.shape.max() == 1.0
+    with pytest.raises(ViewError, match="ground_truth"):
+        o.predict(replace(views[0], ground_truth=None))
+
+
+def test_random_is_uniform_over_classes_and_deterministic_per_view(views) -> None:
+    r = B.get_backend("random", **FAST["random"])
+    e = r.predict(views[0])
+    np.testing.assert_allclose(e.class_probs, 1 / len(views[0].categories))
+    assert not np.array_equal(e.rotation, r.predict(views[1]).rotation)
+    empty = replace(views[0], mask=np.zeros_like(views[0].mask))
+    with pytest.raises(ViewError, match="no pixel"):
+        r.predict(empty)
+
+
+def _good(view: View) -> Estimate:
+    C = len(view.categories)
+    return Estimate(np.full(C, 1 / C), np.eye(3), np.zeros(3), np.ones(3), np.zeros((8, 8, 8)))
+
+
+@pytest.mark.parametrize(
+    "change, match",
+    [
+        ({"class_probs": np.ones(3)}, "class_probs"),
+        ({"rotation": np.diag([1.0, 1.0, -1.0])}, "proper rotation"),
+        ({"rotation": 2 * np.eye(3)}, "proper rotation"),
+        ({"translation": np.array([0, np.nan, 0])}, "translation"),
+        ({"size": np.array([0.1, 0.0, 0.1])}, "size"),
+        ({"shape": np.full((8, 8, 8), 1.5)}, r"\[0, 1\]"),
+        ({"shape": np.zeros((8, 8, 4))}, "D, D, D"),
+    ],
+)
+def test_contract_violations_are_named(views, change, match) -> None:
+    est = replace(_good(views[0]), **change)
+    with pytest.raises(EstimateError, match=match):
+        B.validate_estimate(est, views[0])
+
+
+def test_a_nondeterministic_backend_fails_the_check(views) -> None:
+    class Flaky:
+        name = "flaky"
+
+        def __init__(self) -> None:
+            self.rng = np.random.default_rng()
+
+        def predict(self, view: View) -> Estimate:
+            e = _good(view)
+            return replace(e, translation=self.rng.normal(size=3))
+
+    with pytest.raises(EstimateError, match="not deterministic"):
+        B.check_backend(Flaky(), views[:1])
+
+
+def test_view_rejects_bad_shapes(views) -> None:
+    v = views[0]
+    with pytest.raises(ViewError, match="mask"):
+        View(v.depth, v.mask[:-1], v.K, v.cam_to_world, v.categories)
+    with pytest.raises(ViewError, match=r"\(H, W\)"):
+        View(v.depth[None], v.mask, v.K, v.cam_to_world, v.categories)
+
+
+def test_entry_point_plugin_is_listed_and_runs(tmp_path, views, monkeypatch) -> None:
+    """A tiny third-party distribution, installed into a temporary path entry."""
+    pkg = tmp_path / "beo_plugin_demo"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text(
+        textwrap.dedent(
+            """
+            import numpy as np
+            from beo_bench.types import Estimate
+
+            class CentroidBackend:
+                name = "centroid-demo"
+
+                def predict(self, view):
+                    C = len(view.categories)
+                    return Estimate(np.full(C, 1 / C), np.eye(3), view.points().mean(axis=0),
+                                    np.full(3, 0.1), np.full((16, 16, 16), 0.5, np.float32))
+            """
+        )
+    )
+    dist = tmp_path / "beo_plugin_demo-0.1.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: beo-plugin-demo\nVersion: 0.1\n")
+    (dist / "entry_points.txt").write_text(
+        "[beo_bench.backends]\ncentroid-demo = beo_plugin_demo:CentroidBackend\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    try:
+        assert "centroid-demo" in B.load_plugins()
+        assert "centroid-demo" in B.list_backends()
+        b = B.get_backend("centroid-demo")
+        B.check_backend(b, views)
+        assert B._REGISTRY["centroid-demo"][1] == "plugin beo-plugin-demo"
+    finally:
+        B._REGISTRY.pop("centroid-demo", None)
+        sys.modules.pop("beo_plugin_demo", None)

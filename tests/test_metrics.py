@@ -1,0 +1,399 @@
+"""``beo_bench.metrics`` against independent computations (scipy rotations, brute force over
+symmetry elements and angles, hand-counted voxels, points and labels)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from beo_bench import metrics as M
+from beo_bench.geometry import continuous_symmetry, cyclic_z, no_symmetry, symmetry_transformations
+
+
+def _rz(deg: float) -> np.ndarray:
+    return Rotation.from_euler("z", deg, degrees=True).as_matrix()
+
+
+def _angle_deg(A: np.ndarray, B: np.ndarray) -> float:
+    """Independent geodesic distance via scipy."""
+    return float(np.degrees((Rotation.from_matrix(A).inv() * Rotation.from_matrix(B)).magnitude()))
+
+
+def _angles_deg(A: np.ndarray, Bs: np.ndarray) -> np.ndarray:
+    """Geodesic distances from A to each of Bs (K, 3, 3), via the trace formula."""
+    tr = np.einsum("ij,kij->k", A, Bs)  # trace(A^T B_k)
+    return np.degrees(np.arccos(np.clip((tr - 1.0) / 2.0, -1.0, 1.0)))
+
+
+RANDOM = Rotation.random(20, random_state=7).as_matrix()
+
+
+# --------------------------------------------------------------------------- rotation error
+
+
+def test_rotation_error_without_symmetry_matches_scipy() -> None:
+    for A, B in zip(RANDOM[:10], RANDOM[10:], strict=True):
+        want = _angle_deg(A, B)
+        assert M.rotation_error(A, B) == pytest.approx(want, abs=1e-7)
+        assert M.rotation_error(A, B, no_symmetry()) == pytest.approx(want, abs=1e-7)
+        assert M.rotation_error(B, A) == pytest.approx(want, abs=1e-7)  # symmetric
+    assert M.rotation_error(RANDOM[0], RANDOM[0]) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_rotation_error_small_and_large_angles_are_accurate() -> None:
+    R = RANDOM[3]
+    tiny = Rotation.from_rotvec([1e-6, 0, 0]).as_matrix()  # 5.7e-5 degrees
+    assert M.rotation_error(R @ tiny, R) == pytest.approx(np.degrees(1e-6), rel=1e-3)
+    flip = Rotation.from_rotvec([0, np.pi, 0]).as_matrix()
+    assert M.rotation_error(R @ flip, R) == pytest.approx(180.0, abs=1e-6)
+
+
+def test_rotation_error_fourfold_symmetry_brute_force() -> None:
+    sym = cyclic_z(4)
+    elements = [_rz(90.0 * k) for k in range(4)]  # written out, not taken from sym
+    for A, B in zip(RANDOM[:10], RANDOM[10:], strict=True):
+        want = min(_angle_deg(A, B @ S) for S in elements)
+        assert M.rotation_error(A, B, sym) == pytest.approx(want, abs=1e-7)
+        assert M.rotation_error(A, B, sym) <= M.rotation_error(A, B) + 1e-9
+    # a pose rotated by a symmetry element is exactly right
+    assert M.rotation_error(RANDOM[0] @ _rz(270), RANDOM[0], sym) == pytest.approx(0, abs=1e-6)
+    # 45 degrees about z is the worst case for 4-fold symmetry
+    assert M.rotation_error(RANDOM[0] @ _rz(45), RANDOM[0], sym) == pytest.approx(45, abs=1e-6)
+
+
+def test_rotation_error_continuous_axis_exact_vs_brute_force() -> None:
+    angles = np.radians(np.arange(3600) / 10.0)
+    for axis in ([0.0, 0.0, 1.0], [1.0, 2.0, -0.5]):
+        a = np.asarray(axis) / np.linalg.norm(axis)
+        Cs = Rotation.from_rotvec(angles[:, None] * a).as_matrix()
+        sym = continuous_symmetry(tuple(axis), offset=(0.01, -0.02, 0.03))
+        for A, B in zip(RANDOM[:10], RANDOM[10:], strict=True):
+            brute = _angles_deg(A, B @ Cs).min()
+            exact = M.rotation_error(A, B, sym)
+            assert exact <= brute + 1e-7
+            assert brute - exact < 0.1
+            # known closed form without a discrete part: the angle between the axes' images
+            cos = np.clip((A @ a) @ (B @ a), -1.0, 1.0)
+            assert exact == pytest.approx(np.degrees(np.arccos(cos)), abs=1e-5)
+    # spinning about the axis costs nothing, tilting it does
+    R = RANDOM[5]
+    sym_z = continuous_symmetry()
+    assert M.rotation_error(R @ _rz(123.0), R, sym_z) == pytest.approx(0.0, abs=1e-6)
+    tilt = Rotation.from_euler("x", 20, degrees=True).as_matrix()
+    assert M.rotation_error(R @ tilt @ _rz(77.0), R, sym_z) == pytest.approx(20.0, abs=1e-6)
+
+
+def test_rotation_error_continuous_plus_discrete_flip() -> None:
+    flip = Rotation.from_euler("x", 180, degrees=True).as_matrix()
+    sym = continuous_symmetry(flips=[flip])  # a plain cylinder
+    angles = np.radians(np.arange(3600) / 10.0)
+    Cs = Rotation.from_rotvec(angles[:, None] * np.array([0.0, 0.0, 1.0])).as_matrix()
+    elements = np.concatenate([Cs, Cs @ flip])
+    discretised = np.array([T[:3, :3] for T in symmetry_transformations(sym)])
+    for A, B in zip(RANDOM[:10], RANDOM[10:], strict=True):
+        exact = M.rotation_error(A, B, sym)
+        brute = _angles_deg(A, B @ elements).min()
+        assert exact <= brute + 1e-7
+        assert brute - exact < 0.1
+        assert exact <= _angles_deg(A, B @ discretised).min() + 1e-7  # never worse than BOP
+        assert exact <= M.rotation_error(A, B, continuous_symmetry()) + 1e-9
+    # upside down is exactly right for a cylinder, 180 degrees off for a cup
+    R = RANDOM[2]
+    assert M.rotation_error(R @ flip, R, sym) == pytest.approx(0.0, abs=1e-6)
+    assert M.rotation_error(R @ flip, R, continuous_symmetry()) == pytest.approx(180.0, abs=1e-6)
+
+
+def test_rotation_error_two_axes_is_a_sphere() -> None:
+    sym = {
+        "continuous": [
+            {"axis": [0, 0, 1], "offset": [0, 0, 0]},
+            {"axis": [1, 0, 0], "offset": [0, 0, 0]},
+        ],
+        "discrete": [],
+    }
+    assert M.rotation_error(RANDOM[0], RANDOM[1], sym) == 0.0
+    parallel = {
+        "continuous": [
+            {"axis": [0, 0, 1], "offset": [0, 0, 0]},
+            {"axis": [0, 0, -2], "offset": [0, 0, 0]},
+        ],
+        "discrete": [],
+    }
+    assert M.rotation_error(RANDOM[0], RANDOM[1], parallel) == pytest.approx(
+        M.rotation_error(RANDOM[0], RANDOM[1], continuous_symmetry()), abs=1e-9
+    )
+
+
+def test_rotation_error_validates() -> None:
+    with pytest.raises(ValueError, match=r"\(3, 3\)"):
+        M.rotation_error(np.eye(4), np.eye(3))
+    with pytest.raises(ValueError, match="rotation"):
+        M.rotation_error(2 * np.eye(3), np.eye(3))
+    with pytest.raises(ValueError, match="rotation"):
+        M.rotation_error(np.diag([1.0, 1.0, -1.0]), np.eye(3))  # a reflection
+    with pytest.raises(ValueError, match="finite"):
+        M.rotation_error(np.full((3, 3), np.nan), np.eye(3))
+
+
+# --------------------------------------------------------------------------- pose scalars
+
+
+def test_translation_and_size_error() -> None:
+    assert M.translation_error([0.03, 0.04, 0.0], [0, 0, 0]) == pytest.approx(5.0)
+    assert M.translation_error([1, 2, 3], [1, 2, 3]) == 0.0
+    # |0.12-0.1|/0.1 = 20%, |0.2-0.2| = 0, |0.15-0.3|/0.3 = 50% -> 70/3
+    assert M.size_error([0.12, 0.2, 0.15], [0.1, 0.2, 0.3]) == pytest.approx(70 / 3)
+    with pytest.raises(ValueError, match=r"\(3,\)"):
+        M.translation_error([0, 0], [0, 0, 0])
+    with pytest.raises(ValueError, match="positive"):
+        M.size_error([1, 1, 1], [1, 0, 1])
+
+
+def test_gross_error_rate_and_nocs_accuracies() -> None:
+    assert M.gross_error_rate([1.0, 15.0, 16.0, 30.0, np.nan]) == 0.5  # > 15, NaN dropped
+    assert M.gross_error_rate([20.0, 40.0], threshold=30.0) == 0.5
+    assert np.isnan(M.gross_error_rate([]))
+    rot = [1.0, 4.0, 6.0, 9.0, 30.0]
+    trans = [1.0, 3.0, 1.0, 4.0, 1.0]
+    assert M.pose_accuracy(rot, trans, 5, 5) == pytest.approx(2 / 5)
+    acc = M.nocs_accuracies(rot, trans)
+    assert acc == pytest.approx({"5deg2cm": 1 / 5, "5deg5cm": 2 / 5, "10deg5cm": 4 / 5})
+    assert M.pose_accuracy([5.0], [2.0], 5, 2) == 1.0  # thresholds inclusive, as NOCS
+    with pytest.raises(ValueError, match="equal lengths"):
+        M.pose_accuracy([1.0, 2.0], [1.0], 5, 5)
+
+
+# --------------------------------------------------------------------------- viewpoint
+
+
+def _look_at(az_deg: float, el_deg: float, roll_deg: float = 0.0) -> np.ndarray:
+    """Object -> camera rotation of an OpenCV camera at (az, el) looking at the object."""
+    az, el = np.radians(az_deg), np.radians(el_deg)
+    v = np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+    z = -v  # optical axis in the object frame
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    R_obj_from_cam = np.stack([x, y, z], axis=1)
+    roll = Rotation.from_euler("z", roll_deg, degrees=True).as_matrix()
+    return (R_obj_from_cam @ roll).T
+
+
+def test_viewpoint_of_a_look_at_camera() -> None:
+    for az, el in [(0, 0), (30, 20), (135, -40), (300, 75)]:
+        got_az, got_el = M.viewpoint(_look_at(az, el, roll_deg=33))
+        assert got_az == pytest.approx(az, abs=1e-9)
+        assert got_el == pytest.approx(el, abs=1e-9)
+    # in bins: 4 azimuth bins are centred on 0, 90, 180, 270; 6 elevation bins from -90
+    assert M.viewpoint_bins(_look_at(50, 20), (4, 6)) == (1, 3)
+    assert M.viewpoint_bins(_look_at(350, -89), (4, 6)) == (0, 0)
+    assert M.viewpoint_bins(_look_at(44, 0.5), (4, 4)) == (0, 2)
+
+
+def test_bin_accuracy() -> None:
+    R_gt = np.stack([_look_at(az, el) for az, el in [(10, 10), (100, -30), (200, 60), (280, 5)]])
+    for n_az in M.AZIMUTH_BINS:
+        for n_el in M.ELEVATION_BINS:
+            acc = M.bin_accuracy(R_gt, R_gt, n_az, n_el)
+            assert acc == {"azimuth": 1.0, "elevation": 1.0, "both": 1.0}
+    flipped = R_gt @ _rz(180)  # the object turned round: viewpoint azimuth + 180
+    acc = M.bin_accuracy(flipped, R_gt, 4, 4)
+    assert acc == {"azimuth": 0.0, "elevation": 1.0, "both": 0.0}
+    one = M.bin_accuracy(_look_at(10, 10), _look_at(60, 10), 4, 6)  # single rotations
+    assert one["azimuth"] == 0.0 and one["elevation"] == 1.0
+    assert M.bin_accuracy(_look_at(10, 10), _look_at(60, 10), 4, 6)["azimuth"] == 0.0
+    assert M.bin_accuracy(_look_at(10, 10), _look_at(40, 10), 4, 6)["azimuth"] == 1.0
+    with pytest.raises(ValueError, match="equal N"):
+        M.bin_accuracy(R_gt, R_gt[:2], 4, 4)
+
+
+# --------------------------------------------------------------------------- classes
+
+
+def test_class_metrics_against_manual_counts() -> None:
+    true = [0, 0, 1, 1, 1, 2, 0, 1]
+    pred = [0, 1, 1, 1, 2, 2, 0, 0]
+    cm = M.confusion_matrix(pred, true, 4)
+    manual = np.zeros((4, 4), dtype=int)
+    for t, p in zip(true, pred, strict=True):
+        manual[t, p] += 1
+    np.testing.assert_array_equal(cm, manual)
+    assert cm[1, 2] == 1 and cm[2, 1] == 0  # rows true, columns predicted
+    assert M.class_accuracy(pred, true) == pytest.approx(5 / 8)
+    per = M.per_class_accuracy(pred, true, 4)
+    np.testing.assert_allclose(per[:3], [2 / 3, 2 / 4, 1 / 1])
+    assert np.isnan(per[3])  # class 3 never appears
+    with pytest.raises(ValueError, match="unknown"):
+        M.confusion_matrix([-1, 0], [0, 0], 2)
+    cmu = M.confusion_matrix([-1, 0, -1], [0, 0, 1], 2, unknown=True)
+    np.testing.assert_array_equal(cmu, [[1, 0, 1], [0, 0, 1]])
+    assert M.class_accuracy([-1, 0], [0, 0]) == 0.5
+    with pytest.raises(ValueError, match="equal lengths"):
+        M.class_accuracy([0, 1], [0])
+
+
+def test_entropy_and_unknown() -> None:
+    assert M.entropy([0.25, 0.25, 0.25, 0.25]) == pytest.approx(np.log(4))
+    assert M.entropy([0.0, 1.0, 0.0]) == 0.0
+    p = np.array([0.7, 0.2, 0.1])
+    assert M.entropy(p) == pytest.approx(-np.sum(p * np.log(p)))
+    np.testing.assert_allclose(M.entropy([[0.5, 0.5], [1.0, 0.0]]), [np.log(2), 0.0])
+    assert M.predict_with_unknown([0.1, 0.8, 0.1], threshold=1.0) == 1
+    assert M.predict_with_unknown([0.4, 0.3, 0.3], threshold=1.0) == -1  # H = 1.089
+    np.testing.assert_array_equal(
+        M.predict_with_unknown([[0.1, 0.9], [0.5, 0.5]], threshold=0.5), [1, -1]
+    )
+    with pytest.raises(ValueError, match="probs"):
+        M.entropy(np.ones((2, 2, 2)))
+
+
+# --------------------------------------------------------------------------- completion
+
+
+def _brute_edt(g: np.ndarray) -> np.ndarray:
+    """Distance of every voxel centre to the nearest filled voxel centre, by brute force."""
+    every = np.argwhere(np.ones_like(g, dtype=bool))
+    filled = np.argwhere(g)
+    d = np.sqrt(((every[:, None, :] - filled[None, :, :]) ** 2).sum(-1)).min(axis=1)
+    return d.reshape(g.shape)
+
+
+def test_voxel_iou_hand_cases() -> None:
+    a = np.zeros((4, 4, 4), dtype=bool)
+    b = np.zeros_like(a)
+    a[0:2, 0:2, 0:2] = True
+    b[1:3, 0:2, 0:2] = True  # overlaps a by half: 4 / (8 + 8 - 4)
+    assert M.voxel_iou(a, b) == pytest.approx(1 / 3)
+    assert M.voxel_iou(a, a) == 1.0
+    probs = np.where(a, 0.6, 0.4)  # thresholded at 0.5
+    assert M.voxel_iou(probs, a) == 1.0
+    assert M.voxel_iou(probs, a, threshold=0.7) == 0.0
+    assert M.voxel_iou(np.zeros_like(a), np.zeros_like(a)) == 1.0
+    with pytest.raises(ValueError, match="same shape"):
+        M.voxel_iou(a, a[:3])
+    with pytest.raises(ValueError, match="3-D"):
+        M.voxel_iou(a[0], a[0])
+
+
+def test_edt_error_hand_and_brute_force() -> None:
+    # 1-D line of 3 voxels: EDT(gt) = [0, 1, 2], EDT(pred) = [1, 0, 1] -> sqrt(3)
+    gt = np.array([True, False, False]).reshape(3, 1, 1)
+    pred = np.array([False, True, False]).reshape(3, 1, 1)
+    assert M.edt_error(pred, gt) == pytest.approx(np.sqrt(3))
+    assert M.edt_error_per_voxel(pred, gt) == pytest.approx(1.0)
+    # a one-voxel shift of a small blob in 5^3, against a brute-force transform
+    g = np.zeros((5, 5, 5), dtype=bool)
+    g[1:3, 1:3, 2] = True
+    g[1, 1, 3] = True
+    p = np.roll(g, 1, axis=0)
+    np.testing.assert_allclose(M.edt(g), _brute_edt(g))
+    want = np.linalg.norm(_brute_edt(g) - _brute_edt(p))
+    assert want > 0
+    assert M.edt_error(p, g) == pytest.approx(want)
+    assert M.edt_error_per_voxel(p, g) == pytest.approx(want / np.sqrt(125))
+    assert M.edt_error(g, g) == 0.0
+    # empty grid: the diagonal everywhere
+    empty = np.zeros((3, 1, 1), dtype=bool)
+    np.testing.assert_allclose(M.edt(empty), np.full((3, 1, 1), np.sqrt(11.0)))
+    assert M.edt_error(empty, gt) == pytest.approx(
+        np.linalg.norm(np.sqrt(11.0) - np.array([0.0, 1.0, 2.0]))
+    )
+
+
+def test_chamfer_and_fscore_by_hand() -> None:
+    a = [[0.0, 0.0, 0.0]]
+    b = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]
+    # a -> b: 1; b -> a: (1 + 2) / 2 = 1.5; Chamfer-L1 = (1 + 1.5) / 2
+    assert M.chamfer_l1(a, b) == pytest.approx(1.25)
+    assert M.chamfer_l1(b, a) == pytest.approx(1.25)
+    assert M.chamfer_l1(b, b) == 0.0
+    assert M.chamfer_l1(a, np.zeros((0, 3))) == float("inf")
+    pred = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]
+    gt = [[0.0, 0.0, 0.005]]
+    # precision 1/2 (only the first point is within 0.01), recall 1 -> F = 2/3
+    assert M.fscore(pred, gt) == pytest.approx(2 / 3)
+    assert M.fscore(pred, gt, tau=0.004) == 0.0
+    assert M.fscore(pred, pred) == 1.0
+    assert M.fscore(pred, np.zeros((0, 3))) == 0.0
+    with pytest.raises(ValueError, match=r"\(N, 3\)"):
+        M.chamfer_l1([[0.0, 0.0]], b)
+
+
+def test_posed_iou() -> None:
+    full = np.ones((8, 8, 8), dtype=bool)
+    eye = np.eye(4)
+    shifted = eye.copy()
+    shifted[0, 3] = 0.5
+    # two unit cubes overlapping by half along x: 0.5 / 1.5
+    assert M.posed_iou(full, eye, [1, 1, 1], full, shifted, [1, 1, 1], 60) == pytest.approx(1 / 3)
+    # a square and its 45-degree turn about the same centre: IoU = 1 / sqrt(2)
+    turned = (_rz(45), np.zeros(3))
+    iou = M.camera_frame_iou(full, eye, [1, 1, 1], full, turned, [1, 1, 1], 100)
+    assert iou == pytest.approx(1 / np.sqrt(2), abs=0.01)
+    # half a cube (x > 0) turned by 180 degrees is the other half (x < 0)
+    front = np.zeros((8, 8, 8), dtype=bool)
+    front[4:] = True
+    back = front[::-1]
+    assert M.posed_iou(
+        front, (_rz(180), [0, 0, 1]), [2, 1, 1], back, (np.eye(3), [0, 0, 1]), [2, 1, 1], 40
+    ) == pytest.approx(1.0)
+    assert M.posed_iou(front, eye, [1, 1, 1], back, eye, [1, 1, 1], 40) == 0.0
+    # a quarter turn about z takes the +x half onto the +y half (and not the -y half)
+    left = np.zeros((8, 8, 8), dtype=bool)
+    left[:, 4:] = True
+    quarter = (_rz(90), np.zeros(3))
+    assert M.posed_iou(front, quarter, [1, 1, 1], left, eye, [1, 1, 1], 40) == pytest.approx(1.0)
+    assert M.posed_iou(front, quarter, [1, 1, 1], left[:, ::-1], eye, [1, 1, 1], 40) == 0.0
+    # only the largest extent scales the grid; doubling it halves the overlap ratio
+    assert M.posed_iou(full, eye, [1, 0.2, 0.3], full, eye, [1, 1, 1], 20) == 1.0
+    assert M.posed_iou(full, eye, [1, 1, 1], full, eye, [2, 2, 2], 40) == pytest.approx(1 / 8)
+    with pytest.raises(ValueError, match="transform"):
+        M.posed_iou(full, np.eye(3), [1, 1, 1], full, eye, [1, 1, 1])
+
+
+# --------------------------------------------------------------------------- pick, runtime
+
+
+def test_pick_summary_and_runtime_stats() -> None:
+    s = M.pick_summary([True, False, False, True, False], [None, "slip", "no_grasp", "", "slip"])
+    assert s["n"] == 5 and s["successes"] == 2
+    assert s["success_rate"] == pytest.approx(0.4)
+    assert s["failure_reasons"] == {"slip": 2, "no_grasp": 1}
+    assert M.pick_summary([False], None)["failure_reasons"] == {"unknown": 1}
+    with pytest.raises(ValueError, match="equal lengths"):
+        M.pick_summary([True], ["a", "b"])
+    r = M.runtime_stats([0.01] * 19 + [1.0])
+    assert r["ms_median"] == pytest.approx(10.0)
+    assert r["ms_p95"] == pytest.approx(10.0 + 0.05 * 990.0)  # linear, position 18.05
+    assert r["hz"] == pytest.approx(100.0)
+    assert r["n"] == 20
+
+
+# --------------------------------------------------------------------------- bootstrap
+
+
+def test_bootstrap_ci() -> None:
+    rng = np.random.default_rng(1)
+    small = rng.normal(3.0, 1.0, 50)
+    big = rng.normal(3.0, 1.0, 2000)
+    lo, hi = M.bootstrap_ci(small)
+    assert lo < small.mean() < hi
+    assert 0.3 < hi - lo < 0.8  # about 2 * 1.96 / sqrt(50) = 0.55
+    lo2, hi2 = M.bootstrap_ci(big)
+    assert lo2 < big.mean() < hi2
+    assert hi2 - lo2 < (hi - lo) / 3
+    assert M.bootstrap_ci(small, seed=5) == M.bootstrap_ci(small, seed=5)
+    assert M.bootstrap_ci(small, seed=5) != M.bootstrap_ci(small, seed=6)
+    assert M.bootstrap_ci(np.append(small, np.nan)) == pytest.approx((lo, hi))  # NaN dropped
+    nan_lo, nan_hi = M.bootstrap_ci([np.nan])
+    assert np.isnan(nan_lo) and np.isnan(nan_hi)
+    # statistics without an axis argument go row by row on the same resamples
+    assert M.bootstrap_ci(small, lambda x: float(np.median(x))) == pytest.approx(
+        M.bootstrap_ci(small, np.median)
+    )
+    narrow = M.bootstrap_ci(small, confidence=0.5)
+    assert lo < narrow[0] < narrow[1] < hi
+    assert M.bootstrap_ci([2.0, 2.0, 2.0]) == (2.0, 2.0)
+    with pytest.raises(ValueError, match="1-D"):
+        M.bootstrap_ci(np.ones((2, 2)))

@@ -1,0 +1,140 @@
+"""Suites and the runner: bounds score as they must, results do not depend on workers, a
+killed run resumes to the same summary, a failing backend is recorded and the run goes on."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from beo_bench import backend as B
+from beo_bench.runner import RunConfig, RunError, read_rows, run
+from beo_bench.suites import get_suite
+
+FAST_RANDOM = {"mean_instances": 4}
+
+
+def _run(tmp_path: Path, suite: str, backend: str, n: int, **kw) -> dict:
+    cfg = RunConfig(get_suite(suite).with_overrides(size=n), backend, kw.pop("opts", {}))
+    return run(cfg, tmp_path / f"{suite}-{backend}-{n}", progress=False, **kw)
+
+
+@pytest.mark.parametrize("suite", ["known-pose", "pose-1dof", "pose-3dof"])
+def test_oracle_scores_perfectly_on_isolated_suites(tmp_path, suite) -> None:
+    s = _run(tmp_path, suite, "oracle", 11)
+    m = s["metrics"]
+    assert s["n"] == 11 and s["failures"] == 0
+    assert m["class_acc"] == 1.0 and m["iou_mean"] == 1.0 and m["fscore_mean"] == 1.0
+    assert m["edt_err_mean"] == 0.0
+    if suite != "known-pose":
+        assert m["rot_err_deg_mean"] < 1e-3 and m["trans_err_cm_mean"] < 1e-6
+        assert m["gross_err_rate"] == 0.0
+
+
+def test_random_scores_at_chance(tmp_path) -> None:
+    s = _run(tmp_path, "pose-3dof", "random", 44, opts=FAST_RANDOM)
+    m = s["metrics"]
+    assert m["class_acc"] < 0.35  # chance is 1/11
+    assert m["rot_err_deg_mean"] > 45 and m["gross_err_rate"] > 0.6
+    assert m["iou_mean"] < 0.9
+
+
+def test_oracle_on_tabletop_scores_every_visible_object(tmp_path) -> None:
+    s = _run(tmp_path, "tabletop", "oracle", 3)
+    assert s["n"] >= 3 and s["failures"] == 0
+    assert s["metrics"]["class_acc"] == 1.0 and s["metrics"]["rot_err_deg_mean"] < 1e-3
+
+
+def test_oracle_picks_like_the_ground_truth_planner(tmp_path) -> None:
+    s = _run(tmp_path, "pick", "oracle", 8)
+    assert s["failures"] == 0
+    assert s["metrics"]["target_found_rate"] == 1.0
+    assert s["metrics"]["pick_success"] >= 0.75
+
+
+def _metrics_without_time(s: dict) -> dict:
+    return {k: v for k, v in s["metrics"].items() if not k.startswith("ms_")}
+
+
+def test_same_numbers_with_one_or_two_workers(tmp_path) -> None:
+    a = _run(tmp_path / "a", "pose-3dof", "random", 10, opts=FAST_RANDOM, workers=1)
+    b = _run(tmp_path / "b", "pose-3dof", "random", 10, opts=FAST_RANDOM, workers=2)
+    assert _metrics_without_time(a) == _metrics_without_time(b)
+
+
+def test_existing_results_need_resume(tmp_path) -> None:
+    _run(tmp_path, "pose-1dof", "oracle", 2)
+    with pytest.raises(RunError, match="--resume"):
+        _run(tmp_path, "pose-1dof", "oracle", 2)
+
+
+def test_a_failing_backend_is_recorded_and_the_run_goes_on(tmp_path) -> None:
+    @B.register_backend("test-boom")
+    class Boom:
+        name = "test-boom"
+
+        def predict(self, view):
+            if int(np.count_nonzero(view.mask)) % 2:
+                raise RuntimeError("odd mask")
+            return B.get_backend("random", **FAST_RANDOM).predict(view)
+
+    try:
+        s = _run(tmp_path, "pose-3dof", "test-boom", 12)
+    finally:
+        B._REGISTRY.pop("test-boom", None)
+    rows = read_rows(tmp_path / "pose-3dof-test-boom-12" / "results.jsonl")
+    failed = [r for r in rows if r["failure"]]
+    assert s["n"] == 12 and s["failures"] == len(failed) > 0
+    assert all("odd mask" in r["failure"] for r in failed)
+    assert not any(r["correct"] for r in failed)
+
+
+def test_killed_run_resumes_to_the_same_summary(tmp_path) -> None:
+    n = 24
+    ref = _run(tmp_path / "ref", "pose-3dof", "oracle", n)
+    out = tmp_path / "killed"
+    cmd = [
+        sys.executable,
+        "-m",
+        "beo_bench.cli",
+        "run",
+        "--suite",
+        "pose-3dof",
+        "--backend",
+        "oracle",
+        "--episodes",
+        str(n),
+        "--out",
+        str(out),
+    ]
+    proc = subprocess.Popen(
+        cmd,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env=os.environ | {"PYTHONUNBUFFERED": "1"},
+    )
+    results = out / "results.jsonl"
+    deadline = time.time() + 120
+    while time.time() < deadline:
+        if results.exists() and len(read_rows(results)) >= 4:
+            break
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    partial = len(read_rows(results))
+    assert 4 <= partial < n, "kill the run mid-way"
+    with open(results, "ab") as f:
+        f.write(b'{"item": 999, "torn')  # a torn last line, as a kill during write leaves
+    assert subprocess.run([*cmd, "--resume"], capture_output=True).returncode == 0
+    rows = read_rows(results)
+    items = sorted(r["item"] for r in rows)
+    assert items == list(range(n))  # none missing, none doubled
+    s = json.loads((out / "summary.json").read_text())
+    assert _metrics_without_time(s) == _metrics_without_time(ref)
