@@ -164,6 +164,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     )
     print(format_runs([summary]))
     print(f"\nresults: {out / 'results.jsonl'}\nsummary: {out / 'summary.json'}")
+    if args.rerun:
+        from beo_bench.rerun_log import log_run
+
+        path = log_run(RunConfig(suite, args.backend, kwargs), args.rerun)
+        print(f"recording of the first views: {path}  (open with `rerun {path}`)")
     return 0
 
 
@@ -246,7 +251,34 @@ def cmd_demo(args: argparse.Namespace) -> int:
     )
     print("\nbeo-bench demo: the ground-truth grasp ceiling on 20 episodes\n")
     cmd_pick_check(argparse.Namespace(episodes=20, seed=0, split="test"))
+    demo_suites(out, args.workers)
     return cmd_cache(argparse.Namespace(action="info", kind=None))
+
+
+DEMO_SIZES = {"known-pose": 44, "pose-1dof": 44, "pose-3dof": 44, "tabletop": 6, "pick": 10}
+"""Items per suite in ``make demo`` (a multiple of the 11 categories for isolated suites)."""
+
+
+def demo_suites(out: Path, workers: int) -> None:
+    """Every suite, shortened, with every registered in-tree backend; then the leaderboard.
+    Re-running resumes the finished runs (nothing is recomputed)."""
+    from beo_bench.backend import list_backends, load_plugins
+    from beo_bench.leaderboard import regenerate
+    from beo_bench.runner import RunConfig, run
+    from beo_bench.suites import get_suite
+
+    load_plugins()
+    backends = [b for b in ("oracle", "random", "icp") if b in list_backends()]
+    print(f"\nbeo-bench demo: short suites with {', '.join(backends)}\n")
+    for name, size in DEMO_SIZES.items():
+        suite = get_suite(name).with_overrides(size=size)
+        for b in backends:
+            run(RunConfig(suite, b), out / "runs" / f"{name}__{b}", workers=workers, resume=True)
+    written = regenerate(out / "runs", out / "leaderboards")
+    print()
+    for p in written:
+        print(p.read_text().split("\n![")[0])
+    print(f"leaderboards: {out / 'leaderboards'}/ (plots beside the tables)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -307,6 +339,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default=None, help="default: runs/SUITE__BACKEND")
     r.add_argument("--resume", action="store_true", help="continue a killed run in --out")
     r.add_argument("--ray", action="store_true", help="run the items as Ray tasks")
+    r.add_argument("--rerun", default=None, help="also write a rerun .rrd of the first views")
     r.add_argument("--opt", action="append", default=[], metavar="KEY=VALUE", help="backend option")
     r.set_defaults(func=cmd_run)
 

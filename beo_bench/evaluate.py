@@ -96,6 +96,15 @@ class Evaluator:
             self._env = None
 
     # -- items -----------------------------------------------------------------------------
+    def cases(self, index: int) -> list[tuple[View, GroundTruth]]:
+        """The views (with their truth) that item ``index`` scores: one for isolated suites,
+        every visible object for tabletop and pick scenes."""
+        if self.suite.kind == "isolated":
+            return [self.isolated_view(index)]
+        env = self._pick_env()
+        obs, _ = env.reset(seed=int(item_rng(self.suite, index).integers(2**31)))
+        return self._views_of_scene(obs, env)
+
     def run_item(self, index: int) -> list[dict[str, Any]]:
         """The result rows of item ``index``."""
         if self.suite.kind == "isolated":
@@ -167,11 +176,7 @@ class Evaluator:
         return out
 
     def _tabletop(self, index: int) -> list[dict[str, Any]]:
-        env = self._pick_env()
-        obs, _ = env.reset(seed=int(item_rng(self.suite, index).integers(2**31)))
-        return [
-            self._score(index, j, v, gt) for j, (v, gt) in enumerate(self._views_of_scene(obs, env))
-        ]
+        return [self._score(index, j, v, gt) for j, (v, gt) in enumerate(self.cases(index))]
 
     # -- backend calls ---------------------------------------------------------------------
     def _predict(self, view: View, gt: GroundTruth) -> tuple[Estimate | None, float, str | None]:

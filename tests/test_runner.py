@@ -138,3 +138,35 @@ def test_killed_run_resumes_to_the_same_summary(tmp_path) -> None:
     assert items == list(range(n))  # none missing, none doubled
     s = json.loads((out / "summary.json").read_text())
     assert _metrics_without_time(s) == _metrics_without_time(ref)
+
+
+def test_ray_gives_the_same_numbers_as_local_workers(tmp_path) -> None:
+    ray = pytest.importorskip("ray", reason="ray is an optional extra (make installs it)")
+    try:
+        local = _run(tmp_path / "local", "pick", "oracle", 3, workers=1)
+        on_ray = _run(tmp_path / "ray", "pick", "oracle", 3, workers=2, use_ray=True)
+        r_local = _run(tmp_path / "local", "pose-3dof", "random", 6, opts=FAST_RANDOM)
+        r_ray = _run(
+            tmp_path / "ray", "pose-3dof", "random", 6, opts=FAST_RANDOM, workers=2, use_ray=True
+        )
+    finally:
+        ray.shutdown()
+    assert on_ray["provenance"]["ray"] is True
+    assert _metrics_without_time(on_ray) == _metrics_without_time(local)
+    assert _metrics_without_time(r_ray) == _metrics_without_time(r_local)
+
+
+def test_cli_run_writes_results_summary_and_recording(tmp_path, capsys) -> None:
+    from beo_bench.cli import main
+
+    out, rrd = tmp_path / "run", tmp_path / "views.rrd"
+    argv = ["run", "--suite", "pose-1dof", "--backend", "random", "--episodes", "3",
+            "--opt", "mean_instances=4", "--out", str(out), "--rerun", str(rrd)]  # fmt: skip
+    assert main(argv) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["suite"] == "pose-1dof" and s["n"] == 3 and "rot_err_deg_mean" in s["metrics"]
+    assert s["provenance"]["suite"]["seed"] == get_suite("pose-1dof").seed
+    assert rrd.read_bytes()[:4] == b"RRF2"
+    assert "pose-1dof" in capsys.readouterr().out
+    assert main(["compare", str(out), str(out)]) == 0
+    assert main(["run", "--suite", "nope", "--backend", "random"]) == 2  # a clear error
