@@ -19,7 +19,10 @@ from beo_bench.errors import BackendError, EstimateError
 from beo_bench.types import Estimate, View
 
 ENTRY_POINT_GROUP = "beo_bench.backends"
-_IN_TREE = ("beo_bench.perception.bounds",)
+_IN_TREE = (
+    "beo_bench.perception.bounds",
+    "beo_bench.perception.icp",
+)
 """Modules whose import registers the in-tree backends."""
 
 

@@ -150,6 +150,13 @@ def test_entry_point_plugin_is_listed_and_runs(tmp_path, views, monkeypatch) -> 
         b = B.get_backend("centroid-demo")
         B.check_backend(b, views)
         assert B._REGISTRY["centroid-demo"][1] == "plugin beo-plugin-demo"
+        # and it runs through the runner like an in-tree backend
+        from beo_bench.runner import RunConfig, run
+        from beo_bench.suites import get_suite
+
+        suite = get_suite("pose-1dof").with_overrides(size=3)
+        s = run(RunConfig(suite, "centroid-demo"), tmp_path / "run", progress=False)
+        assert s["backend"] == "centroid-demo" and s["n"] == 3 and s["failures"] == 0
     finally:
         B._REGISTRY.pop("centroid-demo", None)
         sys.modules.pop("beo_plugin_demo", None)
