@@ -13,9 +13,9 @@ from beo_bench.scenes import OBJECT_RIG
 from harness import report
 
 from beo_bench.backend import list_backends
-from beo_bench.evaluate import Evaluator
-from beo_bench.runner import RunConfig, run
-from beo_bench.suites import get_suite
+from beo_bench.bench.evaluate import Evaluator
+from beo_bench.bench.runner import RunConfig, run
+from beo_bench.bench.suites import get_suite
 
 VIEWS = 1000
 

@@ -130,31 +130,18 @@ def cmd_pick_check(args: argparse.Namespace) -> int:
     return 0
 
 
-def _parse_opts(opts: list[str]) -> dict[str, object]:
-    import json
-
-    out: dict[str, object] = {}
-    for o in opts:
-        if "=" not in o:
-            raise BeoBenchError(f"--opt {o!r}: use KEY=VALUE (e.g. --opt samples=25)")
-        k, v = o.split("=", 1)
-        try:
-            out[k] = json.loads(v)
-        except json.JSONDecodeError:
-            out[k] = v  # a plain string
-    return out
-
-
 def cmd_run(args: argparse.Namespace) -> int:
     from beo_bench.backend import get_backend, load_plugins
-    from beo_bench.runner import RunConfig, run
-    from beo_bench.suites import get_suite
+    from beo_bench.bench.campaign import parse_options, run_name
+    from beo_bench.bench.runner import RunConfig, run
+    from beo_bench.bench.suites import get_suite
 
     load_plugins()
     suite = get_suite(args.suite).with_overrides(size=args.episodes, seed=args.seed)
-    kwargs = _parse_opts(args.opt)
+    kwargs = parse_options(args.opt)
     get_backend(args.backend, **kwargs)  # fail here, with its message, not in a worker
-    out = Path(args.out) if args.out else Path("runs") / f"{suite.name}__{args.backend}"
+    name = run_name(suite.name, args.backend, kwargs, args.seed)
+    out = Path(args.out) if args.out else Path("runs") / name
     summary = run(
         RunConfig(suite, args.backend, kwargs),
         out,
@@ -165,7 +152,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(format_runs([summary]))
     print(f"\nresults: {out / 'results.jsonl'}\nsummary: {out / 'summary.json'}")
     if args.rerun:
-        from beo_bench.rerun_log import log_run
+        from beo_bench.bench.recording import log_run
 
         path = log_run(RunConfig(suite, args.backend, kwargs), args.rerun)
         print(f"recording of the first views: {path}  (open with `rerun {path}`)")
@@ -219,7 +206,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_leaderboard(args: argparse.Namespace) -> int:
-    from beo_bench.leaderboard import regenerate
+    from beo_bench.bench.leaderboard import regenerate
 
     written = regenerate(args.runs, args.out)
     if not written:
@@ -231,7 +218,10 @@ def cmd_leaderboard(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
+    from beo_bench.bench.runner import default_workers
+
     out = Path(args.out)
+    workers = args.workers or default_workers()
     print("beo-bench demo: the object library (test split)\n")
     ns = argparse.Namespace(
         split="test",
@@ -239,7 +229,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         root=None,
         per_category=args.per_category,
         resolution=32,
-        workers=args.workers,
+        workers=workers,
         sheet=out / "objects.png",
     )
     cmd_objects(ns)
@@ -251,7 +241,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     )
     print("\nbeo-bench demo: the ground-truth grasp ceiling on 20 episodes\n")
     cmd_pick_check(argparse.Namespace(episodes=20, seed=0, split="test"))
-    demo_suites(out, args.workers)
+    demo_suites(out, workers)
     return cmd_cache(argparse.Namespace(action="info", kind=None))
 
 
@@ -259,26 +249,55 @@ DEMO_SIZES = {"known-pose": 44, "pose-1dof": 44, "pose-3dof": 44, "tabletop": 6,
 """Items per suite in ``make demo`` (a multiple of the 11 categories for isolated suites)."""
 
 
-def demo_suites(out: Path, workers: int) -> None:
-    """Every suite, shortened, with every registered in-tree backend; then the leaderboard.
-    Re-running resumes the finished runs (nothing is recomputed)."""
+def _default_backends() -> list[str]:
+    """Every registered backend (in-tree and plugins), bounds included."""
     from beo_bench.backend import list_backends, load_plugins
-    from beo_bench.leaderboard import regenerate
-    from beo_bench.runner import RunConfig, run
-    from beo_bench.suites import get_suite
 
     load_plugins()
-    backends = [b for b in ("oracle", "random", "icp") if b in list_backends()]
-    print(f"\nbeo-bench demo: short suites with {', '.join(backends)}\n")
-    for name, size in DEMO_SIZES.items():
-        suite = get_suite(name).with_overrides(size=size)
-        for b in backends:
-            run(RunConfig(suite, b), out / "runs" / f"{name}__{b}", workers=workers, resume=True)
-    written = regenerate(out / "runs", out / "leaderboards")
+    return list_backends()
+
+
+def _print_leaderboard(written: list[Path], where: Path) -> None:
     print()
     for p in written:
         print(p.read_text().split("\n![")[0])
-    print(f"leaderboards: {out / 'leaderboards'}/ (plots beside the tables)")
+    print(f"leaderboards: {where}/ (plots and per-category tables beside the summaries)")
+
+
+def demo_suites(out: Path, workers: int | None) -> None:
+    """Every suite, shortened, with every registered backend; then the leaderboard.
+    Re-running resumes the finished runs (nothing is recomputed)."""
+    from beo_bench.bench.campaign import Campaign, run_campaign
+
+    backends = _default_backends()
+    print(f"\nbeo-bench demo: short suites with {', '.join(backends)}\n")
+    c = Campaign(
+        dict(DEMO_SIZES),
+        [(b, {}) for b in backends],
+        runs=out / "runs",
+        leaderboards=out / "leaderboards",
+        workers=workers,
+    )
+    _print_leaderboard(run_campaign(c), c.leaderboards)
+
+
+def cmd_all(args: argparse.Namespace) -> int:
+    from beo_bench.bench.campaign import Campaign, parse_backend_spec, run_campaign
+    from beo_bench.bench.suites import list_suites
+
+    suites = args.suites or list_suites()
+    specs = args.backends or _default_backends()
+    c = Campaign(
+        {s: args.episodes for s in suites},
+        [parse_backend_spec(b) for b in specs],
+        runs=Path(args.runs),
+        leaderboards=Path(args.out),
+        workers=args.workers,
+        use_ray=args.ray,
+        seed=args.seed,
+    )
+    _print_leaderboard(run_campaign(c), c.leaderboards)
+    return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -293,7 +312,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=20,
         help="test-split instances per category to process and summarise",
     )
-    d.add_argument("--workers", type=int, default=2)
+    d.add_argument("--workers", type=int, default=None, help="default: one per core")
     d.set_defaults(func=cmd_demo)
 
     o = sub.add_parser("objects", help="process and summarise an object set")
@@ -335,13 +354,34 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--backend", required=True)
     r.add_argument("--episodes", type=int, default=None, help="items (default: the suite's)")
     r.add_argument("--seed", type=int, default=None, help="replace the suite's base seed")
-    r.add_argument("--workers", type=int, default=1)
+    r.add_argument(
+        "--workers", type=int, default=None, help="worker processes (default: one per core)"
+    )
     r.add_argument("--out", default=None, help="default: runs/SUITE__BACKEND")
     r.add_argument("--resume", action="store_true", help="continue a killed run in --out")
     r.add_argument("--ray", action="store_true", help="run the items as Ray tasks")
     r.add_argument("--rerun", default=None, help="also write a rerun .rrd of the first views")
     r.add_argument("--opt", action="append", default=[], metavar="KEY=VALUE", help="backend option")
     r.set_defaults(func=cmd_run)
+
+    al = sub.add_parser(
+        "all", help="run every suite with every backend (resuming), then regenerate leaderboards/"
+    )
+    al.add_argument("--suites", nargs="+", default=None, help="default: every suite")
+    al.add_argument(
+        "--backends",
+        nargs="+",
+        default=None,
+        metavar="NAME[:K=V,...]",
+        help="default: every registered backend; options after a colon",
+    )
+    al.add_argument("--episodes", type=int, default=None, help="items per suite (default: its own)")
+    al.add_argument("--seed", type=int, default=None, help="replace the suites' base seeds")
+    al.add_argument("--workers", type=int, default=None, help="default: one per core")
+    al.add_argument("--ray", action="store_true", help="run the items as Ray tasks")
+    al.add_argument("--runs", default="runs", help="where the runs go (resumed when present)")
+    al.add_argument("--out", default="leaderboards")
+    al.set_defaults(func=cmd_all)
 
     cp = sub.add_parser("compare", help="a table of several runs")
     cp.add_argument("runs", nargs="+", help="run directories or summary.json files")

@@ -53,6 +53,7 @@ __all__ = [
     "camera_frame_iou",
     "chamfer_l1",
     "class_accuracy",
+    "closest_symmetric_pose",
     "confusion_matrix",
     "edt",
     "edt_error",
@@ -72,6 +73,7 @@ __all__ = [
     "symmetry_rotations",
     "translation_error",
     "viewpoint",
+    "viewpoint_bin_accuracy",
     "viewpoint_bins",
     "voxel_iou",
 ]
@@ -179,6 +181,33 @@ def symmetry_rotations(symmetry: Symmetry | None) -> tuple[np.ndarray, np.ndarra
     return np.stack(discrete), axis
 
 
+def _closest_symmetric(
+    Re: np.ndarray, Rg: np.ndarray, symmetry: Symmetry | None
+) -> tuple[float, np.ndarray]:
+    """(angle in radians, S) minimising ``angle(Re^T Rg S)`` over the group of ``symmetry``
+    (the exact continuous minimisation of :func:`rotation_error`)."""
+    discrete, axis = symmetry_rotations(symmetry)
+    M = Re.T @ Rg
+    if axis is not None and not np.any(axis):  # a sphere: every rotation is a symmetry
+        return 0.0, Rg.T @ Re
+    # trace(M C D) = trace(D M C): the continuous rotation acts last in N = D M.
+    N = discrete @ M  # (K, 3, 3)
+    C = np.broadcast_to(np.eye(3), N.shape)
+    if axis is not None:
+        a = axis
+        ax = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+        aNa = np.einsum("i,kij,j->k", a, N, a)
+        A = np.trace(N, axis1=1, axis2=2) - aNa
+        B = np.einsum("kij,ji->k", N, ax)
+        theta = np.arctan2(B, A)
+        C = Rotation.from_rotvec(theta[:, None] * a[None, :]).as_matrix()
+        N = N @ C
+    # from_matrix re-orthonormalises, so tiny numerical drift cannot produce NaN.
+    angles = Rotation.from_matrix(N).magnitude()
+    k = int(np.argmin(angles))
+    return float(angles[k]), C[k] @ discrete[k]
+
+
 def rotation_error(R_est: ArrayLike, R_gt: ArrayLike, symmetry: Symmetry | None = None) -> float:
     """Geodesic rotation error in degrees, minimised over the object's symmetry group.
 
@@ -199,26 +228,19 @@ def rotation_error(R_est: ArrayLike, R_gt: ArrayLike, symmetry: Symmetry | None 
     ``symmetry`` None or empty: the plain geodesic distance. Two non-parallel continuous axes
     (a sphere) give 0. Raises ``ValueError`` unless both are finite proper (3, 3) rotations.
     """
-    Re = _rotation(R_est, "R_est")
+    angle, _ = _closest_symmetric(_rotation(R_est, "R_est"), _rotation(R_gt, "R_gt"), symmetry)
+    return float(np.degrees(angle))
+
+
+def closest_symmetric_pose(
+    R_est: ArrayLike, R_gt: ArrayLike, symmetry: Symmetry | None = None
+) -> NDArray[np.float64]:
+    """The pose ``R_gt S`` (S in the symmetry group) nearest to ``R_est``: the truth that
+    :func:`rotation_error` measures against. Viewpoint-bin metrics use it, so that a
+    symmetric object seen from an equivalent side is not counted wrong."""
     Rg = _rotation(R_gt, "R_gt")
-    discrete, axis = symmetry_rotations(symmetry)
-    M = Re.T @ Rg
-    # trace(M C D) = trace(D M C): the continuous rotation acts last in N = D M.
-    N = discrete @ M  # (K, 3, 3)
-    if axis is not None and not np.any(axis):
-        return 0.0
-    if axis is not None:
-        a = axis
-        ax = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-        aNa = np.einsum("i,kij,j->k", a, N, a)
-        A = np.trace(N, axis1=1, axis2=2) - aNa
-        B = np.einsum("kij,ji->k", N, ax)
-        theta = np.arctan2(B, A)
-        C = Rotation.from_rotvec(theta[:, None] * a[None, :]).as_matrix()
-        N = N @ C
-    # from_matrix re-orthonormalises, so tiny numerical drift cannot produce NaN.
-    angles = Rotation.from_matrix(N).magnitude()
-    return float(np.degrees(angles.min()))
+    _, S = _closest_symmetric(_rotation(R_est, "R_est"), Rg, symmetry)
+    return Rg @ S
 
 
 def translation_error(t_est: ArrayLike, t_gt: ArrayLike) -> float:
@@ -298,14 +320,45 @@ def viewpoint_bins(R: ArrayLike, bins: tuple[int, int]) -> tuple[int, int]:
     Pascal3D+ AVP convention that Pix3D follows). Elevation bins split [-90, 90] evenly from
     the bottom (bin 0 starts at -90; +90 falls into the last bin).
     """
-    n_az, n_el = (int(b) for b in bins)
-    if n_az < 1 or n_el < 1:
-        raise ValueError(f"bins must be two positive counts (n_azimuth, n_elevation), got {bins}")
     az, el = viewpoint(R)
+    i_az, i_el = _bins(np.array([az]), np.array([el]), *(int(b) for b in bins))
+    return int(i_az[0]), int(i_el[0])
+
+
+def _bins(az: np.ndarray, el: np.ndarray, n_az: int, n_el: int) -> tuple[np.ndarray, np.ndarray]:
+    """Azimuth and elevation bin indices of viewpoints in degrees (see :func:`viewpoint_bins`)."""
+    if n_az < 1 or n_el < 1:
+        raise ValueError(
+            f"bins must be two positive counts (n_azimuth, n_elevation), got {(n_az, n_el)}"
+        )
     w_az = 360.0 / n_az
-    i_az = int(np.floor((az + w_az / 2.0) / w_az)) % n_az
-    i_el = min(int(np.floor((el + 90.0) / (180.0 / n_el))), n_el - 1)
+    i_az = np.floor((np.mod(az, 360.0) + w_az / 2.0) / w_az).astype(np.int64) % n_az
+    i_el = np.minimum(np.floor((el + 90.0) / (180.0 / n_el)).astype(np.int64), n_el - 1)
     return i_az, i_el
+
+
+def viewpoint_bin_accuracy(
+    view_est: ArrayLike, view_gt: ArrayLike, n_azimuth_bins: int, n_elevation_bins: int
+) -> dict[str, float]:
+    """:func:`bin_accuracy` on viewpoints already computed: ``view_est`` and ``view_gt`` are
+    (N, 2) (azimuth, elevation) in degrees from :func:`viewpoint`. Rows with a NaN (a failed
+    estimate) count as wrong. Returns ``{"azimuth", "elevation", "both"}`` (0..1)."""
+    E = _array(view_est, "view_est", (None, 2))
+    G = _array(view_gt, "view_gt", (None, 2))
+    if E.shape != G.shape:
+        raise ValueError(f"view_est and view_gt must have equal shapes, got {E.shape}, {G.shape}")
+    if len(E) == 0:
+        return {"azimuth": float("nan"), "elevation": float("nan"), "both": float("nan")}
+    ok = np.isfinite(E).all(axis=1) & np.isfinite(G).all(axis=1)
+    E, G = np.where(ok[:, None], E, 0.0), np.where(ok[:, None], G, 0.0)
+    ea, ee = _bins(E[:, 0], E[:, 1], int(n_azimuth_bins), int(n_elevation_bins))
+    ga, ge = _bins(G[:, 0], G[:, 1], int(n_azimuth_bins), int(n_elevation_bins))
+    same_az, same_el = (ea == ga) & ok, (ee == ge) & ok
+    return {
+        "azimuth": float(same_az.mean()),
+        "elevation": float(same_el.mean()),
+        "both": float((same_az & same_el).mean()),
+    }
 
 
 def bin_accuracy(
@@ -331,17 +384,8 @@ def bin_accuracy(
             f"R_est and R_gt must both be (3, 3) or (N, 3, 3) with equal N, got {E.shape} "
             f"and {G.shape}"
         )
-    if E.shape[0] == 0:
-        return {"azimuth": float("nan"), "elevation": float("nan"), "both": float("nan")}
-    bins = (n_azimuth_bins, n_elevation_bins)
-    be = np.array([viewpoint_bins(r, bins) for r in E])
-    bg = np.array([viewpoint_bins(r, bins) for r in G])
-    same = be == bg
-    return {
-        "azimuth": float(same[:, 0].mean()),
-        "elevation": float(same[:, 1].mean()),
-        "both": float(same.all(axis=1).mean()),
-    }
+    views = [np.array([viewpoint(r) for r in X]).reshape(-1, 2) for X in (E, G)]
+    return viewpoint_bin_accuracy(views[0], views[1], n_azimuth_bins, n_elevation_bins)
 
 
 # --------------------------------------------------------------------------- classes

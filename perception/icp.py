@@ -34,10 +34,15 @@ the **class-mean shape** (the 0.5 iso-surface of the mean training occupancy, se
   winner with a relative scale of the class-mean size as one more unknown, shrunk towards 1
   and clipped to the range. Partial views constrain size weakly; on our library it made
   the size error worse (20% vs 17%), hence off.
-- *Class*: given (``class_given`` and ``View.class_hint``: one-hot probabilities), or the
-  class whose mean shape fits best: every class is aligned and ``class_probs`` =
-  softmax(-score_mm / ``temperature_mm``); the default temperature of 1 mm makes a fit
-  1 mm worse e times less likely.
+- *Class*: given (``class_given`` and ``View.class_hint``: one-hot probabilities; the backend
+  asks the runner for the hint through ``wants_class_hint``, and suites that score
+  classification never give it), or the class whose mean shape fits best: every class is
+  aligned and ``class_probs`` = softmax(-score_mm / ``temperature_mm``); the default
+  temperature of 1 mm makes a fit 1 mm worse e times less likely.
+- *Known pose* (``View.pose_hint``, the ``known-pose`` protocol of Table 3.1): nothing is
+  aligned; each class-mean surface, scaled to the given size, is scored at the given pose
+  with the same residual and free-space terms, which makes ``icp`` the mean-shape
+  nearest-class baseline there.
 
 The estimate: rotation (canonical -> camera), the canonical origin (bounding-box centre) in
 the camera frame, size = class-mean size x scale, shape = the class-mean occupancy.
@@ -204,14 +209,17 @@ class Observation:
             outside=distance_transform_edt(~mask),
         )
 
-    def free_space(self, surf: MeanSurface, R: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """(S,) how much the camera-facing model surface of each pose (R (S, 3, 3), t (S, 3))
-        contradicts the image (m, mean over those model points in the image): a model point
-        in front of the observed surface on the mask counts by how far in front; off the mask,
+    def free_space(
+        self, surf: MeanSurface, R: np.ndarray, t: np.ndarray, scale: float = 1.0
+    ) -> np.ndarray:
+        """(S,) how much the camera-facing model surface of each pose (R (S, 3, 3), t (S, 3);
+        the surface scaled by ``scale``) contradicts the image (m, mean over those model
+        points in the image): a model point in front of the observed surface on the mask
+        counts by how far in front; off the mask,
         where the camera sees past it (background or farther depth), by its image distance
         to the mask, in metres at its depth. Both capped at ``FREE_SPACE_CAP``. Points hidden
         behind a nearer surface cost nothing (occluders, the object's own far side)."""
-        X = np.einsum("sij,mj->smi", R, surf.points) + t[:, None, :]
+        X = np.einsum("sij,mj->smi", R, scale * surf.points) + t[:, None, :]
         N = np.einsum("sij,mj->smi", R, surf.normals)
         Z = X[..., 2]
         ok = (np.sum(N * X, axis=2) < 0) & (Z > 1e-3)
@@ -242,6 +250,8 @@ class Fit:
     residual: float
     score: float
     """What chose this fit among the starts: ``residual`` plus the free-space term (m)."""
+    size: np.ndarray | None = None
+    """(3,) extents (m) when known (the ``known-pose`` protocol), else class-mean x scale."""
 
 
 def _rotvec_to_matrix(w: np.ndarray) -> np.ndarray:
@@ -409,6 +419,11 @@ class ICPBackend:
 
     name = "icp"
 
+    @property
+    def wants_class_hint(self) -> bool:
+        """Ask the runner for ``View.class_hint`` (given only where a suite allows it)."""
+        return self.class_given
+
     def __init__(
         self,
         class_given: bool = True,
@@ -516,6 +531,29 @@ class ICPBackend:
         t = -R @ b[0]
         return Fit(R, t, scale, residual, score)
 
+    def fit_known_pose(
+        self,
+        obs: Observation,
+        cats: tuple[str, ...],
+        c: int,
+        R: np.ndarray,
+        t: np.ndarray,
+        size: np.ndarray,
+    ) -> Fit:
+        """Score class ``c``'s mean surface at the given pose, scaled so that its largest
+        extent is the given one (the grids' unit cube is the largest extent)."""
+        surf = self.surface(cats, c)
+        scale = float(np.max(size) / np.max(self._class_means(cats).size[c]))
+        pts = _thin(obs.points, self.max_points)
+        q = (pts - t) @ R / scale  # camera -> canonical, in units of the mean surface
+        d, _ = surf.nearest(q)
+        k = min(len(d), max(3, int(np.ceil(self.trim * len(d)))))
+        residual = float(np.mean(np.partition(d, k - 1)[:k]) * scale)
+        score = residual
+        if self.free_space > 0:
+            score += self.free_space * float(obs.free_space(surf, R[None], t[None], scale)[0])
+        return Fit(R, t, scale, residual, score, size=np.array(size, dtype=np.float64))
+
     def predict(self, view: View) -> Estimate:
         obs = Observation.from_view(view)
         if len(obs.points) == 0:
@@ -538,7 +576,11 @@ class ICPBackend:
             classes = [int(hint)]
         else:
             classes = list(range(len(cats)))
-        fits = [self.fit(obs, self.surface(cats, c), up) for c in classes]
+        if view.pose_hint is not None:
+            R, t, size = (np.asarray(a, dtype=np.float64) for a in view.pose_hint)
+            fits = [self.fit_known_pose(obs, cats, c, R, t, size) for c in classes]
+        else:
+            fits = [self.fit(obs, self.surface(cats, c), up) for c in classes]
         res_mm = np.array([f.residual * 1e3 for f in fits])
         score_mm = np.array([f.score * 1e3 for f in fits])
         probs = np.zeros(len(cats))
@@ -554,7 +596,7 @@ class ICPBackend:
             "score_mm": float(score_mm[k]),
             "starts": self.starts,
             "scale": fit.scale,
-            "protocol": "1dof" if up is not None else "3dof",
+            "protocol": _protocol(view),
         }
         if len(classes) > 1:
             info["class_scores_mm"] = [float(r) for r in score_mm]
@@ -562,10 +604,16 @@ class ICPBackend:
             class_probs=probs,
             rotation=fit.rotation,
             translation=fit.translation,
-            size=means.size[c] * fit.scale,
+            size=means.size[c] * fit.scale if fit.size is None else fit.size,
             shape=np.clip(means.shape[c], 0.0, 1.0).astype(np.float32),
             info=info,
         )
+
+
+def _protocol(view: View) -> str:
+    if view.pose_hint is not None:
+        return "known-pose"
+    return "1dof" if view.up_hint is not None else "3dof"
 
 
 def _thin(pts: np.ndarray, n: int) -> np.ndarray:

@@ -151,8 +151,8 @@ def test_entry_point_plugin_is_listed_and_runs(tmp_path, views, monkeypatch) -> 
         B.check_backend(b, views)
         assert B._REGISTRY["centroid-demo"][1] == "plugin beo-plugin-demo"
         # and it runs through the runner like an in-tree backend
-        from beo_bench.runner import RunConfig, run
-        from beo_bench.suites import get_suite
+        from beo_bench.bench.runner import RunConfig, run
+        from beo_bench.bench.suites import get_suite
 
         suite = get_suite("pose-1dof").with_overrides(size=3)
         s = run(RunConfig(suite, "centroid-demo"), tmp_path / "run", progress=False)

@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 
 from beo_bench import backend as B
-from beo_bench.runner import RunConfig, RunError, read_rows, run
-from beo_bench.suites import get_suite
+from beo_bench.bench.runner import RunConfig, RunError, read_rows, run
+from beo_bench.bench.suites import get_suite
+from beo_bench.bench.summary import TIMING_KEYS
 
 FAST_RANDOM = {"mean_instances": 4}
 
@@ -60,7 +61,7 @@ def test_oracle_picks_like_the_ground_truth_planner(tmp_path) -> None:
 
 
 def _metrics_without_time(s: dict) -> dict:
-    return {k: v for k, v in s["metrics"].items() if not k.startswith("ms_")}
+    return {k: v for k, v in s["metrics"].items() if k not in TIMING_KEYS}
 
 
 def test_same_numbers_with_one_or_two_workers(tmp_path) -> None:
@@ -86,7 +87,11 @@ def test_a_failing_backend_is_recorded_and_the_run_goes_on(tmp_path) -> None:
             return B.get_backend("random", **FAST_RANDOM).predict(view)
 
     try:
-        s = _run(tmp_path, "pose-3dof", "test-boom", 12)
+        # registered here, so it exists only in this process: one in-process worker
+        s = _run(tmp_path, "pose-3dof", "test-boom", 12, workers=1)
+        # worker processes cannot build it: a clear error, not a pool restarting forever
+        with pytest.raises(RunError, match="could not set up the backend"):
+            _run(tmp_path / "two", "pose-3dof", "test-boom", 4, workers=2)
     finally:
         B._REGISTRY.pop("test-boom", None)
     rows = read_rows(tmp_path / "pose-3dof-test-boom-12" / "results.jsonl")

@@ -17,6 +17,7 @@ import multiprocessing as mp
 import os
 import platform
 import subprocess
+import sys
 import time
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
@@ -25,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from beo_bench.bench.suites import Suite
 from beo_bench.errors import BeoBenchError
-from beo_bench.suites import Suite
 
 
 class RunError(BeoBenchError, ValueError):
@@ -121,30 +122,90 @@ def _clean(row: dict[str, Any]) -> dict[str, Any]:
 
 
 # -- workers ---------------------------------------------------------------------------------
+WORKER_THREADS = 1
+"""BLAS / OpenMP / torch threads per worker. Workers run one per core, and pinning every
+path (in-process, local processes, Ray actors, which Ray already pins to 1) to the same count
+makes reductions identical, so results do not depend on how a run was spread out."""
+
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 _WORKER: Any = None
+_INIT_ERROR = ""
 
 
-def _init_worker(cfg: RunConfig) -> None:
-    global _WORKER
+def default_workers() -> int:
+    """One worker per available core."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def _pin_threads() -> Any:
+    """Limit this process's thread pools to ``WORKER_THREADS``: the already loaded ones
+    through threadpoolctl, the ones loaded later (torch in a backend) through the
+    environment. Returns the limiter (keep it alive; ``restore_original_limits`` undoes)."""
+    from threadpoolctl import threadpool_limits
+
+    for var in _THREAD_VARS:
+        os.environ[var] = str(WORKER_THREADS)
+    if "torch" in sys.modules:
+        sys.modules["torch"].set_num_threads(WORKER_THREADS)
+    return threadpool_limits(limits=WORKER_THREADS)
+
+
+def _init_worker(cfg: RunConfig, pin: bool = True) -> None:
+    """Set up this process's evaluator. An error is kept and raised by the first item: a
+    pool whose initializer raises would only start new workers, forever."""
+    global _WORKER, _INIT_ERROR
     from beo_bench.backend import load_plugins
-    from beo_bench.evaluate import Evaluator
+    from beo_bench.bench.evaluate import Evaluator
 
-    load_plugins()
-    _WORKER = Evaluator(cfg.suite, cfg.backend, cfg.backend_kwargs)
+    if pin:
+        _pin_threads()
+    try:
+        load_plugins()
+        _WORKER = Evaluator(cfg.suite, cfg.backend, cfg.backend_kwargs)
+    except Exception as e:
+        _WORKER, _INIT_ERROR = None, f"{type(e).__name__}: {e}"
+        return
+    if "torch" in sys.modules:  # loaded by the backend: the environment came too late
+        sys.modules["torch"].set_num_threads(WORKER_THREADS)
 
 
 def _work(index: int) -> tuple[int, list[dict[str, Any]]]:
+    if _WORKER is None:
+        raise RunError(
+            f"a worker could not set up the backend: {_INIT_ERROR} (a backend registered at "
+            "run time, not by an import or an entry point, exists only in its own process: "
+            "use workers=1)"
+        )
     return index, [_clean(r) for r in _WORKER.run_item(index)]
 
 
 def _results(cfg: RunConfig, todo: list[int], workers: int) -> Iterator[tuple[int, list]]:
     if workers <= 1:
-        _init_worker(cfg)
+        # in this process: pin its threads for the run, as a worker's, then restore them
+        saved = {v: os.environ.get(v) for v in _THREAD_VARS}
+        had_torch = "torch" in sys.modules
+        torch_threads = sys.modules["torch"].get_num_threads() if had_torch else None
+        limiter = _pin_threads()
+        _init_worker(cfg, pin=False)
+        if _WORKER is None:
+            limiter.restore_original_limits()
+            raise RunError(f"could not set up backend {cfg.backend!r}: {_INIT_ERROR}")
         try:
             for i in todo:
                 yield _work(i)
         finally:
             _WORKER.close()
+            limiter.restore_original_limits()
+            for var, value in saved.items():
+                if value is None:
+                    os.environ.pop(var, None)
+                else:
+                    os.environ[var] = value
+            if "torch" in sys.modules:
+                sys.modules["torch"].set_num_threads(torch_threads or default_workers())
         return
     # spawn: workers start clean (no inherited GL state or torch threads)
     ctx = mp.get_context("spawn")
@@ -179,6 +240,20 @@ def _ray_results(cfg: RunConfig, todo: list[int], workers: int) -> Iterator[tupl
 
 
 # -- the run ---------------------------------------------------------------------------------
+def _git(*args: str) -> str:
+    """Output of a git command run in the package's checkout ("" when there is none)."""
+    try:
+        return subprocess.run(
+            ["git", *args],
+            capture_output=True,
+            text=True,
+            cwd=Path(__file__).resolve().parent,
+            timeout=5,
+        ).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return ""
+
+
 def provenance(cfg: RunConfig) -> dict[str, Any]:
     import importlib.metadata as md
 
@@ -188,21 +263,10 @@ def provenance(cfg: RunConfig) -> dict[str, Any]:
         except md.PackageNotFoundError:
             return None
 
-    try:
-        commit = (
-            subprocess.run(
-                ["git", "rev-parse", "HEAD"],
-                capture_output=True,
-                text=True,
-                cwd=Path(__file__).resolve().parent,
-                timeout=5,
-            ).stdout.strip()
-            or None
-        )
-    except (OSError, subprocess.SubprocessError):
-        commit = None
+    commit, dirty = _git("rev-parse", "HEAD"), _git("status", "--porcelain")
     return {
-        "git_commit": commit,
+        "git_commit": commit or None,
+        "git_dirty": bool(dirty) if commit else None,
         "versions": {
             n: version(n)
             for n in ("beo-bench", "mujoco", "numpy", "scipy", "trimesh", "torch", "gymnasium")
@@ -221,27 +285,30 @@ def provenance(cfg: RunConfig) -> dict[str, Any]:
 def run(
     cfg: RunConfig,
     out: Path | str,
-    workers: int = 1,
+    workers: int | None = None,
     resume: bool = False,
     use_ray: bool = False,
     progress: bool = True,
 ) -> dict[str, Any]:
-    """Run (or resume) ``cfg`` into ``out``; returns the summary."""
+    """Run (or resume) ``cfg`` into ``out`` with ``workers`` processes (default: one per
+    core) or Ray actors; returns the summary."""
     from tqdm import tqdm
 
-    from beo_bench.summary import summarise
+    from beo_bench.bench.summary import summarise
 
+    workers = default_workers() if workers is None else max(1, int(workers))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     results, meta_path = out / "results.jsonl", out / "run.json"
-    meta = {
-        "suite": cfg.suite.name,
-        "suite_version": cfg.suite.version,
-        "backend": cfg.backend,
-        "backend_kwargs": cfg.backend_kwargs,
-        "seed": cfg.suite.seed,
-        "size": cfg.suite.size,
-    }
+    # what fixes the items and their scores; the size is left out because item i depends
+    # only on (seed, i): a run can be extended, or summarised over its first items
+    suite = {k: v for k, v in asdict(cfg.suite).items() if k not in ("size", "description")}
+    meta = json.loads(
+        json.dumps(
+            {"suite": suite, "backend": cfg.backend, "backend_kwargs": cfg.backend_kwargs},
+            default=_jsonable,
+        )
+    )
     if results.exists() and results.stat().st_size > 0:
         if not resume:
             raise RunError(
@@ -249,13 +316,13 @@ def run(
                 "run, or choose another --out"
             )
         old = json.loads(meta_path.read_text()) if meta_path.exists() else None
-        if old != json.loads(json.dumps(meta, default=_jsonable)):
+        if old != meta:
             raise RunError(
-                f"{out} holds a different run ({old}); resume needs the same suite, "
-                "backend, options, seed and size"
+                f"{out} holds a different run ({old}); resuming needs the same suite "
+                "(version, seed, protocol), backend and options: choose another --out"
             )
     write_json_atomic(meta_path, meta)
-    done = {r["item"] for r in read_rows(results, repair=True)}
+    done = {r["item"] for r in read_rows(results, repair=True) if r["item"] < cfg.suite.size}
     todo = [i for i in range(cfg.suite.size) if i not in done]
     t0 = time.perf_counter()
     source = _ray_results if use_ray else _results
@@ -271,7 +338,8 @@ def run(
             writer.append(rows)
             bar.update(1)
     wall = time.perf_counter() - t0
-    rows = sorted(read_rows(results), key=lambda r: (r["item"], r["view"]))
+    rows = [r for r in read_rows(results) if r["item"] < cfg.suite.size]
+    rows.sort(key=lambda r: (r["item"], r["view"]))
     summary = summarise(cfg.suite, cfg.backend, rows)
     summary["provenance"] = provenance(cfg)
     summary["provenance"]["wall_s_last_session"] = wall

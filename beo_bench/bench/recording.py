@@ -22,7 +22,7 @@ def log_run(cfg: Any, path: Path | str, items: int = 20) -> Path:
         import rerun as rr
     except ImportError as e:
         raise BeoBenchError("--rerun needs rerun-sdk: pip install 'beo-bench[viz]'") from e
-    from beo_bench.evaluate import Evaluator, estimate_mesh
+    from beo_bench.bench.evaluate import Evaluator, estimate_mesh
     from beo_bench.objects import instance_from_key
 
     path = Path(path)

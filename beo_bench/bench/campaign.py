@@ -1,0 +1,102 @@
+"""Many runs at once: every (suite, backend) pair, then the leaderboard (``beo-bench all``,
+and ``make demo`` on short suites).
+
+Each pair runs into ``RUNS/<suite>__<backend>[__<options>]`` and resumes what is already
+there, so a killed campaign continues where it stopped and a finished one costs nothing to
+re-run; the leaderboard is then regenerated from every summary under ``RUNS``.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from beo_bench.errors import BeoBenchError
+
+
+def options_label(kwargs: dict[str, Any]) -> str:
+    """``k=v, k=v`` (sorted), or "" without options."""
+    return ", ".join(f"{k}={json.dumps(v)}" for k, v in sorted(kwargs.items()))
+
+
+def backend_label(backend: str, kwargs: dict[str, Any]) -> str:
+    """How a leaderboard row names a backend run: ``icp`` or ``icp (starts=48)``."""
+    opts = options_label(kwargs)
+    return f"{backend} ({opts})" if opts else backend
+
+
+def run_name(suite: str, backend: str, kwargs: dict[str, Any], seed: int | None = None) -> str:
+    """The run directory's name: ``pose-3dof__icp``, ``pose-3dof__icp__starts=48``, or with
+    a replaced base seed ``pose-3dof__icp__suite_seed=7``."""
+    opts = dict(sorted(kwargs.items()))
+    if seed is not None:
+        opts["suite_seed"] = seed
+    slug = "_".join(f"{k}={v}" for k, v in opts.items())
+    safe = "".join(ch if ch.isalnum() or ch in "=.-_" else "-" for ch in slug)
+    return f"{suite}__{backend}" + (f"__{safe}" if safe else "")
+
+
+def parse_options(pairs: list[str]) -> dict[str, Any]:
+    """``["samples=25", "class_given=false"]`` -> ``{"samples": 25, "class_given": False}``
+    (values are JSON when they parse, else strings)."""
+    out: dict[str, Any] = {}
+    for pair in pairs:
+        if "=" not in pair:
+            raise BeoBenchError(f"option {pair!r}: use KEY=VALUE (e.g. samples=25)")
+        k, v = pair.split("=", 1)
+        try:
+            out[k] = json.loads(v)
+        except json.JSONDecodeError:
+            out[k] = v  # a plain string
+    return out
+
+
+def parse_backend_spec(spec: str) -> tuple[str, dict[str, Any]]:
+    """``"icp"`` or ``"hbeo-mdn-posterior:samples=25,seed=1"`` -> (name, options)."""
+    name, _, opts = spec.partition(":")
+    return name, parse_options([o for o in opts.split(",") if o])
+
+
+@dataclass
+class Campaign:
+    """Which suites (name -> items, None for the suite's own size) and backends (name,
+    options) to run, where, and how."""
+
+    suites: dict[str, int | None]
+    backends: list[tuple[str, dict[str, Any]]]
+    runs: Path = Path("runs")
+    leaderboards: Path = Path("leaderboards")
+    workers: int | None = None
+    use_ray: bool = False
+    seed: int | None = None
+    progress: bool = True
+    summaries: list[dict[str, Any]] = field(default_factory=list)
+
+
+def run_campaign(c: Campaign) -> list[Path]:
+    """Run every pair (resuming), then regenerate the leaderboard; returns its Markdown
+    files. A backend whose construction fails stops the campaign before anything runs."""
+    from beo_bench.backend import get_backend, load_plugins
+    from beo_bench.bench.leaderboard import regenerate
+    from beo_bench.bench.runner import RunConfig, run
+    from beo_bench.bench.suites import get_suite
+
+    load_plugins()
+    suites = [get_suite(s).with_overrides(size=n, seed=c.seed) for s, n in c.suites.items()]
+    for name, kwargs in c.backends:
+        get_backend(name, **kwargs)  # fail here, with its message, not in a worker
+    for suite in suites:
+        for name, kwargs in c.backends:
+            out = c.runs / run_name(suite.name, name, kwargs, c.seed)
+            summary = run(
+                RunConfig(suite, name, kwargs),
+                out,
+                workers=c.workers,
+                resume=True,
+                use_ray=c.use_ray,
+                progress=c.progress,
+            )
+            c.summaries.append(summary)
+    return regenerate(c.runs, c.leaderboards)

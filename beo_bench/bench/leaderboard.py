@@ -1,0 +1,231 @@
+"""``beo-bench leaderboard``: regenerate ``leaderboards/`` from run summaries.
+
+Per suite: ``<suite>.md`` (rows are backends, methods first and the bounds last; means with
+bootstrap 95% intervals; then a per-category table and the plots), ``<suite>.json`` (the
+summaries behind the table, with their provenance), ``<suite>_rot_cdf.png`` (rotation-error
+CDF per backend) and ``<suite>_confusion_<backend>.png``; ``README.md`` indexes them. A row
+is a backend with its options (``icp (starts=48)``); when one appears in several runs, the
+largest run is shown. Only the newest suite version present is tabulated.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from beo_bench.bench.campaign import backend_label
+
+BOUNDS = {"oracle": "upper bound", "random": "lower bound"}
+Column = tuple[str, str, float, str]
+COLUMNS: tuple[Column, ...] = (
+    ("rot_err_deg_mean", "rot. error mean (deg)", 1.0, "{:.1f}"),
+    ("rot_err_deg_median", "median (deg)", 1.0, "{:.1f}"),
+    ("gross_err_rate", "> 15 deg", 100.0, "{:.1f}%"),
+    ("acc_10deg5cm", "10deg5cm", 100.0, "{:.1f}%"),
+    ("trans_err_cm_mean", "transl. (cm)", 1.0, "{:.2f}"),
+    ("class_acc", "class acc.", 100.0, "{:.1f}%"),
+    ("iou_mean", "IoU", 1.0, "{:.3f}"),
+    ("iou_cam_mean", "posed IoU", 1.0, "{:.3f}"),
+    ("edt_err_mean", "EDT error", 1.0, "{:.1f}"),
+    ("fscore_mean", "F-score@1%", 1.0, "{:.3f}"),
+    ("pick_success", "pick success", 100.0, "{:.1f}%"),
+    ("target_found_rate", "target found", 100.0, "{:.1f}%"),
+    ("ms_per_view_median", "ms/view", 1.0, "{:.1f}"),
+)
+PER_CATEGORY: dict[str, Column] = {
+    "pick": ("pick_success", "pick success", 100.0, "{:.0f}%"),
+    "known-pose": ("class_acc", "class accuracy", 100.0, "{:.0f}%"),
+}
+"""The per-category table's metric per suite kind or protocol (default: rotation error)."""
+PER_CATEGORY_DEFAULT: Column = ("rot_err_deg_mean", "mean rotation error (deg)", 1.0, "{:.1f}")
+
+
+def load_summaries(runs: Path) -> list[dict[str, Any]]:
+    """Every ``summary.json`` under ``runs``."""
+    return [json.loads(p.read_text()) for p in sorted(Path(runs).rglob("summary.json"))]
+
+
+def label(s: dict[str, Any]) -> str:
+    """A summary's row name: the backend and its options."""
+    return backend_label(s["backend"], s.get("provenance", {}).get("backend_kwargs") or {})
+
+
+def _fmt(v: float | None, scale: float, fmt: str) -> str:
+    return "-" if v is None or not np.isfinite(v) else fmt.format(v * scale)
+
+
+def _cell(s: dict[str, Any], key: str, scale: float, fmt: str) -> str:
+    if key == "class_acc" and s["metrics"].get("class_given"):
+        return "given"
+    v = s["metrics"].get(key)
+    if v is None:
+        return "-"
+    text = _fmt(v, scale, fmt)
+    ci = s.get("ci95", {}).get(key)
+    if ci and all(c is not None and np.isfinite(c) for c in ci):
+        lo, hi = (fmt.format(c * scale).rstrip("%") for c in ci)
+        text += f" [{lo}, {hi}]"
+    return text
+
+
+def _ordered(summaries: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    return sorted(summaries, key=lambda s: (s["backend"] in BOUNDS, label(s)))
+
+
+def _name(s: dict[str, Any]) -> str:
+    bound = BOUNDS.get(s["backend"])
+    return f"{label(s)} *({bound})*" if bound else label(s)
+
+
+def suite_table(summaries: list[dict[str, Any]]) -> str:
+    """The Markdown table of one suite: a row per backend, the columns any of them has."""
+    has = {k for s in summaries for k in s["metrics"]}
+    if any(s["metrics"].get("class_given") for s in summaries):
+        has.add("class_acc")
+    cols = [c for c in COLUMNS if c[0] in has]
+    lines = [
+        "| backend | n | failures | " + " | ".join(c[1] for c in cols) + " |",
+        "|---|---:|---:|" + "---:|" * len(cols),
+    ]
+    for s in _ordered(summaries):
+        cells = [_cell(s, k, sc, f) for k, _, sc, f in cols]
+        lines.append(f"| {_name(s)} | {s['n']} | {s['failures']} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def category_table(suite: str, summaries: list[dict[str, Any]]) -> str:
+    """Categories as rows, backends as columns, one metric (see ``PER_CATEGORY``)."""
+    key, title, scale, fmt = PER_CATEGORY.get(suite, PER_CATEGORY_DEFAULT)
+    rows = _ordered(summaries)
+    if not any(key in d for s in rows for d in s.get("per_category", {}).values()):
+        key, title, scale, fmt = ("iou_mean", "mean IoU", 1.0, "{:.3f}")
+    cats = sorted({c for s in rows for c in s.get("per_category", {})})
+    lines = [
+        f"{title} per category:",
+        "",
+        "| category | n | " + " | ".join(label(s) for s in rows) + " |",
+        "|---|---:|" + "---:|" * len(rows),
+    ]
+    for c in cats:
+        n = max(s.get("per_category", {}).get(c, {}).get("n", 0) for s in rows)
+        cells = [_fmt(s.get("per_category", {}).get(c, {}).get(key), scale, fmt) for s in rows]
+        lines.append(f"| {c} | {n} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _write(path: Path, data: str | bytes) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_bytes(data if isinstance(data, bytes) else data.encode())
+    os.replace(tmp, path)
+
+
+def _savefig(fig: Any, path: Path) -> None:
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=100, format="png", metadata={"Software": None})
+    _write(path, buf.getvalue())
+
+
+def _slug(text: str) -> str:
+    return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in text).strip("_")
+
+
+def _plots(out: Path, suite: str, summaries: list[dict[str, Any]]) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    written = []
+    with_rot = [s for s in _ordered(summaries) if s["metrics"].get("rot_err_deg")]
+    if with_rot:
+        fig, ax = plt.subplots(figsize=(6, 4), constrained_layout=True)
+        for s in with_rot:
+            e = np.sort(np.asarray(s["metrics"]["rot_err_deg"], dtype=float))
+            e = e[np.isfinite(e)]
+            ax.step(e, np.arange(1, len(e) + 1) / len(e), where="post", label=label(s))
+        ax.set_xlabel("rotation error (deg, symmetry-aware)")
+        ax.set_ylabel("fraction of views")
+        ax.set_xlim(0, 180)
+        ax.set_ylim(0, 1)
+        ax.axvline(15, color="grey", lw=0.8, ls="--")
+        ax.legend(fontsize="small")
+        ax.set_title(f"{suite}: rotation-error CDF")
+        name = f"{suite}_rot_cdf.png"
+        _savefig(fig, out / name)
+        plt.close(fig)
+        written.append(name)
+    for s in _ordered(summaries):
+        conf = s["metrics"].get("confusion")
+        if not conf:
+            continue
+        c = np.asarray(conf, dtype=float)
+        fig, ax = plt.subplots(figsize=(5, 4.5), constrained_layout=True)
+        norm = c / np.maximum(c.sum(axis=1, keepdims=True), 1)
+        im = ax.imshow(norm, vmin=0, vmax=1, cmap="Blues")
+        ax.set_xlabel("predicted class")
+        ax.set_ylabel("true class")
+        cats = s.get("categories")
+        if cats and len(cats) == len(c):
+            ax.set_xticks(range(len(cats)), cats, rotation=90)
+            ax.set_yticks(range(len(cats)), cats)
+        fig.colorbar(im, ax=ax, shrink=0.8)
+        ax.set_title(f"{suite} / {label(s)}", fontsize="small")
+        name = f"{suite}_confusion_{_slug(label(s))}.png"
+        _savefig(fig, out / name)
+        plt.close(fig)
+        written.append(name)
+    return written
+
+
+def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> list[Path]:
+    """Rewrite ``out`` from the summaries under ``runs``; returns the suites' Markdown files.
+    Its own files (named after a suite) that no run produces any more are removed."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    by_suite: dict[str, list[dict[str, Any]]] = {}
+    for s in load_summaries(Path(runs)):
+        by_suite.setdefault(s["suite"], []).append(s)
+    keep: set[str] = {"README.md"}
+    written = []
+    index = [
+        "# Leaderboards",
+        "",
+        f"Generated by `beo-bench leaderboard --runs {runs}` from the run summaries (each "
+        "suite's JSON holds them, with provenance: git commit, package versions, machine, "
+        "seeds). Means with bootstrap 95% intervals in brackets. *Bounds* are not methods: "
+        "`oracle` returns the truth, `random` guesses. `class acc.` reads *given* where the "
+        "backend was told the class (the dissertation's ICP protocol).",
+        "",
+    ]
+    for suite, ss in sorted(by_suite.items()):
+        newest = max(s["suite_version"] for s in ss)
+        best: dict[str, dict[str, Any]] = {}
+        for s in ss:  # one row per backend and options: the largest run
+            if s["suite_version"] == newest and s["n"] > best.get(label(s), {}).get("n", -1):
+                best[label(s)] = s
+        rows = _ordered(list(best.values()))
+        plots = _plots(out, suite, rows)
+        desc = rows[0].get("provenance", {}).get("suite", {}).get("description", "")
+        md = [f"# {suite} (suite version {newest})", "", desc, "", suite_table(rows), ""]
+        md += [category_table(suite, rows), ""]
+        md += [*[f"![{p}]({p})" for p in plots], ""]
+        path = out / f"{suite}.md"
+        _write(path, "\n".join(md))
+        _write(out / f"{suite}.json", json.dumps(rows, indent=2, sort_keys=True) + "\n")
+        keep |= {path.name, f"{suite}.json", *plots}
+        written.append(path)
+        index += [f"## [{suite}]({suite}.md)", "", desc, "", suite_table(rows), ""]
+    _write(out / "README.md", "\n".join(index))
+    from beo_bench.bench.suites import list_suites
+
+    ours = tuple(list_suites())
+    for stale in out.iterdir():  # our files of suites or backends no longer in the runs
+        if stale.is_file() and stale.name.startswith(ours) and stale.name not in keep:
+            stale.unlink()
+    return written
