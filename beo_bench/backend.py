@@ -105,6 +105,17 @@ def get_backend(name: str, **kwargs: Any) -> PerceptionBackend:
     return backend
 
 
+def as_bool(x: object) -> bool:
+    """A boolean backend option, also from its command-line spelling (``--opt mesh=no``)."""
+    if isinstance(x, str):
+        if x.lower() in ("1", "true", "yes", "on"):
+            return True
+        if x.lower() in ("0", "false", "no", "off"):
+            return False
+        raise ValueError(f"expected a boolean (true/false), got {x!r}")
+    return bool(x)
+
+
 # -- the Estimate contract ------------------------------------------------------------------
 def validate_estimate(est: Any, view: View, atol: float = 1e-4) -> Estimate:
     """Check ``est`` against the ``Estimate`` contract for ``view``; raise
@@ -140,12 +151,30 @@ def validate_estimate(est: Any, view: View, atol: float = 1e-4) -> Estimate:
             raise EstimateError(f"pose_samples must be (N, 3, 3), got {S.shape}")
         if w is None or w.shape != (len(S),) or abs(w.sum() - 1) > atol or w.min() < -atol:
             raise EstimateError("pose_weights must be (N,) non-negative and sum to 1")
+    if est.mesh is not None:
+        V = np.asarray(getattr(est.mesh, "vertices", np.zeros((0, 3))))
+        F = np.asarray(getattr(est.mesh, "faces", np.zeros((0, 3))))
+        if V.ndim != 2 or V.shape[1:] != (3,) or len(V) == 0 or len(F) == 0:
+            raise EstimateError("mesh must be a trimesh.Trimesh with vertices and faces, or None")
+        if not np.all(np.isfinite(V)):
+            raise EstimateError("mesh vertices must be finite")
     return est
 
 
+def _arrays(e: Estimate) -> list[np.ndarray]:
+    out = [np.asarray(getattr(e, f)) for f in ("class_probs", "rotation", "translation", "size")]
+    out.append(np.asarray(e.shape))
+    for f in ("pose_samples", "pose_weights"):
+        if getattr(e, f) is not None:
+            out.append(np.asarray(getattr(e, f)))
+    if e.mesh is not None:
+        out += [np.asarray(e.mesh.vertices), np.asarray(e.mesh.faces)]
+    return out
+
+
 def _same(a: Estimate, b: Estimate) -> bool:
-    fields = ("class_probs", "rotation", "translation", "size", "shape")
-    return all(np.array_equal(np.asarray(getattr(a, f)), np.asarray(getattr(b, f))) for f in fields)
+    A, B = _arrays(a), _arrays(b)
+    return len(A) == len(B) and all(np.array_equal(x, y) for x, y in zip(A, B, strict=True))
 
 
 def check_backend(backend: PerceptionBackend, views: list[View] | None = None) -> None:

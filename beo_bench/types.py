@@ -160,6 +160,10 @@ class Estimate:
       ``ObjectInstance.voxels``;
     - ``pose_samples`` / ``pose_weights``: optional (N, 3, 3) rotations and (N,) weights
       summing to 1 (HBEO-MDN's samples);
+    - ``mesh``: optional explicit surface (a watertight ``trimesh.Trimesh``) in the canonical
+      frame at the estimated size (metres, not the unit cube), for backends that have one
+      (the oracle's true mesh, a CAD-retrieval method); grasp planning uses it instead of
+      marching cubes on ``shape``, which is still required and still scored;
     - ``info``: free-form extras (JSON-serialisable) a backend wants recorded.
     """
 
@@ -170,6 +174,7 @@ class Estimate:
     shape: FloatArray
     pose_samples: FloatArray | None = None
     pose_weights: FloatArray | None = None
+    mesh: Any | None = None
     info: dict[str, Any] | None = None
 
     @property

@@ -8,7 +8,7 @@ import numpy as np
 from beo_bench.perception.means import class_means
 from scipy.spatial.transform import Rotation
 
-from beo_bench.backend import register_backend
+from beo_bench.backend import as_bool, register_backend
 from beo_bench.errors import ViewError
 from beo_bench.objects import instance_from_key
 from beo_bench.types import Estimate, View
@@ -16,15 +16,18 @@ from beo_bench.types import Estimate, View
 
 @register_backend("oracle")
 class OracleBackend:
-    """Returns the ground truth (class one-hot, pose, size, the instance's own voxels): the
-    upper bound, and a check of the metrics and the grasp planner. Privileged: the runner
-    gives it the view's ``ground_truth``."""
+    """Returns the ground truth (class one-hot, pose, size, the instance's own voxels and,
+    with ``mesh`` (default), its exact mesh for grasp planning): the upper bound, and a check
+    of the metrics and the grasp planner. Privileged: the runner gives it the view's
+    ``ground_truth``. ``mesh=False`` makes the pick suite plan on its voxels like any other
+    backend (the ceiling of a D^3 shape)."""
 
     name = "oracle"
     privileged = True
 
-    def __init__(self, resolution: int = 32) -> None:
+    def __init__(self, resolution: int = 32, mesh: bool = True) -> None:
         self.resolution = int(resolution)
+        self.mesh = as_bool(mesh)
 
     def predict(self, view: View) -> Estimate:
         gt = view.ground_truth
@@ -32,8 +35,10 @@ class OracleBackend:
             raise ViewError("the oracle needs View.ground_truth (the runner fills it for it)")
         p = np.zeros(len(view.categories))
         p[gt.class_index] = 1.0
-        shape = instance_from_key(gt.key).voxels(self.resolution).astype(np.float32)
-        return Estimate(p, np.array(gt.R_cam), np.array(gt.t_cam), np.array(gt.size), shape)
+        inst = instance_from_key(gt.key)
+        shape = inst.voxels(self.resolution).astype(np.float32)
+        R, t, size = np.array(gt.R_cam), np.array(gt.t_cam), np.array(gt.size)
+        return Estimate(p, R, t, size, shape, mesh=inst.mesh if self.mesh else None)
 
 
 @register_backend("random")

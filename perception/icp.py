@@ -58,7 +58,7 @@ from beo_bench.perception.means import ClassMeans, class_means
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from beo_bench.backend import register_backend
+from beo_bench.backend import as_bool, register_backend
 from beo_bench.errors import ViewError
 from beo_bench.types import Estimate, Mat3, Points, View
 
@@ -441,13 +441,13 @@ class ICPBackend:
         model_points: int = 800,
         free_space: float = 1.0,
     ) -> None:
-        self.class_given = _as_bool(class_given)
+        self.class_given = as_bool(class_given)
         self.resolution = int(resolution)
         self.mean_instances = None if mean_instances is None else int(mean_instances)
         self.starts = int(starts)
         self.iterations = int(iterations)
         self.trim = float(trim)
-        self.point_to_plane = _as_bool(point_to_plane)
+        self.point_to_plane = as_bool(point_to_plane)
         self.max_points = int(max_points)
         self.coarse_points = int(coarse_points)
         self.refine_starts = int(refine_starts)
@@ -627,14 +627,3 @@ def _orthonormalise(R: np.ndarray) -> Mat3:
     U, _, Vt = np.linalg.svd(R)
     D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
     return U @ D @ Vt
-
-
-def _as_bool(x: object) -> bool:
-    """``--opt class_given=false`` arrives as a string."""
-    if isinstance(x, str):
-        if x.lower() in ("1", "true", "yes", "on"):
-            return True
-        if x.lower() in ("0", "false", "no", "off"):
-            return False
-        raise ValueError(f"expected a boolean, got {x!r}")
-    return bool(x)

@@ -15,7 +15,7 @@ from beo_bench.errors import BackendError, EstimateError, ViewError
 from beo_bench.types import Estimate, View
 
 # keep the class means small in tests (the default uses the whole train split)
-FAST = {"random": {"mean_instances": 4}}
+FAST = {"random": {"mean_instances": 4}, "icp": {"mean_instances": 4}}
 
 
 @pytest.fixture(scope="module")
@@ -24,10 +24,10 @@ def views() -> list[View]:
 
 
 def test_in_tree_backends_are_listed() -> None:
-    assert {"oracle", "random"} <= set(B.list_backends())
+    assert {"oracle", "random", "icp"} <= set(B.list_backends())
 
 
-@pytest.mark.parametrize("name", ["oracle", "random"])
+@pytest.mark.parametrize("name", B.list_backends())
 def test_every_registered_backend_conforms(name, views) -> None:
     B.check_backend(B.get_backend(name, **FAST.get(name, {})), views)
 

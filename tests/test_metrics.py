@@ -397,3 +397,34 @@ def test_bootstrap_ci() -> None:
     assert M.bootstrap_ci([2.0, 2.0, 2.0]) == (2.0, 2.0)
     with pytest.raises(ValueError, match="1-D"):
         M.bootstrap_ci(np.ones((2, 2)))
+
+
+# --------------------------------------------------------------------------- symmetric truth
+
+
+def test_closest_symmetric_pose_is_the_truth_the_error_measures() -> None:
+    for sym in (no_symmetry(), cyclic_z(4), continuous_symmetry()):
+        for A, B in zip(RANDOM[:6], RANDOM[6:12], strict=True):
+            Rs = M.closest_symmetric_pose(A, B, sym)
+            assert _angle_deg(A, Rs) == pytest.approx(M.rotation_error(A, B, sym), abs=1e-6)
+            # it is the truth moved by a symmetry element: same error against it as B
+            assert M.rotation_error(Rs, B, sym) == pytest.approx(0.0, abs=1e-6)
+    # a 4-fold object estimated 90 degrees off: the nearest symmetric truth is the estimate
+    R = RANDOM[0]
+    np.testing.assert_allclose(
+        M.closest_symmetric_pose(R @ _rz(90), R, cyclic_z(4)), R @ _rz(90), atol=1e-9
+    )
+
+
+def test_viewpoint_bin_accuracy_matches_the_rotation_form_and_counts_nan_as_wrong() -> None:
+    E, G = RANDOM[:10], RANDOM[10:]
+    ve = np.array([M.viewpoint(r) for r in E])
+    vg = np.array([M.viewpoint(r) for r in G])
+    for n_az, n_el in ((4, 4), (8, 6), (24, 12)):
+        want = M.bin_accuracy(E, G, n_az, n_el)
+        assert M.viewpoint_bin_accuracy(ve, vg, n_az, n_el) == want
+    same = M.viewpoint_bin_accuracy(vg, vg, 24, 12)
+    assert same == {"azimuth": 1.0, "elevation": 1.0, "both": 1.0}
+    failed = vg.copy()
+    failed[0] = np.nan  # a failed estimate has no viewpoint: wrong in every bin
+    assert M.viewpoint_bin_accuracy(failed, vg, 4, 4)["both"] == pytest.approx(0.9)

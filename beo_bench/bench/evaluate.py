@@ -32,6 +32,11 @@ def item_rng(suite: Suite, index: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence([suite.seed, index]))
 
 
+def episode_seed(suite: Suite, index: int) -> int:
+    """The BEOPick-v0 ``reset`` seed of item ``index`` of a tabletop or pick suite."""
+    return int(item_rng(suite, index).integers(2**31))
+
+
 def surface_points(grid: np.ndarray, threshold: float = 0.5) -> np.ndarray:
     """Centres of a grid's filled voxels that touch an empty 6-neighbour, in the unit cube
     [-0.5, 0.5]^3 (the canonical frame scaled by the largest extent)."""
@@ -114,7 +119,7 @@ class Evaluator:
         if self.suite.kind == "isolated":
             return [self.isolated_view(index)]
         env = self._pick_env()
-        obs, _ = env.reset(seed=int(item_rng(self.suite, index).integers(2**31)))
+        obs, _ = env.reset(seed=episode_seed(self.suite, index))
         return self._views_of_scene(obs, env)
 
     def run_item(self, index: int) -> list[dict[str, Any]]:
@@ -254,13 +259,17 @@ class Evaluator:
 
     # -- pick ------------------------------------------------------------------------------
     def _pick(self, index: int) -> dict[str, Any]:
+        """One BEOPick-v0 episode decided from the backend's estimates of every visible
+        object: the target is the object with the highest probability of the asked class;
+        the grasp is planned on its estimated surface (``Estimate.mesh``, else marching cubes
+        on ``shape``) placed by its estimated pose and size, with the other objects'
+        estimated surfaces as obstacles (their observed points where the backend failed);
+        the env executes the best grasp once."""
         from beo_bench.grasping import plan_grasps
 
         env = self._pick_env()
-        obs, _ = env.reset(seed=int(item_rng(self.suite, index).integers(2**31)))
+        obs, _ = env.reset(seed=episode_seed(self.suite, index))
         target = int(obs["target_class"])
-        target_label = env.target_label
-        views = self._views_of_scene(obs, env)
         row: dict[str, Any] = {
             "item": index,
             "view": 0,
@@ -268,39 +277,38 @@ class Evaluator:
             "true_class": target,
             "failure": None,
         }
-        best, best_p, chosen, total = None, -1.0, None, 0.0
-        failures = []
-        label_of = {}
+        views = self._views_of_scene(obs, env)
+        estimates, total, failures = [], 0.0, []
         for v, gt in views:
-            label = int(np.asarray(v.segmentation)[np.asarray(v.mask)][0])
             est, seconds, failure = self._predict(v, gt)
+            estimates.append(est)
             total += seconds
-            if est is None:
+            if failure:
                 failures.append(failure)
-                continue
-            label_of[id(est)] = label
-            p = float(est.class_probs[target])
-            if p > best_p:
-                best, best_p, chosen = est, p, (v, gt)
         row["ms"] = 1000 * total / max(len(views), 1)  # per view, as in the other suites
         row["ms_decision"] = 1000 * total  # every view of the scene: one pick decision
         row["views"] = len(views)
-        if best is None or chosen is None:
+        scores = [-1.0 if e is None else float(e.class_probs[target]) for e in estimates]
+        if not views or max(scores) < 0:
             row.update(success=False, reason="no_estimate", failure=(failures or [None])[0])
             return row
-        label = label_of[id(best)]
+        k = int(np.argmax(scores))  # ties: the first, in label order
+        best, (chosen, chosen_gt) = estimates[k], views[k]
+        assert best is not None
+        label = int(np.asarray(chosen.segmentation)[np.asarray(chosen.mask)][0])
         row["chosen_label"] = label
-        row["chosen_is_target"] = label == target_label
-        row["chosen_category"] = chosen[1].category
-        mesh = estimate_mesh(best, obs["cam_to_world"])
-        obstacles = [
-            (v.points() @ v.cam_to_world[:3, :3].T + v.cam_to_world[:3, 3])
-            for v, _ in views
-            if v is not chosen[0]
-        ]
+        row["chosen_is_target"] = label == env.target_label
+        row["chosen_category"] = chosen_gt.category
+        cam_to_world = np.asarray(obs["cam_to_world"], dtype=np.float64)
+        mesh = estimate_mesh(best, cam_to_world)
         if mesh is None:
             row.update(success=False, reason="empty_shape")
             return row
+        obstacles = [
+            obstacle_points(e, v, cam_to_world)
+            for j, (e, (v, _)) in enumerate(zip(estimates, views, strict=True))
+            if j != k
+        ]
         grasps = plan_grasps(
             mesh, env.table.table_height, np.concatenate(obstacles) if obstacles else None
         )
@@ -312,20 +320,51 @@ class Evaluator:
         return row
 
 
-def estimate_mesh(est: Estimate, cam_to_world: np.ndarray) -> Any:
-    """The estimate's shape as a world-frame mesh: marching cubes at 0.5 on the occupancy
-    grid, scaled by the estimated size (the grid's unit cube edge is the largest extent),
-    placed by the estimated pose, then by ``cam_to_world``. ``None`` when the grid is empty."""
+def local_mesh(est: Estimate) -> Any:
+    """The estimate's surface in its canonical frame (metres): ``Estimate.mesh`` when given,
+    else marching cubes at 0.5 on the occupancy grid scaled by the estimated size (the
+    grid's unit-cube edge is the largest extent). ``None`` when the grid is empty."""
     import trimesh
     from skimage.measure import marching_cubes
 
+    if est.mesh is not None:
+        return est.mesh
     g = np.pad(np.asarray(est.shape, dtype=np.float32), 1)
     if g.max() < 0.5:
         return None
     verts, faces, _, _ = marching_cubes(g, 0.5)
     D = g.shape[0] - 2
     unit = (verts - 1 + 0.5) / D - 0.5  # voxel index space -> unit cube centred at 0
-    local = unit * float(np.max(est.size))
-    cam = local @ np.asarray(est.rotation).T + np.asarray(est.translation)
-    world = cam @ cam_to_world[:3, :3].T + cam_to_world[:3, 3]
-    return trimesh.Trimesh(world, faces, process=False)  # the planner fixes orientation
+    return trimesh.Trimesh(unit * float(np.max(est.size)), faces, process=False)
+
+
+def _to_world(points: np.ndarray, est: Estimate, cam_to_world: np.ndarray) -> np.ndarray:
+    cam = points @ np.asarray(est.rotation).T + np.asarray(est.translation)
+    return cam @ cam_to_world[:3, :3].T + cam_to_world[:3, 3]
+
+
+def estimate_mesh(est: Estimate, cam_to_world: np.ndarray) -> Any:
+    """The estimate's surface (:func:`local_mesh`) placed by its pose, then by
+    ``cam_to_world``: a world-frame mesh (``None`` when the shape is empty)."""
+    import trimesh
+
+    mesh = local_mesh(est)
+    if mesh is None:
+        return None
+    world = _to_world(np.asarray(mesh.vertices), est, cam_to_world)
+    return trimesh.Trimesh(world, mesh.faces, process=False)  # the planner fixes orientation
+
+
+def obstacle_points(est: Estimate | None, view: View, cam_to_world: np.ndarray) -> np.ndarray:
+    """World points that a grasp of another object must avoid: ``SURFACE_SAMPLES`` samples
+    of this object's estimated surface, placed by its estimate (the same samples the
+    ground-truth planner takes of a true mesh), or its observed points when there is no
+    estimate or the shape is empty."""
+    from beo_bench.objects.instance import SURFACE_SAMPLES
+    from beo_bench.objects.processing import surface_samples
+
+    mesh = local_mesh(est) if est is not None else None
+    if est is None or mesh is None:
+        return view.points() @ cam_to_world[:3, :3].T + cam_to_world[:3, 3]
+    points, _ = surface_samples(mesh, SURFACE_SAMPLES, seed=0)
+    return _to_world(points, est, cam_to_world)
