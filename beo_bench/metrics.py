@@ -70,6 +70,7 @@ __all__ = [
     "rotation_error",
     "runtime_stats",
     "size_error",
+    "surface_scores",
     "symmetry_rotations",
     "translation_error",
     "viewpoint",
@@ -562,6 +563,35 @@ def fscore(points_pred: ArrayLike, points_gt: ArrayLike, tau: float = 0.01) -> f
     if precision + recall == 0:
         return 0.0
     return 2.0 * precision * recall / (precision + recall)
+
+
+def surface_scores(
+    points_pred: ArrayLike, points_gt: ArrayLike, tau: float = 0.01
+) -> dict[str, float]:
+    """:func:`chamfer_l1` and :func:`fscore` (with its precision and recall) from one pair
+    of nearest-neighbour queries: ``{"chamfer_l1", "fscore", "precision", "recall"}``.
+    Same conventions and edge cases as those two functions."""
+    p, g = _points(points_pred, "points_pred"), _points(points_gt, "points_gt")
+    if tau <= 0:
+        raise ValueError(f"tau must be positive, got {tau}")
+    if len(p) == 0 or len(g) == 0:
+        same = len(p) == len(g)
+        return {
+            "chamfer_l1": 0.0 if same else float("inf"),
+            "fscore": 1.0 if same else 0.0,
+            "precision": 1.0 if same else 0.0,
+            "recall": 1.0 if same else 0.0,
+        }
+    d_pg = cKDTree(g).query(p)[0]
+    d_gp = cKDTree(p).query(g)[0]
+    precision, recall = float(np.mean(d_pg < tau)), float(np.mean(d_gp < tau))
+    f = 2.0 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
+    return {
+        "chamfer_l1": float(0.5 * (d_pg.mean() + d_gp.mean())),
+        "fscore": f,
+        "precision": precision,
+        "recall": recall,
+    }
 
 
 def _pose(pose: Any, name: str) -> tuple[np.ndarray, np.ndarray]:

@@ -428,3 +428,14 @@ def test_viewpoint_bin_accuracy_matches_the_rotation_form_and_counts_nan_as_wron
     failed = vg.copy()
     failed[0] = np.nan  # a failed estimate has no viewpoint: wrong in every bin
     assert M.viewpoint_bin_accuracy(failed, vg, 4, 4)["both"] == pytest.approx(0.9)
+
+
+def test_surface_scores_agree_with_chamfer_and_fscore() -> None:
+    rng = np.random.default_rng(3)
+    a, b = rng.uniform(-0.5, 0.5, (300, 3)), rng.uniform(-0.5, 0.5, (200, 3))
+    for tau in (0.01, 0.05, 0.2):
+        s = M.surface_scores(a, b, tau)
+        assert s["chamfer_l1"] == pytest.approx(M.chamfer_l1(a, b))
+        assert s["fscore"] == pytest.approx(M.fscore(a, b, tau))
+    assert M.surface_scores(np.zeros((0, 3)), b)["fscore"] == 0.0
+    assert M.surface_scores(a, a)["fscore"] == 1.0 and M.surface_scores(a, a)["chamfer_l1"] == 0
