@@ -30,8 +30,15 @@ _IN_TREE = (
 class PerceptionBackend(Protocol):
     """Estimates class, pose, size and shape of the object in one segmented depth view.
 
-    ``privileged`` (optional attribute, default False): the runner gives the view's
-    ``ground_truth`` only to backends that set it (the ``oracle`` bound).
+    Optional members the runner honours:
+
+    - ``privileged`` (default False): the runner gives the view's ``ground_truth`` only to
+      backends that set it (the ``oracle`` bound);
+    - ``wants_class_hint`` (default False): ask for ``View.class_hint`` (given only by suites
+      that allow it, see ``Suite.class_hint``);
+    - ``prepare(categories)``: build or load what is slow (trained models, class means) for
+      that class list, caching it on disk; the runner calls it once in its own process before
+      workers start, so they do not all build it at once.
     """
 
     name: str
@@ -114,6 +121,13 @@ def as_bool(x: object) -> bool:
             return False
         raise ValueError(f"expected a boolean (true/false), got {x!r}")
     return bool(x)
+
+
+def prepare_backend(backend: PerceptionBackend, categories: tuple[str, ...]) -> None:
+    """Call the backend's optional ``prepare(categories)`` (see :class:`PerceptionBackend`)."""
+    prep = getattr(backend, "prepare", None)
+    if callable(prep):
+        prep(tuple(categories))
 
 
 # -- the Estimate contract ------------------------------------------------------------------

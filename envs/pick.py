@@ -123,7 +123,7 @@ class BEOPickEnv(gym.Env):
             raise EnvConfigError(f"BEOPick-v0: {e}") from e
         cats = tuple(categories) if categories is not None else self.objects.categories
         if objects is None and categories is None:
-            cats = tuple(c for c in registered_categories() if _pickable(c))
+            cats = default_categories()
         missing = [c for c in cats if c not in self.objects.categories]
         if missing:
             raise EnvConfigError(
@@ -336,6 +336,12 @@ class BEOPickEnv(gym.Env):
 def _copy(obs: dict[str, Any]) -> dict[str, Any]:
     # users keep what they are given: never hand out the env's own arrays
     return {k: v.copy() if isinstance(v, np.ndarray) else v for k, v in obs.items()}
+
+
+def default_categories() -> tuple[str, ...]:
+    """The env's default ``categories`` (the ``target_class`` list): every registered
+    category meant to be picked."""
+    return tuple(c for c in registered_categories() if _pickable(c))
 
 
 def _pickable(category: str) -> bool:

@@ -60,6 +60,12 @@ class RandomBackend:
         h.update(np.packbits(np.asarray(view.mask, dtype=bool)).tobytes())
         return np.random.default_rng([self.seed, int.from_bytes(h.digest()[:8], "little")])
 
+    def prepare(self, categories: tuple[str, ...]) -> None:
+        """Compute (or load) the class means once, with a progress bar."""
+        cats = tuple(categories)
+        if cats not in self._means:
+            self._means[cats] = class_means(cats, self.resolution, self.mean_instances, True)
+
     def predict(self, view: View) -> Estimate:
         pts = view.points()
         if len(pts) == 0:

@@ -468,10 +468,14 @@ class ICPBackend:
         self._surfaces: dict[tuple[tuple[str, ...], int], MeanSurface] = {}
 
     # -- models -------------------------------------------------------------------------
-    def _class_means(self, cats: tuple[str, ...]) -> ClassMeans:
+    def _class_means(self, cats: tuple[str, ...], progress: bool = False) -> ClassMeans:
         if cats not in self._means:
-            self._means[cats] = class_means(cats, self.resolution, self.mean_instances)
+            self._means[cats] = class_means(cats, self.resolution, self.mean_instances, progress)
         return self._means[cats]
+
+    def prepare(self, categories: tuple[str, ...]) -> None:
+        """Compute (or load) the class means once, with a progress bar."""
+        self._class_means(tuple(categories), progress=True)
 
     def surface(self, cats: tuple[str, ...], c: int) -> MeanSurface:
         """The mean surface of class ``c`` of ``cats`` (built on first use, then kept)."""

@@ -7,11 +7,13 @@ The ``random`` bound predicts them, ``icp`` aligns observations to them. Compute
 from __future__ import annotations
 
 import hashlib
+import multiprocessing as mp
 from dataclasses import dataclass
 
 import numpy as np
 
 from beo_bench.objects import ObjectSet, cache
+from beo_bench.objects.prepare import prepare
 
 MEANS_VERSION = 1
 
@@ -27,10 +29,15 @@ class ClassMeans:
 
 
 def class_means(
-    categories: tuple[str, ...], resolution: int = 32, per_category: int | None = None
+    categories: tuple[str, ...],
+    resolution: int = 32,
+    per_category: int | None = None,
+    progress: bool = False,
 ) -> ClassMeans:
     """Means over the first ``per_category`` (default: all) ``train`` instances of each
-    category."""
+    category. The first call voxelises the training instances in worker processes (one per
+    core; in this process inside a daemonic worker, which may not start children) and
+    caches the result."""
     settings = {
         "version": MEANS_VERSION,
         "categories": list(categories),
@@ -41,6 +48,10 @@ def class_means(
 
     def compute() -> dict[str, np.ndarray]:
         objects = ObjectSet("train", categories, per_category=per_category)
+        # instances are generated and voxelised in parallel (and their meshes, samples and
+        # parts cached for later); the means below then read the disk cache
+        workers = 1 if mp.current_process().daemon else None
+        prepare(objects, D=resolution, workers=workers, progress=progress)
         shapes, sizes = [], []
         for c in categories:
             insts = objects.instances(c)

@@ -243,3 +243,29 @@ def test_all_runs_every_pair_and_writes_the_leaderboard(tmp_path) -> None:
     assert main(argv) == 0
     assert (runs / "pose-1dof__oracle" / "results.jsonl").read_bytes() == before
     assert (board / "pose-1dof.md").read_text().split("ms/view")[0] == md.split("ms/view")[0]
+
+
+def test_prepare_runs_once_before_the_items_with_the_suite_classes(tmp_path) -> None:
+    calls: list[tuple[str, ...]] = []
+
+    @B.register_backend("test-prepared")
+    class Prepared:
+        name = "test-prepared"
+
+        def __init__(self) -> None:
+            self.inner = B.get_backend("random", **FAST_RANDOM)
+
+        def prepare(self, categories: tuple[str, ...]) -> None:
+            calls.append(categories)
+
+        def predict(self, view):
+            return self.inner.predict(view)
+
+    try:
+        _run(tmp_path, "pick", "test-prepared", 1, workers=1)
+        _run(tmp_path, "pick", "test-prepared", 1, workers=1, resume=True)  # nothing to do
+    finally:
+        B._REGISTRY.pop("test-prepared", None)
+    from beo_bench.envs.pick import default_categories
+
+    assert calls == [default_categories()]

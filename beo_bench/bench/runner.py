@@ -263,7 +263,7 @@ def provenance(cfg: RunConfig) -> dict[str, Any]:
         except md.PackageNotFoundError:
             return None
 
-    commit, dirty = _git("rev-parse", "HEAD"), _git("status", "--porcelain")
+    commit, dirty = _git("rev-parse", "HEAD"), _git("status", "--porcelain", "--untracked-files=no")
     return {
         "git_commit": commit or None,
         "git_dirty": bool(dirty) if commit else None,
@@ -280,6 +280,25 @@ def provenance(cfg: RunConfig) -> dict[str, Any]:
         "suite": asdict(cfg.suite),
         "backend_kwargs": cfg.backend_kwargs,
     }
+
+
+def suite_categories(suite: Suite) -> tuple[str, ...]:
+    """The class list a suite's views carry (``View.categories``)."""
+    if suite.kind == "isolated":
+        from beo_bench.objects import ObjectSet
+
+        return ObjectSet(suite.split).categories
+    from beo_bench.envs.pick import default_categories
+
+    return default_categories()
+
+
+def _prepare(cfg: RunConfig) -> None:
+    """The backend's one-time set-up, here, before workers start (they then load it)."""
+    from beo_bench.backend import get_backend, load_plugins, prepare_backend
+
+    load_plugins()
+    prepare_backend(get_backend(cfg.backend, **cfg.backend_kwargs), suite_categories(cfg.suite))
 
 
 def run(
@@ -324,6 +343,8 @@ def run(
     write_json_atomic(meta_path, meta)
     done = {r["item"] for r in read_rows(results, repair=True) if r["item"] < cfg.suite.size}
     todo = [i for i in range(cfg.suite.size) if i not in done]
+    if todo:
+        _prepare(cfg)
     t0 = time.perf_counter()
     source = _ray_results if use_ray else _results
     bar = tqdm(

@@ -85,6 +85,21 @@ def grid_centres(D: int, extent: float) -> np.ndarray:
     return np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
 
 
+def contains(mesh: trimesh.Trimesh, points: np.ndarray) -> np.ndarray:
+    """``mesh.contains(points)`` without leaving an Embree scene on the mesh.
+
+    Each trimesh mesh owns a ray intersector that caches an Embree scene on its own Embree
+    device. A process that keeps about a thousand instances in memory (a worker processing a
+    whole training split) segfaulted inside Embree when creating the next device, so the
+    scene is released after every test (rebuilding it costs about a millisecond)."""
+    try:
+        return np.asarray(mesh.contains(points), dtype=bool)
+    finally:
+        cache = getattr(getattr(mesh, "ray", None), "_cache", None)
+        if cache is not None:
+            cache.clear()
+
+
 def voxelize(
     mesh: trimesh.Trimesh, D: int = DEFAULT_RESOLUTION, extent: float | None = None
 ) -> BoolGrid:
@@ -97,7 +112,7 @@ def voxelize(
     """
     if extent is None:
         extent = float(mesh.extents.max())
-    inside = mesh.contains(grid_centres(D, extent))
+    inside = contains(mesh, grid_centres(D, extent))
     return inside.reshape(D, D, D)
 
 
@@ -165,8 +180,8 @@ def rotation_iou(mesh: trimesh.Trimesh, T: np.ndarray, n: int = 40000, seed: int
     half = float(np.abs(mesh.bounds).max()) * 1.05
     p = rng.uniform(-half, half, size=(n, 3))
     inv = np.linalg.inv(T4)
-    a = mesh.contains(p)
-    b = mesh.contains(p @ inv[:3, :3].T + inv[:3, 3])  # p in T(mesh) iff T^-1 p in mesh
+    a = contains(mesh, p)
+    b = contains(mesh, p @ inv[:3, :3].T + inv[:3, 3])  # p in T(mesh) iff T^-1 p in mesh
     union = int((a | b).sum())
     return float((a & b).sum() / union) if union else 1.0
 
@@ -222,7 +237,7 @@ def estimate_symmetry(
         k = np.round(R, 6).tobytes()
         if k not in memo:
             # row-vector form of T^-1 p = R^T (p - c) + c
-            x = float(mesh.contains(rel @ R + centre).mean())
+            x = float(contains(mesh, rel @ R + centre).mean())
             memo[k] = x / (2.0 - x) >= threshold
         return memo[k]
 
@@ -255,7 +270,7 @@ def _inside_samples(mesh: trimesh.Trimesh, n: int, seed: int) -> np.ndarray:
     fill = float(mesh.volume) / float(np.prod(np.maximum(hi - lo, 1e-12)))
     m = int(min(n / max(fill, 0.01) * 1.2, 60_000))
     p = rng.uniform(lo, hi, size=(m, 3))
-    return p[mesh.contains(p)][:n]
+    return p[contains(mesh, p)][:n]
 
 
 def pack_symmetry(symmetry: Symmetry) -> dict[str, np.ndarray]:
