@@ -234,15 +234,7 @@ def sample_views(n: int = 2, categories: tuple[str, ...] | None = None) -> list[
         for i in range(n):
             inst = objects.get(cats[i % len(cats)], i)
             v = r.render(inst, OBJECT_RIG.sample(rng, np.zeros(3)))
-            gt = GroundTruth(
-                category=inst.category,
-                class_index=cats.index(inst.category),
-                key=inst.key,
-                symmetry=inst.symmetry,
-                R_cam=v.R_cam,
-                t_cam=v.t_cam,
-                size=np.asarray(inst.size, dtype=np.float64),
-            )
+            gt = GroundTruth.of(inst, cats, v.R_cam, v.t_cam)
             out.append(
                 View(
                     v.depth,

@@ -90,6 +90,20 @@ class GroundTruth:
     size: Vec3
     """(3,) canonical bounding-box extents (m)."""
 
+    @classmethod
+    def of(cls, obj: Any, categories: tuple[str, ...], R_cam: Mat3, t_cam: Vec3) -> GroundTruth:
+        """The truth about ``obj`` (anything with ``category``, ``key``, ``symmetry`` and
+        ``size``: an ``ObjectInstance`` or an ``ObjectState``) seen at (R_cam, t_cam)."""
+        return cls(
+            category=obj.category,
+            class_index=categories.index(obj.category),
+            key=obj.key,
+            symmetry=obj.symmetry,
+            R_cam=np.asarray(R_cam, dtype=np.float64),
+            t_cam=np.asarray(t_cam, dtype=np.float64),
+            size=np.asarray(obj.size, dtype=np.float64),
+        )
+
 
 @dataclass(frozen=True)
 class View:

@@ -199,15 +199,7 @@ class Evaluator:
         inst = self._objects.get(cat, int(rng.integers(self._objects.count(cat))))
         T = r.rig.sample(rng, np.zeros(3))
         iv = r.render(inst, T, self._noise, rng)
-        gt = GroundTruth(
-            category=cat,
-            class_index=cats.index(cat),
-            key=inst.key,
-            symmetry=inst.symmetry,
-            R_cam=iv.R_cam,
-            t_cam=iv.t_cam,
-            size=np.asarray(inst.size, dtype=np.float64),
-        )
+        gt = GroundTruth.of(inst, cats, iv.R_cam, iv.t_cam)
         cam_to_world = iv.cam_to_world
         if s.protocol == "3dof":
             # a random world frame: cam_to_world must not reveal the object's up
@@ -238,15 +230,7 @@ class Evaluator:
                 categories=cats,
                 segmentation=obs["segmentation"],
             )
-            gt = GroundTruth(
-                category=g.category,
-                class_index=cats.index(g.category),
-                key=g.key,
-                symmetry=g.symmetry,
-                R_cam=g.R_cam,
-                t_cam=g.t_cam,
-                size=g.size,
-            )
+            gt = GroundTruth.of(g, cats, g.R_cam, g.t_cam)
             out.append((view, gt))
         return out
 

@@ -116,18 +116,24 @@ def _pick(M: _Metrics, rows: list[dict[str, Any]]) -> None:
         M.mean("target_found_rate", np.array(chosen, dtype=np.float64))
 
 
+def _collect(suite: Suite, rows: list[dict[str, Any]]) -> _Metrics:
+    """The metrics a suite measures, over ``rows``."""
+    M = _Metrics()
+    if suite.kind == "pick":
+        _pick(M, rows)
+        return M
+    _classes(M, rows)
+    if suite.protocol != "known-pose":
+        _pose(M, rows)
+    _completion(M, rows)
+    return M
+
+
 def _per_category(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
     for cat in sorted({r["category"] for r in rows}):
         sub = [r for r in rows if r["category"] == cat]
-        M = _Metrics()
-        if suite.kind == "pick":
-            _pick(M, sub)
-        else:
-            _classes(M, sub)
-            if suite.protocol != "known-pose":
-                _pose(M, sub)
-            _completion(M, sub)
+        M = _collect(suite, sub)
         keep = ("pick_success", "class_acc", "rot_err_deg_mean", "rot_err_deg_median",
                 "gross_err_rate", "iou_mean", "fscore_mean")  # fmt: skip
         out[cat] = {"n": len(sub), **{k: M.m[k] for k in keep if k in M.m}}
@@ -137,14 +143,7 @@ def _per_category(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, dict[st
 def summarise(suite: Suite, backend: str, rows: list[dict[str, Any]]) -> dict[str, Any]:
     """The summary of a run's rows (sorted by item and view, so it does not depend on the
     order in which workers finished)."""
-    M = _Metrics()
-    if suite.kind == "pick":
-        _pick(M, rows)
-    else:
-        _classes(M, rows)
-        if suite.protocol != "known-pose":
-            _pose(M, rows)
-        _completion(M, rows)
+    M = _collect(suite, rows)
     stats = metrics.runtime_stats(_col(rows, "ms", None) / 1000.0)
     if stats["n"]:
         M.m["ms_per_view_median"] = stats["ms_median"]
