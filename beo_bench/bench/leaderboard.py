@@ -11,13 +11,13 @@ largest run is shown. Only the newest suite version present is tabulated.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from beo_bench.bench.campaign import backend_label
+from beo_bench.bench.runner import write_atomic
 
 BOUNDS = {"oracle": "upper bound", "random": "lower bound"}
 Column = tuple[str, str, float, str]
@@ -117,18 +117,12 @@ def category_table(suite: str, summaries: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def _write(path: Path, data: str | bytes) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_bytes(data if isinstance(data, bytes) else data.encode())
-    os.replace(tmp, path)
-
-
 def _savefig(fig: Any, path: Path) -> None:
     import io
 
     buf = io.BytesIO()
     fig.savefig(buf, dpi=100, format="png", metadata={"Software": None})
-    _write(path, buf.getvalue())
+    write_atomic(path, buf.getvalue())
 
 
 def _slug(text: str) -> str:
@@ -216,12 +210,12 @@ def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> l
         md += [category_table(suite, rows), ""]
         md += [*[f"![{p}]({p})" for p in plots], ""]
         path = out / f"{suite}.md"
-        _write(path, "\n".join(md))
-        _write(out / f"{suite}.json", json.dumps(rows, indent=2, sort_keys=True) + "\n")
+        write_atomic(path, "\n".join(md))
+        write_atomic(out / f"{suite}.json", json.dumps(rows, indent=2, sort_keys=True) + "\n")
         keep |= {path.name, f"{suite}.json", *plots}
         written.append(path)
         index += [f"## [{suite}]({suite}.md)", "", desc, "", suite_table(rows), ""]
-    _write(out / "README.md", "\n".join(index))
+    write_atomic(out / "README.md", "\n".join(index))
     from beo_bench.bench.suites import list_suites
 
     ours = tuple(list_suites())

@@ -93,16 +93,16 @@ class ResultsWriter:
         self.close()
 
 
-def append_rows(path: Path, rows: list[dict[str, Any]]) -> None:
-    """Append one item's rows (one write, then fsync)."""
-    with ResultsWriter(path) as w:
-        w.append(rows)
+def write_atomic(path: Path, data: str | bytes) -> None:
+    """Write a whole file through a temporary one and a rename: readers (and a resumed
+    run) see the old file or the new one, never half of one."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_bytes(data if isinstance(data, bytes) else data.encode())
+    os.replace(tmp, path)
 
 
 def write_json_atomic(path: Path, obj: Any) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(obj, indent=2, sort_keys=True, default=_jsonable) + "\n")
-    os.replace(tmp, path)
+    write_atomic(path, json.dumps(obj, indent=2, sort_keys=True, default=_jsonable) + "\n")
 
 
 def _jsonable(o: Any) -> Any:
