@@ -536,12 +536,7 @@ def chamfer_l1(points_a: ArrayLike, points_b: ArrayLike) -> float:
 
     One set empty: inf; both empty: 0.
     """
-    a, b = _points(points_a, "points_a"), _points(points_b, "points_b")
-    if len(a) == 0 or len(b) == 0:
-        return 0.0 if len(a) == len(b) else float("inf")
-    d_ab = cKDTree(b).query(a)[0]
-    d_ba = cKDTree(a).query(b)[0]
-    return float(0.5 * (d_ab.mean() + d_ba.mean()))
+    return surface_scores(points_a, points_b)["chamfer_l1"]
 
 
 def fscore(points_pred: ArrayLike, points_gt: ArrayLike, tau: float = 0.01) -> float:
@@ -553,24 +548,15 @@ def fscore(points_pred: ArrayLike, points_gt: ArrayLike, tau: float = 0.01) -> f
 
     One set empty: 0; both empty: 1.
     """
-    p, g = _points(points_pred, "points_pred"), _points(points_gt, "points_gt")
-    if tau <= 0:
-        raise ValueError(f"tau must be positive, got {tau}")
-    if len(p) == 0 or len(g) == 0:
-        return 1.0 if len(p) == len(g) else 0.0
-    precision = float(np.mean(cKDTree(g).query(p)[0] < tau))
-    recall = float(np.mean(cKDTree(p).query(g)[0] < tau))
-    if precision + recall == 0:
-        return 0.0
-    return 2.0 * precision * recall / (precision + recall)
+    return surface_scores(points_pred, points_gt, tau)["fscore"]
 
 
 def surface_scores(
     points_pred: ArrayLike, points_gt: ArrayLike, tau: float = 0.01
 ) -> dict[str, float]:
     """:func:`chamfer_l1` and :func:`fscore` (with its precision and recall) from one pair
-    of nearest-neighbour queries: ``{"chamfer_l1", "fscore", "precision", "recall"}``.
-    Same conventions and edge cases as those two functions."""
+    of nearest-neighbour queries: ``{"chamfer_l1", "fscore", "precision", "recall"}``;
+    their definitions and edge cases are given there."""
     p, g = _points(points_pred, "points_pred"), _points(points_gt, "points_gt")
     if tau <= 0:
         raise ValueError(f"tau must be positive, got {tau}")

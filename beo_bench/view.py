@@ -45,6 +45,18 @@ def colour_segmentation(seg: np.ndarray) -> np.ndarray:
     )
 
 
+def rerun_mesh(mesh: Any, rgba: Any) -> Any:
+    """A rerun ``Mesh3D`` of a trimesh (vertices, faces, normals) in one colour."""
+    import rerun as rr
+
+    return rr.Mesh3D(
+        vertex_positions=mesh.vertices,
+        triangle_indices=mesh.faces,
+        vertex_normals=mesh.vertex_normals,
+        albedo_factor=rgba,
+    )
+
+
 def _atomic_target(path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     return path.with_name(f".{path.name}.{os.getpid()}.tmp")
@@ -87,15 +99,7 @@ def _log_rerun(path: Path, env: Any, obs: dict[str, Any], grasp: Any) -> None:
     for g in u.ground_truth():
         mesh = u.object_mesh_world(g.label)
         colour = colour_segmentation(np.array([g.label]))[0]
-        rec.log(
-            f"world/objects/{g.label}_{g.category}",
-            rr.Mesh3D(
-                vertex_positions=mesh.vertices,
-                triangle_indices=mesh.faces,
-                vertex_normals=mesh.vertex_normals,
-                albedo_factor=np.append(colour, 255),
-            ),
-        )
+        rec.log(f"world/objects/{g.label}_{g.category}", rerun_mesh(mesh, np.append(colour, 255)))
     half = np.array(u.table.table_half)
     th = u.table.table_height
     rec.log(

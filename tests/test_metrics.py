@@ -416,13 +416,31 @@ def test_closest_symmetric_pose_is_the_truth_the_error_measures() -> None:
     )
 
 
-def test_viewpoint_bin_accuracy_matches_the_rotation_form_and_counts_nan_as_wrong() -> None:
+def _bins_by_hand(az: float, el: float, n_az: int, n_el: int) -> tuple[int, int]:
+    """Pascal3D+/Pix3D bins written out: azimuth bins centred on 0, i * 360 / n, ...;
+    elevation bins from -90 upwards, +90 in the last one."""
+    w = 360.0 / n_az
+    centres = np.arange(n_az) * w
+    diff = np.abs((az - centres + 180.0) % 360.0 - 180.0)  # angular distance to each centre
+    i_az = int(np.flatnonzero(diff <= w / 2 + 1e-12)[0])
+    i_el = min(int((el + 90.0) // (180.0 / n_el)), n_el - 1)
+    return i_az, i_el
+
+
+def test_viewpoint_bin_accuracy_matches_bins_by_hand_and_counts_nan_as_wrong() -> None:
     E, G = RANDOM[:10], RANDOM[10:]
     ve = np.array([M.viewpoint(r) for r in E])
     vg = np.array([M.viewpoint(r) for r in G])
     for n_az, n_el in ((4, 4), (8, 6), (24, 12)):
-        want = M.bin_accuracy(E, G, n_az, n_el)
+        be = np.array([_bins_by_hand(a, e, n_az, n_el) for a, e in ve])
+        bg = np.array([_bins_by_hand(a, e, n_az, n_el) for a, e in vg])
+        want = {
+            "azimuth": float(np.mean(be[:, 0] == bg[:, 0])),
+            "elevation": float(np.mean(be[:, 1] == bg[:, 1])),
+            "both": float(np.mean((be == bg).all(axis=1))),
+        }
         assert M.viewpoint_bin_accuracy(ve, vg, n_az, n_el) == want
+        assert M.bin_accuracy(E, G, n_az, n_el) == want
     same = M.viewpoint_bin_accuracy(vg, vg, 24, 12)
     assert same == {"azimuth": 1.0, "elevation": 1.0, "both": 1.0}
     failed = vg.copy()

@@ -9,7 +9,7 @@ re-run; the leaderboard is then regenerated from every summary under ``RUNS``.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -72,7 +72,6 @@ class Campaign:
     use_ray: bool = False
     seed: int | None = None
     progress: bool = True
-    summaries: list[dict[str, Any]] = field(default_factory=list)
 
 
 def run_campaign(c: Campaign) -> list[Path]:
@@ -90,7 +89,7 @@ def run_campaign(c: Campaign) -> list[Path]:
     for suite in suites:
         for name, kwargs in c.backends:
             out = c.runs / run_name(suite.name, name, kwargs, c.seed)
-            summary = run(
+            run(
                 RunConfig(suite, name, kwargs),
                 out,
                 workers=c.workers,
@@ -98,5 +97,4 @@ def run_campaign(c: Campaign) -> list[Path]:
                 use_ray=c.use_ray,
                 progress=c.progress,
             )
-            c.summaries.append(summary)
     return regenerate(c.runs, c.leaderboards)

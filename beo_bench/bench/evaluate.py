@@ -44,20 +44,32 @@ SURFACE_POINTS = 2048
 """Surface samples per shape for Chamfer-L1 and the F-score."""
 
 
-def surface_points(grid: np.ndarray, n: int = SURFACE_POINTS, level: float = 0.5) -> np.ndarray:
-    """``n`` area-uniform samples (seeded) of a grid's ``level`` iso-surface (marching cubes,
-    so sub-voxel where the grid holds probabilities), in the unit cube [-0.5, 0.5]^3 (the
-    canonical frame scaled by the largest extent) [Tatarchenko: F-score on surface
-    samples]. Empty when the grid never crosses ``level``."""
+def grid_mesh(grid: np.ndarray, edge: float = 1.0, level: float = 0.5) -> Any:
+    """The ``level`` iso-surface of a (D, D, D) occupancy grid (marching cubes, sub-voxel
+    where the grid holds probabilities) as a mesh in the canonical frame, the grid spanning
+    the cube of side ``edge`` centred at the origin (1: the unit cube; the largest extent:
+    metres). ``None`` when no cell reaches ``level``."""
     import trimesh
     from skimage.measure import marching_cubes
 
     g = np.pad(np.asarray(grid, dtype=np.float32), 1)
     if g.max() < level:
-        return np.zeros((0, 3))
+        return None
     verts, faces, _, _ = marching_cubes(g, level - ISO_EPS)
     D = g.shape[0] - 2
-    mesh = trimesh.Trimesh((verts - 0.5) / D - 0.5, faces, process=False)  # padded j -> j-1
+    unit = (verts - 0.5) / D - 0.5  # padded index j is voxel j - 1, centred at (j-1+0.5)/D
+    return trimesh.Trimesh(unit * edge, faces, process=False)
+
+
+def surface_points(grid: np.ndarray, n: int = SURFACE_POINTS) -> np.ndarray:
+    """``n`` area-uniform samples (seeded) of a grid's 0.5 iso-surface (:func:`grid_mesh`)
+    in the unit cube [-0.5, 0.5]^3 [Tatarchenko: F-score on surface samples]; empty when
+    the grid is."""
+    import trimesh
+
+    mesh = grid_mesh(grid)
+    if mesh is None:
+        return np.zeros((0, 3))
     points, _ = trimesh.sample.sample_surface(mesh, n, seed=0)
     return np.asarray(points, dtype=np.float64)
 
@@ -121,7 +133,6 @@ class Evaluator:
 
     def __init__(self, suite: Suite, backend: str, backend_kwargs: dict[str, Any] | None = None):
         self.suite = suite
-        self.backend_name = backend
         self.backend: PerceptionBackend = get_backend(backend, **(backend_kwargs or {}))
         self.privileged = bool(getattr(self.backend, "privileged", False))
         # the true class goes only to a backend that asks, and only where the suite allows
@@ -346,20 +357,11 @@ class Evaluator:
 
 def local_mesh(est: Estimate) -> Any:
     """The estimate's surface in its canonical frame (metres): ``Estimate.mesh`` when given,
-    else marching cubes at 0.5 on the occupancy grid scaled by the estimated size (the
-    grid's unit-cube edge is the largest extent). ``None`` when the grid is empty."""
-    import trimesh
-    from skimage.measure import marching_cubes
-
+    else :func:`grid_mesh` of its occupancy scaled by the estimated size (the grid's cube
+    edge is the largest extent). ``None`` when the grid is empty."""
     if est.mesh is not None:
         return est.mesh
-    g = np.pad(np.asarray(est.shape, dtype=np.float32), 1)
-    if g.max() < 0.5:
-        return None
-    verts, faces, _, _ = marching_cubes(g, 0.5 - ISO_EPS)
-    D = g.shape[0] - 2
-    unit = (verts - 1 + 0.5) / D - 0.5  # voxel index space -> unit cube centred at 0
-    return trimesh.Trimesh(unit * float(np.max(est.size)), faces, process=False)
+    return grid_mesh(est.shape, edge=float(np.max(est.size)))
 
 
 def _to_world(points: np.ndarray, est: Estimate, cam_to_world: np.ndarray) -> np.ndarray:

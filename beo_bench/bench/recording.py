@@ -24,6 +24,7 @@ def log_run(cfg: Any, path: Path | str, items: int = 20) -> Path:
         raise BeoBenchError("--rerun needs rerun-sdk: pip install 'beo-bench[viz]'") from e
     from beo_bench.bench.evaluate import Evaluator, estimate_mesh
     from beo_bench.objects import instance_from_key
+    from beo_bench.view import rerun_mesh
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -46,24 +47,10 @@ def log_run(cfg: Any, path: Path | str, items: int = 20) -> Path:
                 T = np.eye(4)
                 T[:3, :3], T[:3, 3] = gt.R_cam, gt.t_cam
                 truth.apply_transform(T)
-                rec.log(
-                    "camera/truth",
-                    rr.Mesh3D(
-                        vertex_positions=truth.vertices,
-                        triangle_indices=truth.faces,
-                        albedo_factor=[60, 180, 75, 160],
-                    ),
-                )
+                rec.log("camera/truth", rerun_mesh(truth, [60, 180, 75, 160]))
                 mesh = estimate_mesh(est, np.eye(4)) if est is not None else None
                 if mesh is not None:
-                    rec.log(
-                        "camera/estimate",
-                        rr.Mesh3D(
-                            vertex_positions=mesh.vertices,
-                            triangle_indices=mesh.faces,
-                            albedo_factor=[230, 25, 75, 160],
-                        ),
-                    )
+                    rec.log("camera/estimate", rerun_mesh(mesh, [230, 25, 75, 160]))
                 else:
                     rec.log("camera/estimate", rr.Clear(recursive=False))
                 text = f"{gt.key} ({gt.category})"
