@@ -22,6 +22,7 @@ ENTRY_POINT_GROUP = "beo_bench.backends"
 _IN_TREE = (
     "beo_bench.perception.bounds",
     "beo_bench.perception.icp",
+    "beo_bench.perception.beo",
 )
 """Modules whose import registers the in-tree backends."""
 

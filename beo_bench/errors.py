@@ -72,3 +72,8 @@ class BackendError(BeoBenchError, KeyError):
 
     def __str__(self) -> str:  # KeyError would quote the message
         return str(self.args[0]) if self.args else ""
+
+
+class CheckpointError(BeoBenchError, ValueError):
+    """A trained model that is missing, corrupt, or made for other settings (categories,
+    resolution, subspace, crop size) than the ones asked for."""

@@ -13,6 +13,8 @@ from scipy.spatial.transform import Rotation
 
 from beo_bench.types import Mat3, Mat4, Symmetry
 
+_EZ = np.array([0.0, 0.0, 1.0])
+
 
 def axis_angle(axis: np.ndarray | list[float], angle: float) -> Mat3:
     """Rotation by ``angle`` radians about ``axis`` (any non-zero length)."""
@@ -103,3 +105,35 @@ def _about_point(R: Mat3, p: tuple[float, float, float] | list[float]) -> Mat4:
     """The rotation R about the point p as a 4x4 transform."""
     p = np.asarray(p, dtype=np.float64)
     return rigid(R, p - R @ p)
+
+
+def super_fibonacci(n: int) -> np.ndarray:
+    """(n, 3, 3) rotations spread evenly over SO(3) (Alexa, "Super-Fibonacci Spirals", CVPR
+    2022); deterministic."""
+    s = np.arange(n) + 0.5
+    phi, psi = np.sqrt(2.0), 1.533751168755204288118041
+    r, R = np.sqrt(s / n), np.sqrt(1.0 - s / n)
+    a, b = 2 * np.pi * s / phi, 2 * np.pi * s / psi
+    q = np.stack([r * np.sin(a), r * np.cos(a), R * np.sin(b), R * np.cos(b)], axis=1)
+    return Rotation.from_quat(q).as_matrix()
+
+
+def up_rotation(up: np.ndarray) -> Mat3:
+    """The smallest rotation taking +z to the unit vector ``up``."""
+    up = np.asarray(up, dtype=np.float64)
+    up = up / np.linalg.norm(up)
+    axis = np.cross(_EZ, up)
+    s, c = np.linalg.norm(axis), float(np.dot(_EZ, up))
+    if s < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    return Rotation.from_rotvec(axis / s * np.arctan2(s, c)).as_matrix()
+
+
+def yaw_starts(up: np.ndarray, n: int) -> np.ndarray:
+    """(n, 3, 3) canonical -> camera rotations that map canonical +z to ``up``, at ``n``
+    evenly spaced yaw angles about it."""
+    th = 2 * np.pi * np.arange(n) / n
+    c, s = np.cos(th), np.sin(th)
+    Rz = np.zeros((n, 3, 3))
+    Rz[:, 0, 0], Rz[:, 0, 1], Rz[:, 1, 0], Rz[:, 1, 1], Rz[:, 2, 2] = c, -s, s, c, 1.0
+    return up_rotation(up) @ Rz

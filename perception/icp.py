@@ -56,10 +56,10 @@ from dataclasses import dataclass
 import numpy as np
 from beo_bench.perception.means import ClassMeans, class_means
 from scipy.spatial import cKDTree
-from scipy.spatial.transform import Rotation
 
 from beo_bench.backend import as_bool, register_backend
 from beo_bench.errors import ViewError
+from beo_bench.geometry import super_fibonacci, yaw_starts
 from beo_bench.types import Estimate, Mat3, Points, View
 
 _EZ = np.array([0.0, 0.0, 1.0])
@@ -147,38 +147,6 @@ def _farthest_points(pts: np.ndarray, n: int) -> np.ndarray:
         chosen[k] = int(np.argmax(dist))
         np.minimum(dist, np.sum((pts - pts[chosen[k]]) ** 2, axis=1), out=dist)
     return chosen
-
-
-def super_fibonacci(n: int) -> np.ndarray:
-    """(n, 3, 3) rotations spread evenly over SO(3) (Alexa, "Super-Fibonacci Spirals", CVPR
-    2022); deterministic."""
-    s = np.arange(n) + 0.5
-    phi, psi = np.sqrt(2.0), 1.533751168755204288118041
-    r, R = np.sqrt(s / n), np.sqrt(1.0 - s / n)
-    a, b = 2 * np.pi * s / phi, 2 * np.pi * s / psi
-    q = np.stack([r * np.sin(a), r * np.cos(a), R * np.sin(b), R * np.cos(b)], axis=1)
-    return Rotation.from_quat(q).as_matrix()
-
-
-def up_rotation(up: np.ndarray) -> Mat3:
-    """The smallest rotation taking +z to the unit vector ``up``."""
-    up = np.asarray(up, dtype=np.float64)
-    up = up / np.linalg.norm(up)
-    axis = np.cross(_EZ, up)
-    s, c = np.linalg.norm(axis), float(np.dot(_EZ, up))
-    if s < 1e-12:
-        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
-    return Rotation.from_rotvec(axis / s * np.arctan2(s, c)).as_matrix()
-
-
-def yaw_starts(up: np.ndarray, n: int) -> np.ndarray:
-    """(n, 3, 3) canonical -> camera rotations that map canonical +z to ``up``, at ``n``
-    evenly spaced yaw angles about it."""
-    th = 2 * np.pi * np.arange(n) / n
-    c, s = np.cos(th), np.sin(th)
-    Rz = np.zeros((n, 3, 3))
-    Rz[:, 0, 0], Rz[:, 0, 1], Rz[:, 1, 0], Rz[:, 1, 1], Rz[:, 2, 2] = c, -s, s, c, 1.0
-    return up_rotation(up) @ Rz
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,484 @@
+"""``beo``: Bayesian Eigenobjects (dissertation chapter 3): joint class, pose and 3D
+completion from one segmented depth view, by search over pose hypotheses, all of a step's
+hypotheses evaluated as one batched torch computation.
+
+Per view (DESIGN.md "Perception backends"):
+
+1. *Start*: the cube (centre t, edge e) is first placed from the points alone, the same for
+   every rotation: e = the largest extent of the points along their principal axes, t =
+   their centroid pushed a quarter of e back along the viewing ray (a view sees the front).
+2. *Coarse step* (eq. 3.20-3.21): every candidate rotation (1-DOF: every ``yaw_step_deg``
+   about the known up; 3-DOF: ``so3_samples`` super-Fibonacci rotations) voxelises the
+   observation (:mod:`.beo_observe`: filled / known empty by free-space carving / unknown),
+   projects it (:mod:`.beo_project`, eq. 3.14-3.19) and back-projects it (eq. 3.7), on a
+   grid ``coarse_factor`` times coarser; its error is the RMS difference, over the known
+   voxels, of the Euclidean distance transforms of the observed filled voxels and of the
+   back-projection (thresholded at 0.5). The ``top_k`` best (at least two coarse steps
+   apart) go on.
+3. *Translation and size* of each survivor are refined against its completed shape
+   (``size_rounds`` times): scale from the extents the camera sees whole (axes across the
+   viewing ray), centre from those and from the faces that face the camera.
+4. *Fine step* (eq. 3.22): around each survivor, rotations at ``fine_deg`` resolution (1-DOF:
+   yaw within half a coarse step; 3-DOF: ``refine_rounds`` rounds of a 3x3x3 grid of small
+   rotations, halving the step), each scored at full resolution by the joint pose-class
+   density max_c log p(o'_R | c) + log p(c) (eq. 3.10, 3.22). The best (rotation, class)
+   wins.
+5. The winner's translation and size are refined once more; its completion W o' + mu (eq.
+   3.7), clipped to [0, 1], is resampled into the unit cube of its estimated bounding box;
+   ``class_probs`` is the posterior over classes at that pose (eq. 3.11).
+
+With ``View.pose_hint`` (``known-pose``, Table 3.1) the pose search is skipped: one
+voxelisation at the given pose, one projection, classification and completion.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from beo_bench.perception.beo_model import BEOModel, load_model
+from beo_bench.perception.beo_observe import (
+    Observation,
+    distance_transform,
+    grid_centres,
+    voxelise,
+)
+from beo_bench.perception.beo_project import Subspace, project
+
+from beo_bench.backend import as_bool, register_backend
+from beo_bench.errors import ViewError
+from beo_bench.geometry import super_fibonacci, yaw_starts
+from beo_bench.types import Estimate, View
+
+
+@dataclass
+class Hypotheses:
+    """B pose hypotheses: R (B, 3, 3) canonical -> camera, cube centres t (B, 3) in the
+    camera frame and cube edges e (B,), all float32 tensors."""
+
+    R: torch.Tensor
+    t: torch.Tensor
+    e: torch.Tensor
+
+    def __len__(self) -> int:
+        return int(self.R.shape[0])
+
+    def take(self, idx: torch.Tensor) -> Hypotheses:
+        return Hypotheses(self.R[idx], self.t[idx], self.e[idx])
+
+    @classmethod
+    def of(cls, R: np.ndarray | torch.Tensor, t: torch.Tensor, e: torch.Tensor) -> Hypotheses:
+        R = torch.as_tensor(np.asarray(R), dtype=torch.float32)
+        B = R.shape[0]
+        return cls(R, t.reshape(-1, 3).expand(B, 3).clone(), e.reshape(-1).expand(B).clone())
+
+
+@dataclass
+class Completion:
+    """Codes and back-projections of hypotheses at full resolution."""
+
+    codes: torch.Tensor
+    """(B, k)."""
+    grids: torch.Tensor
+    """(B, d) back-projections W o' + mu (not clipped)."""
+
+
+@register_backend("beo")
+class BEOBackend:
+    """Bayesian Eigenobjects: joint class, pose and completion by search (module docstring).
+
+    Keyword arguments (``beo-bench run --opt KEY=VALUE``):
+
+    - ``model`` (None): a model name (``beo-bench train beo --name``) or directory; None
+      uses the default model for the view's categories, trained on first use;
+    - ``resolution`` (32): D of the voxel grids (must match the model);
+    - ``class_given`` (False): use ``View.class_hint`` where a suite gives it; BEO's own
+      protocol estimates the class jointly with the pose, so off by default;
+    - ``lasso`` (0.02): weight of the L1 term of the partial projection (eq. 3.19);
+    - ``coarse_factor`` (2): the coarse step's grid is D / coarse_factor per edge;
+    - ``yaw_step_deg`` (10): 1-DOF coarse resolution; ``fine_deg`` (1): fine resolution;
+    - ``so3_samples`` (512): 3-DOF coarse rotations; ``refine_rounds`` (3);
+    - ``top_k`` (3): coarse hypotheses refined; ``size_rounds`` (2): translation and size
+      refinements per survivor;
+    - ``chunk`` (64): hypotheses per batched computation (bounds memory).
+    """
+
+    name = "beo"
+
+    @property
+    def wants_class_hint(self) -> bool:
+        return self.class_given
+
+    def __init__(
+        self,
+        model: str | None = None,
+        resolution: int = 32,
+        class_given: bool = False,
+        lasso: float = 0.02,
+        coarse_factor: int = 2,
+        yaw_step_deg: float = 10.0,
+        fine_deg: float = 1.0,
+        so3_samples: int = 512,
+        refine_rounds: int = 3,
+        top_k: int = 3,
+        size_rounds: int = 2,
+        coarse_box_rounds: int = 1,
+        chunk: int = 32,
+        fine: str = "density",
+        coarse_components: int = 48,
+    ) -> None:
+        self.model_name = None if model in (None, "", "None", "default") else str(model)
+        self.resolution = int(resolution)
+        self.class_given = as_bool(class_given)
+        self.lasso = float(lasso)
+        self.coarse_factor = int(coarse_factor)
+        self.yaw_step_deg = float(yaw_step_deg)
+        self.fine_deg = float(fine_deg)
+        self.so3_samples = int(so3_samples)
+        self.refine_rounds = int(refine_rounds)
+        self.top_k = int(top_k)
+        self.size_rounds = int(size_rounds)
+        self.coarse_box_rounds = int(coarse_box_rounds)
+        self.fine = str(fine)
+        self.coarse_components = int(coarse_components)
+        self.chunk = int(chunk)
+        if self.lasso < 0:
+            raise ValueError(f"lasso={self.lasso} must be >= 0")
+        if self.resolution % self.coarse_factor:
+            raise ValueError(f"coarse_factor={coarse_factor} must divide resolution={resolution}")
+        if min(self.top_k, self.so3_samples, self.chunk) < 1 or self.yaw_step_deg <= 0:
+            raise ValueError("top_k, so3_samples and chunk must be >= 1, yaw_step_deg > 0")
+        if not 0 < self.fine_deg <= self.yaw_step_deg:
+            raise ValueError(f"fine_deg={fine_deg} must be in (0, yaw_step_deg]")
+        self._models: dict[tuple[str, ...], tuple[BEOModel, Subspace, Subspace]] = {}
+
+    # -- model ----------------------------------------------------------------------------
+    def prepare(self, categories: tuple[str, ...]) -> None:
+        """Load (or train, on first use, with progress) the model for ``categories``."""
+        self._model(tuple(categories), progress=True)
+
+    def _model(
+        self, cats: tuple[str, ...], progress: bool = False
+    ) -> tuple[BEOModel, Subspace, Subspace]:
+        if cats not in self._models:
+            m = load_model(self.model_name, cats, self.resolution, progress=progress)
+            self._models[cats] = (
+                m,
+                Subspace.from_model(m),
+                Subspace.from_model(m, self.coarse_factor, self.coarse_components),
+            )
+        return self._models[cats]
+
+    # -- batched evaluation ---------------------------------------------------------------
+    def _chunks(self, n: int) -> list[slice]:
+        return [slice(s, min(s + self.chunk, n)) for s in range(0, n, self.chunk)]
+
+    def coarse_errors(self, obs: Observation, sub: Subspace, hyp: Hypotheses) -> torch.Tensor:
+        """(B,) eq. 3.21 errors (voxels of the coarse grid) of the hypotheses."""
+        D = sub.D
+        out = []
+        for s in self._chunks(len(hyp)):
+            h = hyp.take(torch.arange(len(hyp))[s])
+            filled, empty = voxelise(obs, h.R, h.t, h.e, D)
+            recon = sub.decode(project(sub, filled, empty, self.lasso)) > 0.5
+            shape = (-1, D, D, D)
+            diff = distance_transform(filled.reshape(shape)) - distance_transform(
+                recon.reshape(shape)
+            )
+            known = (filled | empty).reshape(shape).float()
+            err = torch.sum(known * diff**2, dim=(1, 2, 3)) / known.sum(dim=(1, 2, 3)).clamp(min=1)
+            # a hypothesis that sees none of the points explains nothing
+            err = torch.where(filled.any(dim=1), err.sqrt(), torch.full_like(err, math.inf))
+            out.append(err)
+        return torch.cat(out)
+
+    def complete(self, obs: Observation, sub: Subspace, hyp: Hypotheses) -> Completion:
+        """Codes and back-projections of the hypotheses at full resolution."""
+        codes, grids = [], []
+        for s in self._chunks(len(hyp)):
+            h = hyp.take(torch.arange(len(hyp))[s])
+            filled, empty = voxelise(obs, h.R, h.t, h.e, sub.D)
+            x = project(sub, filled, empty, self.lasso)
+            codes.append(x)
+            grids.append(sub.decode(x))
+        return Completion(torch.cat(codes), torch.cat(grids))
+
+    def joint_scores(
+        self, model: BEOModel, codes: torch.Tensor, classes: list[int]
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """(B,) best joint log density max_c log p(o'|c) + log p(c) (uniform prior) over
+        ``classes``, and the (B, C) log densities (eq. 3.10, 3.22)."""
+        logp = torch.from_numpy(model.log_density(codes.numpy()))
+        allowed = torch.full((logp.shape[1],), -math.inf)
+        allowed[classes] = 0.0
+        return (logp + allowed).amax(dim=1), logp
+
+    def fine_scores(
+        self,
+        obs: Observation,
+        model: BEOModel,
+        sub: Subspace,
+        hyp: Hypotheses,
+        classes: list[int],
+    ) -> torch.Tensor:
+        """(B,) the fine step's score of each hypothesis (higher is better)."""
+        if self.fine == "edt":
+            return -self.coarse_errors(obs, sub, hyp)
+        comp = self.complete(obs, sub, hyp)
+        return self.joint_scores(model, comp.codes, classes)[0]
+
+    # -- translation and size -------------------------------------------------------------
+    def refine_box(
+        self, obs: Observation, hyp: Hypotheses, grids: torch.Tensor, D: int
+    ) -> Hypotheses:
+        """Re-fit each hypothesis's cube to its completed shape: the new cube is centred on
+        the bounding box (along the hypothesis's canonical axes) of the completion's voxels
+        above 0.5 together with the observed points (their 1-99% range), and its edge is
+        that box's largest extent. The points fix the extents the camera sees across; the
+        completion supplies the hidden depth. A round or two settle it."""
+        lo_f, hi_f = _occupied_box(grids, D)  # (B, 3) unit-cube units
+        q = torch.einsum("bji,bnj->bni", hyp.R, obs.points[None] - hyp.t[:, None, :])
+        qlo = torch.quantile(q, 0.01, dim=1)
+        qhi = torch.quantile(q, 0.99, dim=1)
+        e = hyp.e[:, None]
+        lo = torch.minimum(lo_f * e, qlo)
+        hi = torch.maximum(hi_f * e, qhi)
+        t_new = hyp.t + torch.einsum("bij,bj->bi", hyp.R, 0.5 * (lo + hi))
+        e_new = (hi - lo).amax(dim=1).clamp(min=1e-3)
+        return Hypotheses(hyp.R, t_new, e_new)
+
+    def fit_box(self, obs: Observation, sub: Subspace, hyp: Hypotheses, rounds: int) -> Hypotheses:
+        for _ in range(rounds):
+            comp = self.complete(obs, sub, hyp)
+            hyp = self.refine_box(obs, hyp, comp.grids, sub.D)
+        return hyp
+
+    # -- search ---------------------------------------------------------------------------
+    @staticmethod
+    def start_box(obs: Observation) -> tuple[torch.Tensor, torch.Tensor]:
+        """R-independent initial cube centre (3,) and edge () from the points alone."""
+        P = obs.points.double()
+        c = P.mean(dim=0)
+        if len(P) >= 3:
+            _, _, Vt = torch.linalg.svd(P - c, full_matrices=False)
+            proj = (P - c) @ Vt.T
+            ext = torch.quantile(proj, 0.98, dim=0) - torch.quantile(proj, 0.02, dim=0)
+            e = float(ext.max())
+        else:
+            e = 0.0
+        e = max(e, 0.01)
+        ray = c / c.norm().clamp(min=1e-9)
+        return (c + ray * e / 4).float(), torch.tensor(e, dtype=torch.float32)
+
+    def _top(self, errors: torch.Tensor, R: torch.Tensor, min_angle: float) -> torch.Tensor:
+        """Indices of the ``top_k`` lowest errors, each at least ``min_angle`` (rad) from
+        the ones chosen before (non-maximum suppression)."""
+        order = torch.argsort(errors, stable=True)
+        chosen: list[int] = []
+        for i in order.tolist():
+            if not math.isfinite(float(errors[i])):
+                break
+            ok = True
+            for j in chosen:
+                cosang = (torch.trace(R[i].T @ R[j]) - 1) / 2
+                if math.acos(float(cosang.clamp(-1, 1))) < min_angle:
+                    ok = False
+                    break
+            if ok:
+                chosen.append(i)
+            if len(chosen) == self.top_k:
+                break
+        if not chosen:
+            chosen = [int(order[0])]
+        return torch.tensor(chosen)
+
+    def search(
+        self, obs: Observation, cats: tuple[str, ...], classes: list[int], up: np.ndarray | None
+    ) -> tuple[Hypotheses, dict]:
+        """The best hypothesis (B = 1) by the coarse and fine steps, and search statistics."""
+        model, full, coarse = self._model(cats)
+        t0, e0 = self.start_box(obs)
+        if up is not None:
+            n = max(1, round(360.0 / self.yaw_step_deg))
+            R0 = yaw_starts(up, n)
+            spacing = 2 * math.pi / n
+        else:
+            R0 = super_fibonacci(self.so3_samples)
+            # the mean spacing of N rotations spread over SO(3) (volume pi^2 in angle units)
+            spacing = (math.pi**2 / self.so3_samples) ** (1 / 3) * 2
+        hyp = Hypotheses.of(R0, t0, e0)
+        hyp = self.fit_box(obs, coarse, hyp, self.coarse_box_rounds)
+        errors = self.coarse_errors(obs, coarse, hyp)
+        keep = self._top(errors, hyp.R, 1.5 * spacing)
+        seeds = self.fit_box(obs, full, hyp.take(keep), self.size_rounds)
+        score = self.fine_scores(obs, model, full, seeds, classes)
+        n_fine = len(seeds)
+        if up is not None:
+            # yaw steps of 3^j * fine_deg within half a coarse step, then fine_deg: a
+            # ternary hill climb that reaches fine_deg resolution in a few rounds
+            steps = [self.fine_deg]
+            while steps[-1] * 3 <= 0.5 * math.degrees(spacing):
+                steps.append(steps[-1] * 3)
+            axis = torch.tensor([0.0, 0.0, 1.0])
+            moves = [torch.stack([-axis, axis]) * math.radians(st) for st in reversed(steps)]
+            local = True  # yaw moves act in the canonical frame (about canonical +z = up)
+        else:
+            grid = torch.tensor(
+                [
+                    [i, j, k]
+                    for i in (-1, 0, 1)
+                    for j in (-1, 0, 1)
+                    for k in (-1, 0, 1)
+                    if (i, j, k) != (0, 0, 0)
+                ],
+                dtype=torch.float32,
+            )
+            step = 0.5 * spacing
+            moves = []
+            for _ in range(max(1, self.refine_rounds)):
+                moves.append(grid * step)
+                step /= 2
+            local = False
+        for mv in moves:
+            dR = _rotvec(mv)  # (M, 3, 3)
+            if local:
+                cand_R = (seeds.R[:, None] @ dR[None]).reshape(-1, 3, 3)
+            else:
+                cand_R = (dR[None] @ seeds.R[:, None]).reshape(-1, 3, 3)
+            parent = torch.arange(len(seeds)).repeat_interleave(len(mv))
+            cand = Hypotheses(cand_R, seeds.t[parent], seeds.e[parent])
+            cand_score = self.fine_scores(obs, model, full, cand, classes)
+            n_fine += len(cand)
+            # each seed moves to its best neighbour if that beats it (eq. 3.22)
+            per = torch.cat([score[:, None], cand_score.reshape(len(seeds), len(mv))], 1)
+            j = torch.argmax(per, dim=1)
+            moved = j > 0
+            pick = (j - 1).clamp(min=0) + torch.arange(len(seeds)) * len(mv)
+            new = cand.take(pick)
+            seeds = Hypotheses(
+                torch.where(moved[:, None, None], new.R, seeds.R),
+                torch.where(moved[:, None], new.t, seeds.t),
+                torch.where(moved, new.e, seeds.e),
+            )
+            score = per.amax(dim=1)
+        best = seeds.take(torch.argmax(score).reshape(1))
+        stats = {
+            "coarse_hypotheses": len(hyp),
+            "fine_hypotheses": n_fine,
+            "coarse_error": float(errors[keep[0]]),
+        }
+        return best, stats
+
+    # -- predict --------------------------------------------------------------------------
+    def predict(self, view: View) -> Estimate:
+        cats = tuple(view.categories)
+        model, full, _ = self._model(cats)
+        obs = Observation.from_view(view)
+        classes = list(range(len(cats)))
+        if self.class_given and view.class_hint is not None:
+            if not 0 <= int(view.class_hint) < len(cats):
+                raise ViewError(f"View.class_hint={view.class_hint} is not an index into {cats}")
+            classes = [int(view.class_hint)]
+        info: dict = {}
+        if view.pose_hint is not None:
+            R, t, size = (np.asarray(a, dtype=np.float64) for a in view.pose_hint)
+            hyp = Hypotheses.of(
+                R[None],
+                torch.tensor(t, dtype=torch.float32),
+                torch.tensor(float(np.max(size)), dtype=torch.float32),
+            )
+            comp = self.complete(obs, full, hyp)
+            est_size = size
+            t_out = t
+            grid = comp.grids[0].reshape((model.D,) * 3).clamp(0, 1).numpy()
+            protocol = "known-pose"
+        else:
+            up = None
+            if view.up_hint is not None:
+                up = np.asarray(view.up_hint, dtype=np.float64).reshape(3)
+                if not np.all(np.isfinite(up)) or np.linalg.norm(up) < 1e-9:
+                    raise ViewError(f"View.up_hint must be a finite non-zero 3-vector, got {up}")
+                up = up / np.linalg.norm(up)
+            best, info = self.search(obs, cats, classes, up)
+            best = self.fit_box(obs, full, best, 1)
+            comp = self.complete(obs, full, best)
+            flo, fhi = _occupied_box(comp.grids, model.D)
+            lo, hi = flo[0].double().numpy(), fhi[0].double().numpy()
+            e = float(best.e[0])
+            est_size = np.maximum((hi - lo) * e, 1e-3)
+            R = best.R[0].double().numpy()
+            t_out = best.t[0].double().numpy() + R @ (0.5 * (lo + hi) * e)
+            grid = _recentre(comp.grids[0].reshape((model.D,) * 3).clamp(0, 1), lo, hi)
+            protocol = "1dof" if up is not None else "3dof"
+        logp = torch.from_numpy(model.log_density(comp.codes.numpy()))[0].double()
+        probs = np.zeros(len(cats))
+        lp = logp[classes]
+        probs[classes] = torch.softmax(lp, dim=0).numpy()
+        R = _orthonormalise(np.asarray(R if view.pose_hint is None else view.pose_hint[0]))
+        info.update({"protocol": protocol, "log_density": float(lp.max())})
+        return Estimate(
+            class_probs=probs,
+            rotation=R,
+            translation=np.asarray(t_out, dtype=np.float64),
+            size=np.asarray(est_size, dtype=np.float64),
+            shape=np.asarray(grid, dtype=np.float32),
+            info=info,
+        )
+
+
+def _occupied_box(grids: torch.Tensor, D: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Corners (B, 3) lo and hi, in unit-cube coordinates, of the voxels of each (B, d)
+    grid above 0.5 (above half its maximum when fewer than 8 are: thin shapes); the whole
+    cube for an empty grid."""
+    few = (grids > 0.5).sum(dim=1) < 8
+    thr = torch.where(few, 0.5 * grids.amax(dim=1), torch.full_like(grids[:, 0], 0.5))
+    occ = (grids >= thr[:, None]).reshape(-1, D, D, D) & (grids.reshape(-1, D, D, D) > 0)
+    c = torch.arange(D, dtype=torch.float32)
+    lo, hi = [], []
+    for axis in range(3):
+        other = tuple(a for a in (1, 2, 3) if a != axis + 1)
+        present = occ.any(dim=other)  # (B, D)
+        lo.append(torch.where(present, c, torch.full_like(c, D)).amin(dim=1) / D - 0.5)
+        hi.append((torch.where(present, c, torch.full_like(c, -1)).amax(dim=1) + 1) / D - 0.5)
+    lo_t, hi_t = torch.stack(lo, 1), torch.stack(hi, 1)
+    empty = ~occ.flatten(1).any(dim=1)
+    lo_t = torch.where(empty[:, None], torch.full_like(lo_t, -0.5), lo_t)
+    hi_t = torch.where(empty[:, None], torch.full_like(hi_t, 0.5), hi_t)
+    return lo_t, hi_t
+
+
+def _rotvec(w: torch.Tensor) -> torch.Tensor:
+    """(n, 3) rotation vectors -> (n, 3, 3) matrices."""
+    return torch.linalg.matrix_exp(
+        torch.stack(
+            [
+                torch.stack([torch.zeros_like(w[:, 0]), -w[:, 2], w[:, 1]], 1),
+                torch.stack([w[:, 2], torch.zeros_like(w[:, 0]), -w[:, 0]], 1),
+                torch.stack([-w[:, 1], w[:, 0], torch.zeros_like(w[:, 0])], 1),
+            ],
+            1,
+        )
+    )
+
+
+def _recentre(grid: torch.Tensor, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Resample a (D, D, D) grid over the cube [-0.5, 0.5]^3 into the unit cube of the box
+    [lo, hi] (cube units): centred on the box, edge = its largest extent (the
+    ``Estimate.shape`` convention), trilinearly."""
+    D = grid.shape[0]
+    edge = float(np.max(hi - lo))
+    centre = 0.5 * (lo + hi)
+    pts = grid_centres(D) * edge + torch.from_numpy(centre).float()  # old cube coords
+    # grid_sample's (x, y, z) index the last three dims (W, H, D) in [-1, 1]
+    g = (pts * 2).flip(-1).reshape(1, D, D, D, 3)
+    out = torch.nn.functional.grid_sample(
+        grid[None, None].float(), g, mode="bilinear", padding_mode="zeros", align_corners=False
+    )
+    return out[0, 0].numpy()
+
+
+def _orthonormalise(R: np.ndarray) -> np.ndarray:
+    U, _, Vt = np.linalg.svd(R)
+    return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt

@@ -1,0 +1,327 @@
+"""BEO's learned state: per-class VBPCA, the shared subspace and the class densities
+(dissertation section 3.2), trained from the object library's ``train`` split, stored as a
+directory and loaded by name.
+
+Training (``beo-bench train beo``; the default model trains on first use):
+
+1. Every training instance's solid voxel grid (D^3, canonical frame scaled into the unit
+   cube) is flattened to t in {0, 1}^d, d = D^3.
+2. Per class, VBPCA (:mod:`.vbpca`) gives ``W_i`` (the fewest principal directions capturing
+   ``variance_fraction`` of the class's variance) and ``mu_i``.
+3. The shared subspace: an orthonormal basis of ``[W_1 .. W_m, mu_1 .. mu_m]`` by SVD,
+   keeping rank(...) columns (eq. 3.5). Objects are coded as ``o' = W^T (o - mu)`` with
+   ``mu`` the mean of the class means (which lies in the span), and decoded as
+   ``W o' + mu`` (eq. 3.6-3.7).
+4. Per class, a Gaussian over the codes of its training objects with the shrinkage
+   covariance of eq. 3.9 (:mod:`.shrinkage`); classification is MAP over them (eq. 3.10-3.11).
+
+A model directory holds ``config.json`` (settings, categories, resolution, library and
+format versions, training time) and ``arrays.npz``; it is written to a temporary directory
+and renamed into place, so a killed training leaves no half model behind.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+from beo_bench.perception.shrinkage import shrinkage_covariance
+from beo_bench.perception.vbpca import VBPCAConfig, fit_vbpca
+
+from beo_bench.errors import CheckpointError
+
+FORMAT_VERSION = 1
+DEFAULT_NAME = "default"
+
+
+@dataclass(frozen=True)
+class BEOConfig:
+    """What a BEO model is trained on and how."""
+
+    categories: tuple[str, ...]
+    """Class list, in the order of ``class_probs``."""
+    resolution: int = 32
+    """D: voxels per edge (d = D^3)."""
+    per_category: int | None = None
+    """Training instances per class (None: the whole ``train`` split)."""
+    variance_fraction: float = 0.6
+    """Per-class VBPCA keeps the directions capturing this fraction of variance (sec. 3.3.1)."""
+    max_components: int = 64
+    """Latent dimension each VBPCA starts from (ARD switches off the excess)."""
+    max_iter: int = 300
+    """VBPCA iterations at most (it stops earlier once the bound settles)."""
+
+    def __post_init__(self) -> None:
+        if len(self.categories) < 2:
+            raise ValueError("BEO classifies: give at least two categories")
+        if self.resolution < 8:
+            raise ValueError(f"resolution={self.resolution} is too coarse (use >= 8)")
+        if not 0 < self.variance_fraction <= 1:
+            raise ValueError(f"variance_fraction={self.variance_fraction} must be in (0, 1]")
+
+
+@dataclass
+class BEOModel:
+    """A trained BEO model: the shared subspace and one Gaussian per class in it."""
+
+    config: BEOConfig
+    basis: np.ndarray
+    """(d, k) float32, orthonormal columns W."""
+    mean: np.ndarray
+    """(d,) float32, mu."""
+    class_mean: np.ndarray
+    """(C, k) mean code of each class."""
+    class_cov: np.ndarray
+    """(C, k, k) shrinkage covariance of each class's codes (eq. 3.9)."""
+    class_size: np.ndarray
+    """(C, 3) mean bounding-box extents (m) of each class's training instances."""
+    components: np.ndarray
+    """(C,) VBPCA columns kept per class."""
+    shrinkage: np.ndarray
+    """(C, 2) the estimated (Ledoit-Wolf delta, Schafer-Strimmer lambda) per class."""
+    info: dict = field(default_factory=dict)
+    """Provenance: library version, training time, instances per class."""
+
+    def __post_init__(self) -> None:
+        # log N(o'; m_c, S_c) = -1/2 |L_c^-1 (o' - m_c)|^2 - log|L_c| - k/2 log 2 pi
+        L = np.linalg.cholesky(self.class_cov)
+        eye = np.broadcast_to(np.eye(self.k), L.shape)
+        self.chol_inv = np.linalg.solve(L, eye).astype(np.float32)  # (C, k, k)
+        self.log_norm = (
+            -np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
+            - 0.5 * self.k * np.log(2 * np.pi)
+        ).astype(np.float32)
+
+    @property
+    def k(self) -> int:
+        return int(self.basis.shape[1])
+
+    @property
+    def D(self) -> int:
+        return self.config.resolution
+
+    @property
+    def categories(self) -> tuple[str, ...]:
+        return self.config.categories
+
+    def encode(self, grids: np.ndarray) -> np.ndarray:
+        """(n, k) codes o' = W^T (o - mu) of fully known (n, D, D, D) grids (eq. 3.6)."""
+        X = np.asarray(grids, dtype=np.float32).reshape(len(grids), -1)
+        return (X - self.mean) @ self.basis
+
+    def decode(self, codes: np.ndarray) -> np.ndarray:
+        """(n, D, D, D) back-projections W o' + mu (eq. 3.7), not clipped."""
+        codes = np.atleast_2d(np.asarray(codes, dtype=np.float32))
+        return (codes @ self.basis.T + self.mean).reshape((-1,) + (self.D,) * 3)
+
+    def log_density(self, codes: np.ndarray) -> np.ndarray:
+        """(n, C) log N(o'; m_c, Sigma_c) of codes (n, k) under every class (eq. 3.10)."""
+        diff = np.asarray(codes, dtype=np.float32)[:, None, :] - self.class_mean[None]
+        z = np.einsum("cij,ncj->nci", self.chol_inv, diff.astype(np.float32))
+        return self.log_norm[None] - 0.5 * np.sum(z**2, axis=2)
+
+    # -- storage --------------------------------------------------------------------------
+    def save(self, path: Path) -> Path:
+        """Write the model to the directory ``path`` atomically (replacing one there)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"))
+        try:
+            meta = {
+                "kind": "beo",
+                "format": FORMAT_VERSION,
+                "config": {**asdict(self.config), "categories": list(self.categories)},
+                "k": self.k,
+                "info": self.info,
+            }
+            (tmp / "config.json").write_text(json.dumps(meta, indent=2) + "\n")
+            with open(tmp / "arrays.npz", "wb") as f:
+                np.savez(
+                    f,
+                    basis=self.basis,
+                    mean=self.mean,
+                    class_mean=self.class_mean,
+                    class_cov=self.class_cov,
+                    class_size=self.class_size,
+                    components=self.components,
+                    shrinkage=self.shrinkage,
+                )
+                f.flush()
+                os.fsync(f.fileno())
+            old = None
+            if path.exists():
+                old = path.with_name(f".{path.name}.{os.getpid()}.old")
+                os.replace(path, old)
+            os.replace(tmp, path)
+            if old is not None:
+                shutil.rmtree(old, ignore_errors=True)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path: Path) -> BEOModel:
+        """Read a model directory written by :meth:`save`."""
+        path = Path(path)
+        try:
+            meta = json.loads((path / "config.json").read_text())
+            with np.load(path / "arrays.npz") as z:
+                arrays = {k: z[k] for k in z.files}
+        except FileNotFoundError as e:
+            raise CheckpointError(
+                f"no BEO model at {path}: train one with `beo-bench train beo` "
+                "(or let the backend train the default model on first use)"
+            ) from e
+        except (OSError, ValueError, KeyError) as e:
+            raise CheckpointError(
+                f"the BEO model at {path} is unreadable ({e}); delete the directory and "
+                "train again with `beo-bench train beo`"
+            ) from e
+        if meta.get("kind") != "beo" or meta.get("format") != FORMAT_VERSION:
+            raise CheckpointError(
+                f"{path} holds a {meta.get('kind')!r} model of format {meta.get('format')}, "
+                f"not a BEO model of format {FORMAT_VERSION}; retrain with `beo-bench train beo`"
+            )
+        c = dict(meta["config"])
+        c["categories"] = tuple(c["categories"])
+        return cls(config=BEOConfig(**c), info=meta.get("info", {}), **arrays)
+
+    def check_matches(self, categories: tuple[str, ...], resolution: int, where: str) -> None:
+        """Raise :class:`CheckpointError` unless the model was trained for exactly these
+        categories (in this order) and this resolution."""
+        problems = []
+        if tuple(categories) != self.categories:
+            problems.append(f"categories {list(self.categories)} (asked: {list(categories)})")
+        if int(resolution) != self.D:
+            problems.append(f"resolution {self.D} (asked: {resolution})")
+        if problems:
+            raise CheckpointError(
+                f"the BEO model {where} was trained for " + " and ".join(problems) + "; train "
+                "one for these settings with `beo-bench train beo --name NAME --categories "
+                f"{' '.join(categories)} --resolution {resolution}` and pass `--opt model=NAME`"
+            )
+
+
+def models_root() -> Path:
+    """Where named BEO models live: ``<asset cache>/models/beo``."""
+    from beo_bench.objects.cache import cache_root
+
+    return cache_root() / "models" / "beo"
+
+
+def default_name(categories: tuple[str, ...], resolution: int) -> str:
+    """The name of the default model for a class list and resolution."""
+    h = hashlib.sha256(json.dumps([list(categories), int(resolution)]).encode()).hexdigest()
+    return f"{DEFAULT_NAME}-{resolution}-{h[:8]}"
+
+
+def training_grids(
+    config: BEOConfig, progress: bool = False
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Per class, the (n, D, D, D) bool voxel grids of its ``train`` instances (voxelised in
+    parallel worker processes on first use, then read from the asset cache) and their mean
+    extents (3,)."""
+    import multiprocessing as mp
+
+    from beo_bench.objects import ObjectSet
+    from beo_bench.objects.prepare import prepare
+
+    objects = ObjectSet("train", config.categories, per_category=config.per_category)
+    workers = 1 if mp.current_process().daemon else None
+    prepare(objects, D=config.resolution, workers=workers, progress=progress)
+    return {
+        c: np.stack([i.voxels(config.resolution) for i in objects.instances(c)])
+        for c in config.categories
+    }, {c: np.mean([i.size for i in objects.instances(c)], axis=0) for c in config.categories}
+
+
+def train_beo(config: BEOConfig, progress: bool = False) -> BEOModel:
+    """Train a BEO model (section 3.2) on the ``train`` split."""
+    from tqdm import tqdm
+
+    from beo_bench.objects import LIBRARY_VERSION
+
+    t0 = time.perf_counter()
+    grids, sizes = training_grids(config, progress)
+    t_data = time.perf_counter() - t0
+    vb = VBPCAConfig(
+        max_components=config.max_components,
+        variance_fraction=config.variance_fraction,
+        max_iter=config.max_iter,
+    )
+    columns, comps, fits = [], [], {}
+    for c in tqdm(config.categories, desc="VBPCA per class", disable=not progress):
+        X = grids[c].reshape(len(grids[c]), -1).astype(np.float64)
+        fit = fit_vbpca(X, vb)
+        fits[c] = fit
+        columns.append(fit.W)
+        comps.append(fit.W.shape[1])
+    means = np.stack([fits[c].mean for c in config.categories], axis=1)  # (d, C)
+    # eq. 3.5: the shared subspace spans every class's W_i and mu_i
+    A = np.concatenate([*columns, means], axis=1)
+    U, s, _ = np.linalg.svd(A, full_matrices=False)
+    rank = int(np.sum(s > s[0] * max(A.shape) * np.finfo(np.float64).eps))
+    basis = U[:, :rank]
+    mu = means.mean(axis=1)
+    codes = {c: (grids[c].reshape(len(grids[c]), -1) - mu) @ basis for c in config.categories}
+    shrunk = [shrinkage_covariance(codes[c]) for c in config.categories]
+    model = BEOModel(
+        config=config,
+        basis=basis.astype(np.float32),
+        mean=mu.astype(np.float32),
+        class_mean=np.stack([codes[c].mean(axis=0) for c in config.categories]).astype(np.float32),
+        class_cov=np.stack([s.covariance for s in shrunk]),
+        class_size=np.stack([sizes[c] for c in config.categories]),
+        components=np.asarray(comps, dtype=np.int64),
+        shrinkage=np.array([[s.delta, s.lam] for s in shrunk]),
+        info={
+            "library_version": LIBRARY_VERSION,
+            "instances": {c: len(grids[c]) for c in config.categories},
+            "explained": {c: round(fits[c].explained, 4) for c in config.categories},
+            "vbpca_iterations": {c: len(fits[c].bound) for c in config.categories},
+            "data_s": round(t_data, 2),
+            "train_s": round(time.perf_counter() - t0, 2),
+        },
+    )
+    return model
+
+
+def load_model(
+    name: str | None,
+    categories: tuple[str, ...],
+    resolution: int = 32,
+    progress: bool = False,
+    train_default: bool = True,
+) -> BEOModel:
+    """The model called ``name`` (a name under :func:`models_root` or a directory path), or
+    with ``name=None`` the default model for ``categories`` and ``resolution``, trained and
+    stored on first use. Raises :class:`CheckpointError` for a missing named model or one
+    trained for other categories or another resolution."""
+    from beo_bench.objects import LIBRARY_VERSION
+
+    if name is None:
+        path = models_root() / default_name(categories, resolution)
+        if not (path / "config.json").exists():
+            if not train_default:
+                raise CheckpointError(f"no default BEO model at {path}")
+            cfg = BEOConfig(categories=tuple(categories), resolution=int(resolution))
+            train_beo(cfg, progress=progress).save(path)
+    else:
+        path = Path(name) if os.sep in name or Path(name).is_dir() else models_root() / name
+    model = BEOModel.load(path)
+    model.check_matches(tuple(categories), resolution, f"at {path}")
+    if model.info.get("library_version") != LIBRARY_VERSION:
+        raise CheckpointError(
+            f"the BEO model at {path} was trained on object library version "
+            f"{model.info.get('library_version')}, this is version {LIBRARY_VERSION}; "
+            "retrain it with `beo-bench train beo`"
+        )
+    return model

@@ -1,0 +1,145 @@
+"""Partial projection into BEO's subspace, batched over pose hypotheses (dissertation eq.
+3.14-3.19), and back-projection (eq. 3.7).
+
+With S_b the selection of hypothesis b's known voxels (filled or known empty) and o_b its
+observed values there (1 filled, 0 empty), the code is
+
+    o'_b = argmin_x  1/2 |S_b (W x + mu) - o_b|^2 + lasso |x|_1
+
+The quadratic part is ``1/2 x^T G_b x - c_b^T x`` with ``G_b = W^T S_b W`` (k x k) and
+``c_b = W^T S_b (o_b - mu)``. The known voxels are most of the grid (everything the camera
+saw through), so both are computed from the few *unknown* and *filled* voxels:
+``G_b = W^T W - W_U^T W_U`` and ``c_b = W_F^T 1 - (W^T mu - W_U^T mu_U)``: gathers of the
+basis rows at padded index lists, one batched matmul, O(|U| k^2) per hypothesis instead of
+O(d k^2). The lasso problem is then solved in k dimensions for all hypotheses at once by
+FISTA (Beck & Teboulle 2009), warm-started from the ridge solution. The lasso keeps the
+directions that the visible part does not constrain at the mean, which is what the
+dissertation adds it for.
+
+A :class:`Subspace` exists per grid resolution: the model's own (orthonormal W), and a
+coarser one for the coarse pose search (the basis and mean average-pooled by an integer
+factor; W^T W is then no longer the identity and is kept).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+from beo_bench.perception.beo_model import BEOModel
+
+
+@dataclass(frozen=True)
+class Subspace:
+    """The basis and mean at one resolution, as float32 tensors."""
+
+    D: int
+    W: torch.Tensor
+    """(d, k) basis rows per voxel (flattened [x, y, z] C-order)."""
+    mu: torch.Tensor
+    """(d,) mean."""
+    WtW: torch.Tensor
+    """(k, k) W^T W."""
+    Wmu: torch.Tensor
+    """(k,) W^T mu."""
+    lipschitz: float
+    """Largest eigenvalue of W^T W."""
+    rows: torch.Tensor
+    """(d + 1, k + 1) [W, mu] with a zero row appended: one gather of a voxel's row gives
+    its basis row and mean, and padding (index d) gathers zeros."""
+
+    @classmethod
+    def from_model(
+        cls, model: BEOModel, factor: int = 1, components: int | None = None
+    ) -> Subspace:
+        """The model's subspace, average-pooled by ``factor`` along each axis, keeping its
+        leading ``components`` columns (None: all; the columns come from an SVD, strongest
+        first, so a prefix is the best subspace of that size)."""
+        D = model.D
+        if D % factor:
+            raise ValueError(f"the pooling factor {factor} does not divide D={D}")
+        W = torch.from_numpy(model.basis[:, :components]).float()
+        mu = torch.from_numpy(model.mean).float()
+        if factor > 1:
+            k = W.shape[1]
+            grid = torch.cat([W.T, mu[None]]).reshape(k + 1, 1, D, D, D)
+            pooled = torch.nn.functional.avg_pool3d(grid, factor).reshape(k + 1, -1)
+            W, mu = pooled[:k].T.contiguous(), pooled[k].contiguous()
+        WtW = W.T @ W
+        rows = torch.cat([torch.cat([W, mu[:, None]], 1), torch.zeros(1, W.shape[1] + 1)])
+        return cls(
+            D=D // factor,
+            W=W,
+            mu=mu,
+            WtW=WtW,
+            Wmu=W.T @ mu,
+            lipschitz=float(torch.linalg.eigvalsh(WtW)[-1]),
+            rows=rows.contiguous(),
+        )
+
+    @property
+    def k(self) -> int:
+        return int(self.W.shape[1])
+
+    def decode(self, codes: torch.Tensor) -> torch.Tensor:
+        """(B, d) back-projections W o' + mu (eq. 3.7), not clipped."""
+        return torch.addmm(self.mu, codes, self.W.T)
+
+
+def padded_indices(mask: torch.Tensor, pad: int) -> torch.Tensor:
+    """The True positions of each row of (B, d) ``mask`` as (B, n_max) indices, rows with
+    fewer than n_max True padded with ``pad``."""
+    B = mask.shape[0]
+    counts = mask.sum(dim=1)
+    n_max = max(int(counts.max()), 1)
+    rows, cols = mask.nonzero(as_tuple=True)
+    start = torch.cumsum(counts, 0) - counts
+    pos = torch.arange(len(rows)) - start[rows]
+    idx = torch.full((B, n_max), pad, dtype=torch.long)
+    idx[rows, pos] = cols
+    return idx
+
+
+def normal_equations(
+    sub: Subspace, filled: torch.Tensor, empty: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """G (B, k, k) = W^T S W and c (B, k) = W^T S (o - mu) of the hypotheses' observations."""
+    d, k = sub.W.shape
+    unknown = ~(filled | empty)
+    Ru = sub.rows[padded_indices(unknown, d)]  # (B, n_u, k + 1): [W_U, mu_U]
+    Gu = Ru.transpose(1, 2) @ Ru  # [[W_U^T W_U, W_U^T mu_U], [., mu_U^T mu_U]]
+    G = sub.WtW - Gu[:, :k, :k]
+    Wf = sub.rows[padded_indices(filled, d)][..., :k].sum(dim=1)
+    c = Wf - (sub.Wmu - Gu[:, :k, k])
+    return G, c
+
+
+def solve_lasso(
+    G: torch.Tensor, c: torch.Tensor, lasso: float, lipschitz: float, iterations: int = 5
+) -> torch.Tensor:
+    """argmin_x 1/2 x^T G x - c^T x + lasso |x|_1 for every batch row (eq. 3.18-3.19).
+
+    Iteratively reweighted ridge (a majorise-minimise scheme for the L1 term: |x_i| <=
+    x_i^2 / (2 |x_i^t|) + |x_i^t| / 2), each step one batched k x k Cholesky solve; a few
+    steps suffice because the lasso is gentle. A tiny Tikhonov term keeps directions that no
+    known voxel constrains solvable (they stay at the mean)."""
+    k = G.shape[-1]
+    ridge = torch.full((k,), 1e-4 * lipschitz, dtype=G.dtype)
+    x = _spd_solve(G, ridge, c)
+    if lasso <= 0:
+        return x
+    for _ in range(iterations):
+        x = _spd_solve(G, ridge + lasso / (x.abs() + 1e-3), c)
+    return x
+
+
+def _spd_solve(G: torch.Tensor, diag: torch.Tensor, c: torch.Tensor) -> torch.Tensor:
+    """(G + diag(diag)) x = c for symmetric positive definite systems, by Cholesky."""
+    L = torch.linalg.cholesky(G + torch.diag_embed(diag))
+    return torch.cholesky_solve(c[..., None], L)[..., 0]
+
+
+def project(sub: Subspace, filled: torch.Tensor, empty: torch.Tensor, lasso: float) -> torch.Tensor:
+    """(B, k) codes of B partially observed grids (filled and known-empty masks (B, d))."""
+    G, c = normal_equations(sub, filled, empty)
+    return solve_lasso(G, c, lasso, sub.lipschitz)
