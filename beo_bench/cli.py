@@ -300,6 +300,34 @@ def cmd_all(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_train(args: argparse.Namespace) -> int:
+    """Train a model and store it under its name (``beo``: the default name is the one the
+    backend looks for, so training it ahead of time only saves the first run the wait)."""
+    from beo_bench.envs.pick import default_categories
+    from beo_bench.objects import registry
+    from beo_bench.perception.beo_model import BEOConfig, default_name, models_root, train_beo
+
+    cats = tuple(args.categories) if args.categories else default_categories()
+    for c in cats:
+        registry.get_category(c)  # an unknown name raises, listing the known ones
+    cfg = BEOConfig(
+        categories=cats,
+        resolution=args.resolution,
+        per_category=args.per_category,
+        variance_fraction=args.variance_fraction,
+    )
+    name = args.name or default_name(cats, args.resolution, args.per_category)
+    t0 = time.perf_counter()
+    model = train_beo(cfg, progress=True)
+    path = model.save(models_root() / name)
+    print(
+        f"BEO model {name!r}: {len(cats)} classes at {args.resolution}^3, subspace k={model.k} "
+        f"(per class {dict(zip(cats, model.components.tolist(), strict=True))}), "
+        f"trained in {time.perf_counter() - t0:.1f} s -> {path}"
+    )
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="beo-bench", description=__doc__)
     sub = p.add_subparsers(dest="command", required=True)
@@ -391,6 +419,15 @@ def build_parser() -> argparse.ArgumentParser:
     lb.add_argument("--runs", default="runs")
     lb.add_argument("--out", default="leaderboards")
     lb.set_defaults(func=cmd_leaderboard)
+
+    tr = sub.add_parser("train", help="train a perception model (beo)")
+    tr.add_argument("model", choices=["beo"])
+    tr.add_argument("--categories", nargs="+", default=None, help="default: the 11 built-in")
+    tr.add_argument("--resolution", type=int, default=32, help="voxels per edge (D)")
+    tr.add_argument("--per-category", type=int, default=None, help="train instances per class")
+    tr.add_argument("--variance-fraction", type=float, default=0.6)
+    tr.add_argument("--name", default=None, help="model name (default: the default model's name)")
+    tr.set_defaults(func=cmd_train)
 
     c = sub.add_parser("cache", help="inspect or clear the asset cache")
     c.add_argument("action", choices=["info", "clear"])

@@ -11,18 +11,21 @@ Per view (DESIGN.md "Perception backends"):
    about the known up; 3-DOF: ``so3_samples`` super-Fibonacci rotations) voxelises the
    observation (:mod:`.beo_observe`: filled / known empty by free-space carving / unknown),
    projects it (:mod:`.beo_project`, eq. 3.14-3.19) and back-projects it (eq. 3.7), on a
-   grid ``coarse_factor`` times coarser; its error is the RMS difference, over the known
-   voxels, of the Euclidean distance transforms of the observed filled voxels and of the
-   back-projection (thresholded at 0.5). The ``top_k`` best (at least two coarse steps
-   apart) go on.
-3. *Translation and size* of each survivor are refined against its completed shape
-   (``size_rounds`` times): scale from the extents the camera sees whole (axes across the
-   viewing ray), centre from those and from the faces that face the camera.
-4. *Fine step* (eq. 3.22): around each survivor, rotations at ``fine_deg`` resolution (1-DOF:
-   yaw within half a coarse step; 3-DOF: ``refine_rounds`` rounds of a 3x3x3 grid of small
-   rotations, halving the step), each scored at full resolution by the joint pose-class
-   density max_c log p(o'_R | c) + log p(c) (eq. 3.10, 3.22). The best (rotation, class)
-   wins.
+   grid ``coarse_factor`` times coarser with the ``coarse_components`` leading directions,
+   after ``coarse_box_rounds`` refits of its cube (step 3); its error is the RMS
+   difference, over the known voxels, of the Euclidean distance transforms of the observed
+   filled voxels and of the back-projection (thresholded at 0.5). The ``top_k`` best (at
+   least 1.5 coarse steps apart) go on.
+3. *Translation and size* of each survivor are refitted against its completed shape
+   (``size_rounds`` times): the cube is re-centred on the bounding box, along the
+   hypothesis's canonical axes, of the completion's occupied voxels together with the
+   observed points, and its edge becomes that box's largest extent. The points fix the
+   extents the camera sees across; the completion supplies the hidden depth.
+4. *Fine step* (eq. 3.22): around each survivor, a local search to ``fine_deg`` resolution
+   (1-DOF: yaw steps of 3^j ``fine_deg`` down to ``fine_deg``; 3-DOF: ``refine_rounds``
+   rounds of a pattern search, +-step about each axis from half the coarse spacing, halving
+   the step), each hypothesis scored at full resolution by the joint pose-class density
+   max_c log p(o'_R | c) + log p(c) (eq. 3.10, 3.22). The best (rotation, class) wins.
 5. The winner's translation and size are refined once more; its completion W o' + mu (eq.
    3.7), clipped to [0, 1], is resampled into the unit cube of its estimated bounding box;
    ``class_probs`` is the posterior over classes at that pose (eq. 3.11).
@@ -99,10 +102,14 @@ class BEOBackend:
     - ``lasso`` (0.02): weight of the L1 term of the partial projection (eq. 3.19);
     - ``coarse_factor`` (2): the coarse step's grid is D / coarse_factor per edge;
     - ``yaw_step_deg`` (10): 1-DOF coarse resolution; ``fine_deg`` (1): fine resolution;
-    - ``so3_samples`` (512): 3-DOF coarse rotations; ``refine_rounds`` (3);
+    - ``so3_samples`` (512): 3-DOF coarse rotations; ``refine_rounds`` (4);
     - ``top_k`` (3): coarse hypotheses refined; ``size_rounds`` (2): translation and size
       refinements per survivor;
-    - ``chunk`` (64): hypotheses per batched computation (bounds memory).
+    - ``coarse_components`` (48): leading subspace directions used by the coarse step;
+    - ``fine`` ("density"): the fine step's score: the joint pose-class density of eq. 3.22,
+      or "edt" (the coarse step's EDT error at full resolution);
+    - ``instances`` (None): train the default model on this many instances per class;
+    - ``chunk`` (32): hypotheses per batched computation (bounds memory).
     """
 
     name = "beo"
@@ -121,13 +128,14 @@ class BEOBackend:
         yaw_step_deg: float = 10.0,
         fine_deg: float = 1.0,
         so3_samples: int = 512,
-        refine_rounds: int = 3,
+        refine_rounds: int = 4,
         top_k: int = 3,
         size_rounds: int = 2,
         coarse_box_rounds: int = 1,
         chunk: int = 32,
         fine: str = "density",
         coarse_components: int = 48,
+        instances: int | None = None,
     ) -> None:
         self.model_name = None if model in (None, "", "None", "default") else str(model)
         self.resolution = int(resolution)
@@ -143,6 +151,7 @@ class BEOBackend:
         self.coarse_box_rounds = int(coarse_box_rounds)
         self.fine = str(fine)
         self.coarse_components = int(coarse_components)
+        self.instances = None if instances in (None, "None") else int(instances)
         self.chunk = int(chunk)
         if self.lasso < 0:
             raise ValueError(f"lasso={self.lasso} must be >= 0")
@@ -163,7 +172,9 @@ class BEOBackend:
         self, cats: tuple[str, ...], progress: bool = False
     ) -> tuple[BEOModel, Subspace, Subspace]:
         if cats not in self._models:
-            m = load_model(self.model_name, cats, self.resolution, progress=progress)
+            m = load_model(
+                self.model_name, cats, self.resolution, progress, per_category=self.instances
+            )
             self._models[cats] = (
                 m,
                 Subspace.from_model(m),
@@ -325,20 +336,12 @@ class BEOBackend:
             moves = [torch.stack([-axis, axis]) * math.radians(st) for st in reversed(steps)]
             local = True  # yaw moves act in the canonical frame (about canonical +z = up)
         else:
-            grid = torch.tensor(
-                [
-                    [i, j, k]
-                    for i in (-1, 0, 1)
-                    for j in (-1, 0, 1)
-                    for k in (-1, 0, 1)
-                    if (i, j, k) != (0, 0, 0)
-                ],
-                dtype=torch.float32,
-            )
+            # pattern search over SO(3): +-step about each camera axis, halving the step
+            axes = torch.cat([torch.eye(3), -torch.eye(3)])
             step = 0.5 * spacing
             moves = []
             for _ in range(max(1, self.refine_rounds)):
-                moves.append(grid * step)
+                moves.append(axes * step)
                 step /= 2
             local = False
         for mv in moves:

@@ -217,9 +217,12 @@ def models_root() -> Path:
     return cache_root() / "models" / "beo"
 
 
-def default_name(categories: tuple[str, ...], resolution: int) -> str:
-    """The name of the default model for a class list and resolution."""
-    h = hashlib.sha256(json.dumps([list(categories), int(resolution)]).encode()).hexdigest()
+def default_name(
+    categories: tuple[str, ...], resolution: int, per_category: int | None = None
+) -> str:
+    """The name of the default model for a class list, resolution and training-set size."""
+    key = [list(categories), int(resolution), per_category]
+    h = hashlib.sha256(json.dumps(key).encode()).hexdigest()
     return f"{DEFAULT_NAME}-{resolution}-{h[:8]}"
 
 
@@ -300,19 +303,23 @@ def load_model(
     resolution: int = 32,
     progress: bool = False,
     train_default: bool = True,
+    per_category: int | None = None,
 ) -> BEOModel:
     """The model called ``name`` (a name under :func:`models_root` or a directory path), or
     with ``name=None`` the default model for ``categories`` and ``resolution``, trained and
-    stored on first use. Raises :class:`CheckpointError` for a missing named model or one
+    stored on first use (on the first ``per_category`` training instances of each class, or
+    all of them). Raises :class:`CheckpointError` for a missing named model or one
     trained for other categories or another resolution."""
     from beo_bench.objects import LIBRARY_VERSION
 
     if name is None:
-        path = models_root() / default_name(categories, resolution)
+        path = models_root() / default_name(categories, resolution, per_category)
         if not (path / "config.json").exists():
             if not train_default:
                 raise CheckpointError(f"no default BEO model at {path}")
-            cfg = BEOConfig(categories=tuple(categories), resolution=int(resolution))
+            cfg = BEOConfig(
+                categories=tuple(categories), resolution=int(resolution), per_category=per_category
+            )
             train_beo(cfg, progress=progress).save(path)
     else:
         path = Path(name) if os.sep in name or Path(name).is_dir() else models_root() / name

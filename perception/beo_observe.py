@@ -45,7 +45,10 @@ class Observation:
     """(3, 3) intrinsics."""
 
     @classmethod
-    def from_view(cls, view: View) -> Observation:
+    def from_view(cls, view: View, max_points: int = 4096) -> Observation:
+        """The view's observation; at most ``max_points`` points are kept (evenly strided,
+        deterministic): a D^3 grid's visible surface has a few thousand cells at most, and
+        a close 640x480 view can have tens of thousands of pixels on the object."""
         depth = np.asarray(view.depth, dtype=np.float64)
         mask = np.asarray(view.mask, dtype=bool)
         valid = np.isfinite(depth) & (depth > 0)
@@ -57,6 +60,8 @@ class Observation:
                 f"none of the mask's {int(mask.sum())} pixels has valid depth (all NaN, inf or "
                 "0): BEO has no points to voxelise"
             )
+        if len(pts) > max_points:
+            pts = pts[np.linspace(0, len(pts) - 1, max_points).round().astype(np.int64)]
         free = np.where(valid, depth, np.where(mask, 0.0, np.inf))
         return cls(
             points=torch.from_numpy(pts.astype(np.float32)),

@@ -9,12 +9,12 @@ observed values there (1 filled, 0 empty), the code is
 The quadratic part is ``1/2 x^T G_b x - c_b^T x`` with ``G_b = W^T S_b W`` (k x k) and
 ``c_b = W^T S_b (o_b - mu)``. The known voxels are most of the grid (everything the camera
 saw through), so both are computed from the few *unknown* and *filled* voxels:
-``G_b = W^T W - W_U^T W_U`` and ``c_b = W_F^T 1 - (W^T mu - W_U^T mu_U)``: gathers of the
-basis rows at padded index lists, one batched matmul, O(|U| k^2) per hypothesis instead of
-O(d k^2). The lasso problem is then solved in k dimensions for all hypotheses at once by
-FISTA (Beck & Teboulle 2009), warm-started from the ridge solution. The lasso keeps the
-directions that the visible part does not constrain at the mean, which is what the
-dissertation adds it for.
+``G_b = W^T W - W_U^T W_U`` and ``c_b = W_F^T 1 - (W^T mu - W_U^T mu_U)`` (or directly
+from the known voxels when those are fewer): gathers of the basis rows at padded index
+lists, one batched matmul, O(min(|U|, |K|) k^2) per hypothesis instead of O(d k^2).
+The lasso problem is then solved in k dimensions for all hypotheses at once by iteratively
+reweighted ridge steps (batched Cholesky solves). The lasso keeps the directions that the
+visible part does not constrain at the mean, which is what the dissertation adds it for.
 
 A :class:`Subspace` exists per grid resolution: the model's own (orthonormal W), and a
 coarser one for the coarse pose search (the basis and mean average-pooled by an integer
@@ -103,15 +103,21 @@ def padded_indices(mask: torch.Tensor, pad: int) -> torch.Tensor:
 def normal_equations(
     sub: Subspace, filled: torch.Tensor, empty: torch.Tensor
 ) -> tuple[torch.Tensor, torch.Tensor]:
-    """G (B, k, k) = W^T S W and c (B, k) = W^T S (o - mu) of the hypotheses' observations."""
+    """G (B, k, k) = W^T S W and c (B, k) = W^T S (o - mu) of the hypotheses' observations,
+    gathered over whichever of the unknown or the known voxels are fewer (a view from far
+    away, or an occluded one, leaves most of the cube unknown)."""
     d, k = sub.W.shape
-    unknown = ~(filled | empty)
-    Ru = sub.rows[padded_indices(unknown, d)]  # (B, n_u, k + 1): [W_U, mu_U]
-    Gu = Ru.transpose(1, 2) @ Ru  # [[W_U^T W_U, W_U^T mu_U], [., mu_U^T mu_U]]
-    G = sub.WtW - Gu[:, :k, :k]
+    known = filled | empty
+    if int(known.sum(dim=1).max()) < int((~known).sum(dim=1).max()):
+        Rk = sub.rows[padded_indices(known, d)]  # (B, n_k, k + 1): [W_K, mu_K]
+        Gk = Rk.transpose(1, 2) @ Rk
+        G, W_mu = Gk[:, :k, :k], Gk[:, :k, k]
+    else:
+        Ru = sub.rows[padded_indices(~known, d)]  # (B, n_u, k + 1): [W_U, mu_U]
+        Gu = Ru.transpose(1, 2) @ Ru
+        G, W_mu = sub.WtW - Gu[:, :k, :k], sub.Wmu - Gu[:, :k, k]
     Wf = sub.rows[padded_indices(filled, d)][..., :k].sum(dim=1)
-    c = Wf - (sub.Wmu - Gu[:, :k, k])
-    return G, c
+    return G, Wf - W_mu
 
 
 def solve_lasso(

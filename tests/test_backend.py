@@ -15,7 +15,11 @@ from beo_bench.errors import BackendError, EstimateError, ViewError
 from beo_bench.types import Estimate, View
 
 # keep the class means small in tests (the default uses the whole train split)
-FAST = {"random": {"mean_instances": 4}, "icp": {"mean_instances": 4}}
+FAST = {
+    "random": {"mean_instances": 4},
+    "icp": {"mean_instances": 4},
+    "beo": {"instances": 4, "so3_samples": 64},
+}
 
 
 @pytest.fixture(scope="module")
