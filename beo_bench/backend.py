@@ -219,21 +219,31 @@ def _without_truth(view: View) -> View:
     return replace(view, ground_truth=None)
 
 
-def sample_views(n: int = 2, categories: tuple[str, ...] | None = None) -> list[View]:
-    """``n`` isolated 128x128 views of test-split instances with their ground truth (for
-    ``check_backend`` and smoke tests)."""
+def sample_views(
+    n: int = 2,
+    categories: tuple[str, ...] | None = None,
+    split: str = "test",
+    seed: int = 0,
+    picks: list[tuple[str, int]] | None = None,
+) -> list[View]:
+    """Isolated 128x128 views with their ground truth and class hint (for ``check_backend``
+    and smoke tests): of ``picks`` ((category, index) pairs of ``split``), or of ``n``
+    instances cycling through the categories; camera poses drawn from the object rig with
+    ``seed``."""
     from beo_bench.objects import ObjectSet
     from beo_bench.scenes.camera import OBJECT_RIG
     from beo_bench.scenes.isolated import IsolatedRenderer
     from beo_bench.types import GroundTruth
 
-    objects = ObjectSet("test", categories)
+    objects = ObjectSet(split, categories)
     cats = objects.categories
-    rng = np.random.default_rng(0)
+    if picks is None:
+        picks = [(cats[i % len(cats)], i) for i in range(n)]
+    rng = np.random.default_rng(seed)
     out = []
     with IsolatedRenderer() as r:
-        for i in range(n):
-            inst = objects.get(cats[i % len(cats)], i)
+        for cat, i in picks:
+            inst = objects.get(cat, i)
             v = r.render(inst, OBJECT_RIG.sample(rng, np.zeros(3)))
             gt = GroundTruth.of(inst, cats, v.R_cam, v.t_cam)
             out.append(

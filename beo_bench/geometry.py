@@ -137,3 +137,9 @@ def yaw_starts(up: np.ndarray, n: int) -> np.ndarray:
     Rz = np.zeros((n, 3, 3))
     Rz[:, 0, 0], Rz[:, 0, 1], Rz[:, 1, 0], Rz[:, 1, 1], Rz[:, 2, 2] = c, -s, s, c, 1.0
     return up_rotation(up) @ Rz
+
+
+def orthonormalise(R: np.ndarray) -> Mat3:
+    """The proper rotation nearest to ``R`` (3, 3) in the Frobenius norm (by SVD)."""
+    U, _, Vt = np.linalg.svd(R)
+    return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt

@@ -151,6 +151,32 @@ class View:
         if not self.categories:
             raise ViewError("View.categories is empty: give the class list to predict over")
 
+    def unit_up(self) -> Vec3 | None:
+        """``up_hint`` as a unit vector, or None without one; raises ``ViewError`` for a
+        non-finite or zero vector."""
+        from beo_bench.errors import ViewError
+
+        if self.up_hint is None:
+            return None
+        up = np.asarray(self.up_hint, dtype=np.float64).reshape(3)
+        if not np.all(np.isfinite(up)) or np.linalg.norm(up) < 1e-9:
+            raise ViewError(f"View.up_hint must be a finite non-zero 3-vector, got {up}")
+        return up / np.linalg.norm(up)
+
+    def candidate_classes(self, use_hint: bool) -> list[int]:
+        """The class indices a backend should consider: only ``class_hint`` when it is given
+        and the backend uses it, else all; raises ``ViewError`` for a hint out of range."""
+        from beo_bench.errors import ViewError
+
+        if not use_hint or self.class_hint is None:
+            return list(range(len(self.categories)))
+        if not 0 <= int(self.class_hint) < len(self.categories):
+            raise ViewError(
+                f"View.class_hint={self.class_hint} is not an index into "
+                f"{len(self.categories)} classes"
+            )
+        return [int(self.class_hint)]
+
     def points(self) -> Points:
         """(N, 3) camera-frame points of the mask's pixels with valid depth (OpenCV axes)."""
         d = np.asarray(self.depth)

@@ -51,8 +51,7 @@ from beo_bench.perception.beo_observe import (
 from beo_bench.perception.beo_project import Subspace, project
 
 from beo_bench.backend import as_bool, register_backend
-from beo_bench.errors import ViewError
-from beo_bench.geometry import super_fibonacci, yaw_starts
+from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
 from beo_bench.types import Estimate, View
 
 
@@ -379,11 +378,7 @@ class BEOBackend:
         cats = tuple(view.categories)
         model, full, _ = self._model(cats)
         obs = Observation.from_view(view)
-        classes = list(range(len(cats)))
-        if self.class_given and view.class_hint is not None:
-            if not 0 <= int(view.class_hint) < len(cats):
-                raise ViewError(f"View.class_hint={view.class_hint} is not an index into {cats}")
-            classes = [int(view.class_hint)]
+        classes = view.candidate_classes(self.class_given)
         info: dict = {}
         if view.pose_hint is not None:
             R, t, size = (np.asarray(a, dtype=np.float64) for a in view.pose_hint)
@@ -398,12 +393,7 @@ class BEOBackend:
             grid = comp.grids[0].reshape((model.D,) * 3).clamp(0, 1).numpy()
             protocol = "known-pose"
         else:
-            up = None
-            if view.up_hint is not None:
-                up = np.asarray(view.up_hint, dtype=np.float64).reshape(3)
-                if not np.all(np.isfinite(up)) or np.linalg.norm(up) < 1e-9:
-                    raise ViewError(f"View.up_hint must be a finite non-zero 3-vector, got {up}")
-                up = up / np.linalg.norm(up)
+            up = view.unit_up()
             best, info = self.search(obs, cats, classes, up)
             best = self.fit_box(obs, full, best, 1)
             comp = self.complete(obs, full, best)
@@ -419,11 +409,10 @@ class BEOBackend:
         probs = np.zeros(len(cats))
         lp = logp[classes]
         probs[classes] = torch.softmax(lp, dim=0).numpy()
-        R = _orthonormalise(np.asarray(R if view.pose_hint is None else view.pose_hint[0]))
         info.update({"protocol": protocol, "log_density": float(lp.max())})
         return Estimate(
             class_probs=probs,
-            rotation=R,
+            rotation=orthonormalise(R),
             translation=np.asarray(t_out, dtype=np.float64),
             size=np.asarray(est_size, dtype=np.float64),
             shape=np.asarray(grid, dtype=np.float32),
@@ -480,8 +469,3 @@ def _recentre(grid: torch.Tensor, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         grid[None, None].float(), g, mode="bilinear", padding_mode="zeros", align_corners=False
     )
     return out[0, 0].numpy()
-
-
-def _orthonormalise(R: np.ndarray) -> np.ndarray:
-    U, _, Vt = np.linalg.svd(R)
-    return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt

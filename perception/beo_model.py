@@ -32,6 +32,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
+from beo_bench.perception.means import training_voxels
 from beo_bench.perception.shrinkage import shrinkage_covariance
 from beo_bench.perception.vbpca import VBPCAConfig, fit_vbpca
 
@@ -110,16 +111,6 @@ class BEOModel:
     @property
     def categories(self) -> tuple[str, ...]:
         return self.config.categories
-
-    def encode(self, grids: np.ndarray) -> np.ndarray:
-        """(n, k) codes o' = W^T (o - mu) of fully known (n, D, D, D) grids (eq. 3.6)."""
-        X = np.asarray(grids, dtype=np.float32).reshape(len(grids), -1)
-        return (X - self.mean) @ self.basis
-
-    def decode(self, codes: np.ndarray) -> np.ndarray:
-        """(n, D, D, D) back-projections W o' + mu (eq. 3.7), not clipped."""
-        codes = np.atleast_2d(np.asarray(codes, dtype=np.float32))
-        return (codes @ self.basis.T + self.mean).reshape((-1,) + (self.D,) * 3)
 
     def log_density(self, codes: np.ndarray) -> np.ndarray:
         """(n, C) log N(o'; m_c, Sigma_c) of codes (n, k) under every class (eq. 3.10)."""
@@ -226,26 +217,6 @@ def default_name(
     return f"{DEFAULT_NAME}-{resolution}-{h[:8]}"
 
 
-def training_grids(
-    config: BEOConfig, progress: bool = False
-) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
-    """Per class, the (n, D, D, D) bool voxel grids of its ``train`` instances (voxelised in
-    parallel worker processes on first use, then read from the asset cache) and their mean
-    extents (3,)."""
-    import multiprocessing as mp
-
-    from beo_bench.objects import ObjectSet
-    from beo_bench.objects.prepare import prepare
-
-    objects = ObjectSet("train", config.categories, per_category=config.per_category)
-    workers = 1 if mp.current_process().daemon else None
-    prepare(objects, D=config.resolution, workers=workers, progress=progress)
-    return {
-        c: np.stack([i.voxels(config.resolution) for i in objects.instances(c)])
-        for c in config.categories
-    }, {c: np.mean([i.size for i in objects.instances(c)], axis=0) for c in config.categories}
-
-
 def train_beo(config: BEOConfig, progress: bool = False) -> BEOModel:
     """Train a BEO model (section 3.2) on the ``train`` split."""
     from tqdm import tqdm
@@ -253,7 +224,10 @@ def train_beo(config: BEOConfig, progress: bool = False) -> BEOModel:
     from beo_bench.objects import LIBRARY_VERSION
 
     t0 = time.perf_counter()
-    grids, sizes = training_grids(config, progress)
+    grids, size_rows = training_voxels(
+        config.categories, config.resolution, config.per_category, progress
+    )
+    sizes = {c: size_rows[c].mean(axis=0) for c in config.categories}
     t_data = time.perf_counter() - t0
     vb = VBPCAConfig(
         max_components=config.max_components,

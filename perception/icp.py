@@ -59,7 +59,7 @@ from scipy.spatial import cKDTree
 
 from beo_bench.backend import as_bool, register_backend
 from beo_bench.errors import ViewError
-from beo_bench.geometry import super_fibonacci, yaw_starts
+from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
 from beo_bench.types import Estimate, Mat3, Points, View
 
 _EZ = np.array([0.0, 0.0, 1.0])
@@ -499,7 +499,7 @@ class ICPBackend:
             # t = -B^T b whatever sigma is
             B, b, sig, sc = aligner.run(pts, B, b, 8, fit_scale=self.scale_range)
             scale, residual = float(sig[0]), float(sc[0])
-        R = _orthonormalise(B[0].T)
+        R = orthonormalise(B[0].T)
         t = -R @ b[0]
         return Fit(R, t, scale, residual, score)
 
@@ -535,19 +535,8 @@ class ICPBackend:
             )
         cats = tuple(view.categories)
         means = self._class_means(cats)
-        up = None
-        if view.up_hint is not None:
-            up = np.asarray(view.up_hint, dtype=np.float64).reshape(3)
-            if not np.all(np.isfinite(up)) or np.linalg.norm(up) < 1e-9:
-                raise ViewError(f"View.up_hint must be a finite non-zero 3-vector, got {up}")
-            up = up / np.linalg.norm(up)
-        hint = view.class_hint
-        if self.class_given and hint is not None:
-            if not 0 <= int(hint) < len(cats):
-                raise ViewError(f"View.class_hint={hint} is not an index into {len(cats)} classes")
-            classes = [int(hint)]
-        else:
-            classes = list(range(len(cats)))
+        up = view.unit_up()
+        classes = view.candidate_classes(self.class_given)
         if view.pose_hint is not None:
             R, t, size = (np.asarray(a, dtype=np.float64) for a in view.pose_hint)
             fits = [self.fit_known_pose(obs, cats, c, R, t, size) for c in classes]
@@ -593,9 +582,3 @@ def _thin(pts: np.ndarray, n: int) -> np.ndarray:
     if len(pts) <= n:
         return pts
     return pts[np.linspace(0, len(pts) - 1, n).round().astype(np.int64)]
-
-
-def _orthonormalise(R: np.ndarray) -> Mat3:
-    U, _, Vt = np.linalg.svd(R)
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
-    return U @ D @ Vt

@@ -35,9 +35,7 @@ def class_means(
     progress: bool = False,
 ) -> ClassMeans:
     """Means over the first ``per_category`` (default: all) ``train`` instances of each
-    category. The first call voxelises the training instances in worker processes (one per
-    core; in this process inside a daemonic worker, which may not start children) and
-    caches the result."""
+    category (see :func:`training_voxels`), cached."""
     settings = {
         "version": MEANS_VERSION,
         "categories": list(categories),
@@ -47,20 +45,33 @@ def class_means(
     key = hashlib.sha256(repr(sorted(settings.items())).encode()).hexdigest()
 
     def compute() -> dict[str, np.ndarray]:
-        objects = ObjectSet("train", categories, per_category=per_category)
-        # instances are generated and voxelised in parallel (and their meshes, samples and
-        # parts cached for later); the means below then read the disk cache
-        workers = 1 if mp.current_process().daemon else None
-        prepare(objects, D=resolution, workers=workers, progress=progress)
-        shapes, sizes = [], []
-        for c in categories:
-            insts = objects.instances(c)
-            shapes.append(np.mean([i.voxels(resolution) for i in insts], axis=0))
-            sizes.append(np.mean([i.size for i in insts], axis=0))
+        grids, sizes = training_voxels(categories, resolution, per_category, progress)
         return {
-            "shape": np.asarray(shapes, dtype=np.float32),
-            "size": np.asarray(sizes, dtype=np.float64),
+            "shape": np.asarray([grids[c].mean(axis=0) for c in categories], dtype=np.float32),
+            "size": np.asarray([sizes[c].mean(axis=0) for c in categories], dtype=np.float64),
         }
 
     arrays = cache.cached("classmeans", key, settings, compute)
     return ClassMeans(tuple(categories), arrays["shape"], arrays["size"])
+
+
+def training_voxels(
+    categories: tuple[str, ...],
+    resolution: int = 32,
+    per_category: int | None = None,
+    progress: bool = False,
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Per category, the (n, D, D, D) bool voxel grids and (n, 3) extents of the first
+    ``per_category`` (default: all) ``train`` instances. The first call voxelises them in
+    worker processes (one per core; in this process inside a daemonic worker, which may not
+    start children), which also caches their meshes, samples and parts; later calls read
+    the disk cache."""
+    objects = ObjectSet("train", categories, per_category=per_category)
+    workers = 1 if mp.current_process().daemon else None
+    prepare(objects, D=resolution, workers=workers, progress=progress)
+    grids, sizes = {}, {}
+    for c in categories:
+        insts = objects.instances(c)
+        grids[c] = np.stack([i.voxels(resolution) for i in insts])
+        sizes[c] = np.stack([np.asarray(i.size, dtype=np.float64) for i in insts])
+    return grids, sizes
