@@ -15,7 +15,7 @@ demo: setup
 	$(VENV)/bin/beo-bench demo
 
 test: setup lint
-	$(PY) -m pytest -n 2
+	$(PY) -m pytest -n 2 --dist loadfile
 
 bench: setup
 	$(PY) benchmarks/run.py

@@ -10,11 +10,10 @@ and the fine score (eq. 3.22) rank the true yaw (the nearest of 36) first."""
 
 from __future__ import annotations
 
-import statistics
 import time
 
 from beo_bench.envs.pick import default_categories
-from harness import report
+from harness import median_ms_per_item, report
 
 from beo_bench.backend import get_backend
 from beo_bench.bench.evaluate import Evaluator
@@ -52,13 +51,7 @@ def main() -> None:
         ev = Evaluator(get_suite(name), "beo")
         views = [ev.isolated_view(i)[0] for i in range(n)]
         ev.close()
-        backend.predict(views[0])
-        times = []
-        for v in views:
-            t0 = time.perf_counter()
-            backend.predict(v)
-            times.append(1000 * (time.perf_counter() - t0))
-        ms = statistics.median(times)
+        ms = median_ms_per_item(backend.predict, views)
         report(
             f"beo {name}: median per view ({n} views)",
             ms,

@@ -27,6 +27,18 @@ def median_time(
     return statistics.median(times)
 
 
+def median_ms_per_item(fn: Callable[[Any], Any], items: list[Any]) -> float:
+    """Median wall time (ms) of ``fn(item)`` over ``items``, after one untimed warm-up call
+    on the first."""
+    fn(items[0])
+    times = []
+    for item in items:
+        t0 = time.perf_counter()
+        fn(item)
+        times.append(1000 * (time.perf_counter() - t0))
+    return statistics.median(times)
+
+
 def report(
     name: str,
     value: float,

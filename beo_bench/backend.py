@@ -23,6 +23,7 @@ _IN_TREE = (
     "beo_bench.perception.bounds",
     "beo_bench.perception.icp",
     "beo_bench.perception.beo",
+    "beo_bench.perception.hbeo",
 )
 """Modules whose import registers the in-tree backends."""
 

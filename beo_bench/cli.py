@@ -7,10 +7,14 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from beo_bench.errors import BeoBenchError
+
+if TYPE_CHECKING:
+    from beo_bench.perception.hbeo_train import HBEOConfig, Kind
 
 
 def _fmt_bytes(n: float) -> str:
@@ -300,16 +304,24 @@ def cmd_all(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_train(args: argparse.Namespace) -> int:
-    """Train a model and store it under its name (``beo``: the default name is the one the
-    backend looks for, so training it ahead of time only saves the first run the wait)."""
+def _categories(args: argparse.Namespace) -> tuple[str, ...]:
     from beo_bench.envs.pick import default_categories
     from beo_bench.objects import registry
-    from beo_bench.perception.beo_model import BEOConfig, default_name, models_root, train_beo
 
     cats = tuple(args.categories) if args.categories else default_categories()
     for c in cats:
         registry.get_category(c)  # an unknown name raises, listing the known ones
+    return cats
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    """Train a model and store it under its name (the default name is the one the backend
+    looks for, so training it ahead of time only saves the first run the wait)."""
+    if args.model != "beo":
+        return _train_hbeo(args)
+    from beo_bench.perception.beo_model import BEOConfig, default_name, models_root, train_beo
+
+    cats = _categories(args)
     cfg = BEOConfig(
         categories=cats,
         resolution=args.resolution,
@@ -326,6 +338,71 @@ def cmd_train(args: argparse.Namespace) -> int:
         f"trained in {time.perf_counter() - t0:.1f} s -> {path}"
     )
     return 0
+
+
+def _hbeo_config(args: argparse.Namespace, kind: Kind) -> HBEOConfig:
+    from beo_bench.perception.hbeo_train import default_config, with_overrides
+
+    base = default_config(
+        kind,
+        _categories(args),
+        instances=args.per_category,
+        images=args.images,
+        epochs=getattr(args, "epochs", None),
+    )
+    return with_overrides(
+        base,
+        val_images=args.val_images,
+        seed=args.seed,
+        size=getattr(args, "size", None),
+        rotation=getattr(args, "rotation", None),
+        batch_size=getattr(args, "batch_size", None),
+    )
+
+
+def _train_hbeo(args: argparse.Namespace) -> int:
+    from beo_bench.perception.hbeo_train import default_name, models_root, train_hbeo
+
+    cfg = _hbeo_config(args, args.model)
+    name = args.name or default_name(cfg)
+    path = models_root() / name
+    if not args.resume and (path / "checkpoint.pt").exists():
+        (path / "checkpoint.pt").unlink()
+    t0 = time.perf_counter()
+    model = train_hbeo(cfg, path, progress=True, workers=args.workers)
+    last = model.info["history"][-1]
+    speed = model.info["render_images_per_s"]
+    rendered = f"rendered at {speed:.0f} images/s" if speed else "rendering cached"
+    print(
+        f"{args.model} model {name!r}: {model.info['train_images']} crops ({rendered}), "
+        f"{len(model.info['history'])} epochs in {time.perf_counter() - t0:.1f} s; "
+        f"validation: class accuracy {last.get('val_class_acc', float('nan')):.1%}, "
+        f"rotation median {last.get('val_rot_err_median', float('nan')):.1f} deg -> {path}"
+    )
+    return 0
+
+
+def cmd_render_dataset(args: argparse.Namespace) -> int:
+    """Render (or complete) HBEO's training set and report its rendering speed."""
+    from beo_bench.perception.hbeo_data import render_dataset
+
+    cfg = _hbeo_config(args, "hbeo").dataset
+    root, st = render_dataset(cfg, workers=args.workers, progress=True)
+    if st["images"]:
+        print(
+            f"rendered {st['images']:.0f} crops in {st['seconds']:.1f} s "
+            f"({st['images_per_s']:.0f} images/s) -> {root}"
+        )
+    else:
+        print(f"all {cfg.images} + {cfg.val_images} crops already rendered -> {root}")
+    return 0
+
+
+def _dataset_args(g: Any) -> None:
+    g.add_argument("--images", type=int, default=None, help="training crops")
+    g.add_argument("--val-images", type=int, default=None, help="validation crops (val split)")
+    g.add_argument("--seed", type=int, default=None, help="seeds rendering and training")
+    g.add_argument("--workers", type=int, default=None, help="render processes (default: cores)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -420,14 +497,38 @@ def build_parser() -> argparse.ArgumentParser:
     lb.add_argument("--out", default="leaderboards")
     lb.set_defaults(func=cmd_leaderboard)
 
-    tr = sub.add_parser("train", help="train a perception model (beo)")
-    tr.add_argument("model", choices=["beo"])
+    tr = sub.add_parser("train", help="train a perception model (beo, hbeo, hbeo-mdn)")
+    tr.add_argument("model", choices=["beo", "hbeo", "hbeo-mdn"])
     tr.add_argument("--categories", nargs="+", default=None, help="default: the 11 built-in")
-    tr.add_argument("--resolution", type=int, default=32, help="voxels per edge (D)")
-    tr.add_argument("--per-category", type=int, default=None, help="train instances per class")
-    tr.add_argument("--variance-fraction", type=float, default=0.6)
     tr.add_argument("--name", default=None, help="model name (default: the default model's name)")
+    tb = tr.add_argument_group("beo")
+    tb.add_argument("--resolution", type=int, default=32, help="voxels per edge (D)")
+    tr.add_argument(
+        "--per-category",
+        type=int,
+        default=None,
+        help="train instances per class (hbeo: for the crops and the default BEO subspace)",
+    )
+    tb.add_argument("--variance-fraction", type=float, default=0.6)
+    th = tr.add_argument_group("hbeo and hbeo-mdn (defaults: the default small model's)")
+    _dataset_args(th)
+    th.add_argument("--epochs", type=int, default=None)
+    th.add_argument("--batch-size", type=int, default=None)
+    th.add_argument("--size", choices=["small", "dissertation"], default=None)
+    th.add_argument("--rotation", choices=["axis-angle", "6d"], default=None, help="hbeo only")
+    th.add_argument(
+        "--resume",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="continue from the last finished epoch of a killed run (default)",
+    )
     tr.set_defaults(func=cmd_train)
+
+    rd = sub.add_parser("render-dataset", help="render HBEO's training crops (cached shards)")
+    rd.add_argument("--categories", nargs="+", default=None, help="default: the 11 built-in")
+    rd.add_argument("--per-category", type=int, default=None, help="instances per class")
+    _dataset_args(rd)
+    rd.set_defaults(func=cmd_render_dataset)
 
     c = sub.add_parser("cache", help="inspect or clear the asset cache")
     c.add_argument("action", choices=["info", "clear"])

@@ -19,6 +19,10 @@ FAST = {
     "random": {"mean_instances": 4},
     "icp": {"mean_instances": 4},
     "beo": {"instances": 4, "so3_samples": 64},
+    **{
+        name: {"instances": 4, "images": 200, "epochs": 1}
+        for name in ("hbeo", "hbeo-mdn-likelihood", "hbeo-mdn-posterior")
+    },
 }
 
 

@@ -36,12 +36,16 @@ COLUMNS: tuple[Column, ...] = (
     ("target_found_rate", "target found", 100.0, "{:.1f}%"),
     ("ms_per_view_median", "ms/view", 1.0, "{:.1f}"),
 )
-PER_CATEGORY: dict[str, Column] = {
-    "pick": ("pick_success", "pick success", 100.0, "{:.0f}%"),
-    "known-pose": ("class_acc", "class accuracy", 100.0, "{:.0f}%"),
+PER_CATEGORY: dict[str, tuple[Column, ...]] = {
+    "pick": (("pick_success", "pick success", 100.0, "{:.0f}%"),),
+    "known-pose": (("class_acc", "class accuracy", 100.0, "{:.0f}%"),),
 }
-"""The per-category table's metric per suite kind or protocol (default: rotation error)."""
-PER_CATEGORY_DEFAULT: Column = ("rot_err_deg_mean", "mean rotation error (deg)", 1.0, "{:.1f}")
+"""The per-category tables' metrics per suite (default: mean rotation error and the gross
+error rate, as the dissertation's Tables 5.1 and 5.2)."""
+PER_CATEGORY_DEFAULT: tuple[Column, ...] = (
+    ("rot_err_deg_mean", "mean rotation error (deg)", 1.0, "{:.1f}"),
+    ("gross_err_rate", "rotation errors > 15 deg", 100.0, "{:.1f}%"),
+)
 
 
 def load_summaries(runs: Path) -> list[dict[str, Any]]:
@@ -98,11 +102,20 @@ def suite_table(summaries: list[dict[str, Any]]) -> str:
 
 
 def category_table(suite: str, summaries: list[dict[str, Any]]) -> str:
-    """Categories as rows, backends as columns, one metric (see ``PER_CATEGORY``)."""
-    key, title, scale, fmt = PER_CATEGORY.get(suite, PER_CATEGORY_DEFAULT)
+    """Per metric of ``PER_CATEGORY``: categories as rows, backends as columns."""
     rows = _ordered(summaries)
-    if not any(key in d for s in rows for d in s.get("per_category", {}).values()):
-        key, title, scale, fmt = ("iou_mean", "mean IoU", 1.0, "{:.3f}")
+    tables = []
+    for key, title, scale, fmt in PER_CATEGORY.get(suite, PER_CATEGORY_DEFAULT):
+        if any(key in d for s in rows for d in s.get("per_category", {}).values()):
+            tables.append(_category_table(rows, key, title, scale, fmt))
+    if not tables:
+        tables.append(_category_table(rows, "iou_mean", "mean IoU", 1.0, "{:.3f}"))
+    return "\n\n".join(tables)
+
+
+def _category_table(
+    rows: list[dict[str, Any]], key: str, title: str, scale: float, fmt: str
+) -> str:
     cats = sorted({c for s in rows for c in s.get("per_category", {})})
     lines = [
         f"{title} per category:",
@@ -154,6 +167,9 @@ def _plots(out: Path, suite: str, summaries: list[dict[str, Any]]) -> list[str]:
         _savefig(fig, out / name)
         plt.close(fig)
         written.append(name)
+    sampled = [s for s in with_rot if "samples" in _kwargs(s)]
+    if sampled:
+        written.append(_error_vs_samples(out, suite, with_rot, sampled))
     for s in _ordered(summaries):
         conf = s["metrics"].get("confusion")
         if not conf:
@@ -175,6 +191,56 @@ def _plots(out: Path, suite: str, summaries: list[dict[str, Any]]) -> list[str]:
         plt.close(fig)
         written.append(name)
     return written
+
+
+def _kwargs(s: dict[str, Any]) -> dict[str, Any]:
+    return s.get("provenance", {}).get("backend_kwargs") or {}
+
+
+def _error_vs_samples(
+    out: Path, suite: str, with_rot: list[dict[str, Any]], sampled: list[dict[str, Any]]
+) -> str:
+    """Mean rotation error against N, the samples drawn (dissertation Figure 5.3): a line
+    per sampling backend; the other backends as horizontal references."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4), constrained_layout=True)
+    lines: dict[str, list[tuple[int, float, Any]]] = {}
+    for s in sampled:
+        ci = s.get("ci95", {}).get("rot_err_deg_mean")
+        n = int(_kwargs(s)["samples"])
+        lines.setdefault(s["backend"], []).append((n, s["metrics"]["rot_err_deg_mean"], ci))
+    for backend, pts in sorted(lines.items()):
+        pts.sort(key=lambda p: p[0])
+        x = [p[0] for p in pts]
+        y = [p[1] for p in pts]
+        ax.plot(x, y, marker="o", label=backend)
+        lo = [p[2][0] if p[2] else p[1] for p in pts]
+        hi = [p[2][1] if p[2] else p[1] for p in pts]
+        ax.fill_between(x, lo, hi, alpha=0.15)
+    # the other methods as references, those within twice the sampled errors' range (a
+    # far-off baseline would squash the curves this plot is about)
+    top = 2 * max(s["metrics"]["rot_err_deg_mean"] for s in sampled)
+    others = [s for s in with_rot if "samples" not in _kwargs(s) and s["backend"] not in BOUNDS]
+    styles = iter(["--", ":", "-.", (0, (5, 1)), (0, (1, 3))] * 4)
+    for i, s in enumerate(o for o in others if o["metrics"]["rot_err_deg_mean"] <= top):
+        ax.axhline(
+            s["metrics"]["rot_err_deg_mean"],
+            ls=next(styles),
+            lw=1,
+            label=label(s),
+            color=f"C{i + 2}",
+        )
+    ax.set_ylim(0, top)
+    ax.set_xscale("log")
+    ax.set_xlabel("N, rotation samples drawn")
+    ax.set_ylabel("mean rotation error (deg)")
+    ax.legend(fontsize="small")
+    ax.set_title(f"{suite}: error against N (cf. Figure 5.3)")
+    name = f"{suite}_error_vs_samples.png"
+    _savefig(fig, out / name)
+    plt.close(fig)
+    return name
 
 
 def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> list[Path]:

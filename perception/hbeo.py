@@ -1,0 +1,296 @@
+"""``hbeo``, ``hbeo-mdn-likelihood`` and ``hbeo-mdn-posterior``: Hybrid Bayesian
+Eigenobjects (dissertation chapter 4) and HBEO-MDN with the silhouette prior (chapter 5).
+
+Per view: the object-centred crop (:mod:`.hbeo_crop`) goes through the network once
+(:mod:`.hbeo_net`), giving class probabilities, the translation offset, the log size, the
+subspace coefficients and the rotation (relative to the crop-centre ray). The shape is the
+back-projection W o' + mu of the coefficients (eq. 4.2), clipped to [0, 1].
+
+HBEO-MDN's rotation is chosen among N samples of its mixture (N = ``samples``, the any-time
+knob of Figure 5.3):
+
+- ``likelihood`` (eq. 5.7): the sample of highest mixture density;
+- ``posterior`` (eq. 5.5-5.8): density x silhouette prior 1 / (e^4 + eps), where e is the
+  Frobenius norm of the difference between the signed distance fields of the observed mask
+  and of the predicted shape re-projected at that sample. All N re-projections are one
+  batched computation (:func:`silhouettes`): the shape's surface voxels go through every
+  sampled rotation and K at once and are splatted into N crop-sized masks.
+
+``Estimate.pose_samples`` holds the N camera-frame rotations and ``pose_weights`` their
+normalised scores (density, or density x prior).
+"""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass
+from typing import Literal
+
+import cv2
+import numpy as np
+import torch
+import torch.nn.functional as F
+from beo_bench.perception.beo_observe import grid_centres
+from beo_bench.perception.hbeo_crop import Crop, make_crop
+from beo_bench.perception.hbeo_net import Mixture, point_rotation
+from beo_bench.perception.hbeo_train import HBEOModel, load_hbeo
+from scipy.spatial.transform import Rotation
+from scipy.special import logsumexp
+
+from beo_bench.backend import register_backend
+from beo_bench.geometry import orthonormalise
+from beo_bench.types import Estimate, View
+
+Mode = Literal["hbeo", "likelihood", "posterior"]
+PRIOR_EPS = 1e-6
+"""eps of the silhouette prior 1 / (e^4 + eps) (eq. 5.8)."""
+
+
+class HBEOBackend:
+    """HBEO / HBEO-MDN (module docstring). Keyword arguments (``--opt KEY=VALUE``):
+
+    - ``model`` (None): a model name (``beo-bench train hbeo|hbeo-mdn --name``) or
+      directory; None uses the default small model, trained on first use;
+    - ``samples`` (25, MDN modes): N, the rotation samples drawn per view;
+    - ``seed`` (0): with the crop's bytes, seeds the sampling (same view, same estimate);
+    - ``instances``, ``images``, ``epochs`` (None): train the default model on this many
+      instances per class, crops and epochs (quick checks; None: the default's);
+    - ``threads`` (1): torch intra-op threads for this process. One image at a time is
+      fastest on one thread: on 2 cores, two torch threads spinning beside numpy's BLAS
+      threads made a prediction 2.4x slower (8.0 vs 3.3 ms, ``benchmarks/bench_hbeo.py``).
+      None leaves torch's setting alone.
+    """
+
+    def __init__(
+        self,
+        mode: Mode,
+        model: str | None = None,
+        samples: int = 25,
+        seed: int = 0,
+        threads: int | None = 1,
+        instances: int | None = None,
+        images: int | None = None,
+        epochs: int | None = None,
+    ) -> None:
+        self.mode = mode
+        self.name = "hbeo" if mode == "hbeo" else f"hbeo-mdn-{mode}"
+        self.kind = "hbeo" if mode == "hbeo" else "hbeo-mdn"
+        self.model_name = None if model in (None, "", "None", "default") else str(model)
+        self.samples = int(samples)
+        self.seed = int(seed)
+        if self.samples < 1:
+            raise ValueError(f"samples={samples}: draw at least one rotation sample")
+        self.small = {
+            k: None if v in (None, "None") else int(v)  # type: ignore[arg-type]
+            for k, v in (("instances", instances), ("images", images), ("epochs", epochs))
+        }
+        self.threads = None if threads in (None, "None") else int(threads)  # type: ignore[arg-type]
+        if self.threads is not None:
+            torch.set_num_threads(max(1, self.threads))
+        self._models: dict[tuple[str, ...], tuple[HBEOModel, np.ndarray, np.ndarray]] = {}
+
+    def prepare(self, categories: tuple[str, ...]) -> None:
+        """Load (or train on first use, with progress bars) the model for ``categories``."""
+        self._model(tuple(categories), progress=True)
+
+    def _model(
+        self, cats: tuple[str, ...], progress: bool = False
+    ) -> tuple[HBEOModel, np.ndarray, np.ndarray]:
+        if cats not in self._models:
+            m = load_hbeo(self.model_name, self.kind, cats, progress, **self.small)  # type: ignore[arg-type]
+            # fold the coefficient standardisation into the decoder: shape = c_std A + b,
+            # with A (k, d) row-major so the product streams it once (numpy's sgemv reads
+            # the 15 MB of a 32^3 x 117 basis several times faster than torch's addmv)
+            W = m.beo.basis.astype(np.float64)
+            A = np.ascontiguousarray((W * m.coef_std[None]).T, dtype=np.float32)
+            b = (m.beo.mean + W @ m.coef_mean).astype(np.float32)
+            self._models[cats] = (m, A, b)
+        return self._models[cats]
+
+    def forward(self, view: View) -> Forward:
+        """The network's outputs for ``view``, converted to the camera frame."""
+        model, A, b = self._model(tuple(view.categories))
+        net, cfg = model.net, model.net.cfg
+        crop = make_crop(view.depth, view.mask, view.K, cfg.crop)
+        with torch.inference_mode():
+            out = net(torch.from_numpy(crop.image)[None])
+            probs = torch.softmax(out.logits.double(), dim=1)[0].numpy()
+        D = model.beo.D
+        shape = out.coefficients[0].numpy() @ A + b  # eq. 4.2: W o' + mu
+        np.clip(shape, 0.0, 1.0, out=shape)
+        mdn = cfg.rotation == "mdn"
+        if cfg.rotation == "axis-angle":
+            w = out.rotation[0].double().numpy()
+            R = crop.rotation_from(Rotation.from_rotvec(w).as_matrix())
+        else:  # 6D, or the MDN's heaviest component
+            R = crop.rotation_from(point_rotation(out, cfg)[0].double().numpy())
+        return Forward(
+            crop=crop,
+            class_probs=probs / probs.sum(),
+            rotation=R,
+            translation=crop.translation_from(out.offset[0].numpy()),
+            size=crop.size_from(out.log_size[0].numpy()),
+            shape=shape.reshape(D, D, D),
+            mixture=Mixture.from_raw(out.rotation, cfg.components) if mdn else None,
+        )
+
+    def predict(self, view: View) -> Estimate:
+        f = self.forward(view)
+        info: dict[str, object] = {"mode": self.mode}
+        R, samples, weights = f.rotation, None, None
+        if self.mode != "hbeo":
+            s = self.rotation_samples(view, f, prior=self.mode == "posterior")
+            score = s.log_likelihood.copy()
+            if s.silhouette_error is not None:
+                score -= np.log(s.silhouette_error**4 + PRIOR_EPS)  # eq. 5.8: x 1/(e^4 + eps)
+            best = int(np.argmax(score))  # eq. 5.7 (likelihood) or the posterior mode
+            R, samples = s.R[best], s.R
+            weights = np.exp(score - score[best])
+            weights /= weights.sum()
+            info["samples"] = self.samples
+            if s.silhouette_error is not None:
+                info["silhouette_error"] = float(s.silhouette_error[best])
+        return Estimate(
+            class_probs=f.class_probs,
+            rotation=orthonormalise(R),
+            translation=f.translation,
+            size=f.size,
+            shape=f.shape,
+            pose_samples=samples,
+            pose_weights=weights,
+            info=info,
+        )
+
+    def rotation_samples(self, view: View, f: Forward | None = None, prior: bool = True) -> Samples:
+        """N = ``samples`` rotations drawn from the MDN's mixture for ``view`` (seeded by
+        the crop), their log mixture density and (``prior``) their silhouette errors."""
+        f = f if f is not None else self.forward(view)
+        if f.mixture is None:
+            raise ValueError(f"{self.name}: rotation samples need an hbeo-mdn model")
+        mix = f.mixture
+        seed = zlib.crc32(f.crop.image.tobytes()) ^ self.seed
+        w = mix.sample(self.samples, np.random.default_rng(seed))[0]  # (N, 3)
+        # eq. 5.7's density of each sample, in float64 numpy: N is small, and multi-threaded
+        # float32 reductions could break ties differently from call to call
+        lw, mu, var = (x[0].double().numpy() for x in (mix.log_weights, mix.means, mix.variances))
+        d = w[:, None, :] - mu[None]
+        comp = -0.5 * (d * d / var + np.log(2 * np.pi * var)).sum(-1)  # (N, M)
+        R = f.crop.rotation_from(Rotation.from_rotvec(w).as_matrix())
+        e = None
+        if prior:
+            shape = torch.from_numpy(f.shape)
+            masks = silhouettes(shape, f.size, R, f.translation, view.K, f.crop)
+            e = sdf_errors(f.crop.mask, masks)
+        return Samples(R=R, log_likelihood=logsumexp(comp + lw, axis=1), silhouette_error=e)
+
+
+@dataclass
+class Forward:
+    """One forward pass, in the camera frame: ``rotation`` is the regression (HBEO) or the
+    heaviest component's mean (MDN); ``mixture`` the MDN's rotation mixture (ray frame)."""
+
+    crop: Crop
+    class_probs: np.ndarray
+    rotation: np.ndarray
+    translation: np.ndarray
+    size: np.ndarray
+    shape: np.ndarray
+    mixture: Mixture | None
+
+
+@dataclass
+class Samples:
+    """N rotation samples (camera frame, (N, 3, 3)), their log mixture density (eq. 5.7)
+    and their silhouette errors e (eq. 5.6; None when not computed)."""
+
+    R: np.ndarray
+    log_likelihood: np.ndarray
+    silhouette_error: np.ndarray | None
+
+
+def surface_points(shape: torch.Tensor, edge: float) -> torch.Tensor:
+    """(P, 3) canonical-frame centres (m) of the surface voxels of ``shape`` > 0.5 (above
+    half its maximum when nothing is): occupied voxels with an empty 6-neighbour."""
+    D = shape.shape[0]
+    thr = 0.5 if bool((shape > 0.5).any()) else 0.5 * float(shape.max())
+    occ = (shape >= thr) & (shape > 0)
+    empty = (~occ).float()[None, None]
+    # a voxel is interior when its 6 neighbours are occupied: dilate the empty set by a cross
+    k = torch.zeros(1, 1, 3, 3, 3)
+    k[0, 0, 1, 1, :] = k[0, 0, 1, :, 1] = k[0, 0, :, 1, 1] = 1
+    near_empty = F.conv3d(F.pad(empty, (1,) * 6, value=1.0), k)[0, 0] > 0
+    surf = (occ & near_empty).reshape(-1)
+    return grid_centres(D)[surf] * edge
+
+
+def silhouettes(
+    shape: torch.Tensor, size: np.ndarray, R: np.ndarray, t: np.ndarray, K: np.ndarray, crop: Crop
+) -> np.ndarray:
+    """(N, S, S) bool masks, in the crop's pixels, of ``shape`` (the estimate's unit-cube
+    grid, edge = the largest extent) placed at each of the N rotations ``R`` (N, 3, 3) and
+    translation ``t``: every surface voxel of every sample projected in one batched step,
+    splatted, and closed (3x3) to fill the gaps between voxel centres."""
+    S = crop.image.shape[-1]
+    P = surface_points(shape, float(np.max(size))).double()
+    Rt = torch.from_numpy(np.asarray(R, dtype=np.float64))
+    X = torch.einsum("nij,pj->npi", Rt, P) + torch.from_numpy(np.asarray(t, dtype=np.float64))
+    # image pixels through K, then the crop's affine map; one matrix does both
+    M = torch.from_numpy(np.asarray(crop.affine, dtype=np.float64)) @ torch.from_numpy(
+        np.asarray(K, dtype=np.float64)
+    )
+    z = X[..., 2].clamp_min(1e-6)
+    xy = torch.einsum("ij,npj->npi", M, X) / z[..., None]
+    ij = torch.floor(xy + 0.5).long()
+    ok = (X[..., 2] > 1e-6) & (ij >= 0).all(-1) & (ij < S).all(-1)
+    N = Rt.shape[0]
+    flat = torch.arange(N)[:, None] * S * S + ij[..., 1] * S + ij[..., 0]
+    canvas = torch.zeros(N * S * S + 1)
+    canvas[torch.where(ok, flat, torch.full_like(flat, N * S * S)).reshape(-1)] = 1.0
+    m = canvas[:-1].reshape(N, 1, S, S)
+    m = F.max_pool2d(m, 3, stride=1, padding=1)  # closing: dilate ...
+    m = -F.max_pool2d(-m, 3, stride=1, padding=1)  # ... then erode
+    return m[:, 0].numpy() > 0.5
+
+
+def signed_distance(mask: np.ndarray) -> np.ndarray:
+    """2D signed distance field (pixels): positive outside the mask, negative inside."""
+    m = np.asarray(mask, dtype=np.uint8)
+
+    def exact(x: np.ndarray) -> np.ndarray:
+        # the precise transform is exact Euclidean (squared distances are integers), but its
+        # float32 result differs in the last bit from call to call: round d^2 to recover
+        # the exact value, so the same view always gives the same estimate
+        d = cv2.distanceTransform(x, cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
+        return np.sqrt(np.rint(d * d))
+
+    return exact(1 - m) - exact(m)
+
+
+def sdf_errors(observed: np.ndarray, masks: np.ndarray) -> np.ndarray:
+    """(N,) e_n = ||SDF(observed) - SDF(mask_n)||_F (eq. 5.6); an empty mask's SDF is its
+    distance to nothing, so it gets the largest error of any present one times two."""
+    ref = signed_distance(observed).astype(np.float64)
+    e = np.empty(len(masks))
+    empty = ~masks.reshape(len(masks), -1).any(1)
+    for i, m in enumerate(masks):
+        # numpy's pairwise sum, not BLAS: a threaded dot product is not bit-reproducible
+        diff = ref - signed_distance(m)
+        e[i] = np.inf if empty[i] else np.sqrt(np.sum(diff * diff))
+    finite = e[np.isfinite(e)]
+    e[~np.isfinite(e)] = 2 * finite.max() if len(finite) else 1.0
+    return e
+
+
+@register_backend("hbeo")
+def _hbeo(**kw: object) -> HBEOBackend:
+    return HBEOBackend("hbeo", **kw)  # type: ignore[arg-type]
+
+
+@register_backend("hbeo-mdn-likelihood")
+def _likelihood(**kw: object) -> HBEOBackend:
+    return HBEOBackend("likelihood", **kw)  # type: ignore[arg-type]
+
+
+@register_backend("hbeo-mdn-posterior")
+def _posterior(**kw: object) -> HBEOBackend:
+    return HBEOBackend("posterior", **kw)  # type: ignore[arg-type]

@@ -1,0 +1,410 @@
+"""HBEO's training set: crops rendered by the scenes API, cached as compressed shards.
+
+Two kinds of shard (DESIGN.md "Perception backends"; dissertation section 4.3):
+
+- *isolated*: instances of the split at the origin, cameras from ``OBJECT_RIG`` (azimuth
+  over the full circle, elevation 0-60 degrees, roll zero-mean Gaussian with 99% within 25
+  degrees), 128x128 like the pose suites; ``views_per_instance`` views per instance so a
+  compiled model serves several renders;
+- *tabletop*: BEOPick-v0 scenes of the split (1-4 objects, clutter, occlusion by each
+  other and the table edge), 640x480; every object with at least ``min_pixels`` visible
+  pixels is one crop.
+
+A share ``noise_share`` of the images get the depth-sensor noise model. Shard ``i`` is
+generated from ``SeedSequence([seed, i])`` alone, by whichever worker renders it, so a
+dataset is the same however it is split over processes and a killed run resumes at the
+first missing shard. Shards are ``np.savez_compressed`` files written through a temporary
+file and a rename.
+
+Each crop is stored with the targets that do not depend on a subspace: class, the
+instance's key (the shape coefficients of eq. 4.1 are computed at training time from the
+subspace in use), the rotation relative to the crop-centre ray (made canonical over the
+object's symmetry group, see :func:`canonical_rotation`), translation offset and log size.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import multiprocessing as mp
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from beo_bench.perception.hbeo_crop import CROP_SIZE, make_crop
+
+from beo_bench.types import Mat3, Symmetry
+
+DATA_VERSION = 1
+
+
+@dataclass(frozen=True)
+class DatasetConfig:
+    """What a training set holds. ``images`` counts crops over all training shards;
+    ``val_images`` are rendered the same way from the ``val`` split (held-out instances)."""
+
+    categories: tuple[str, ...]
+    images: int = 16000
+    val_images: int = 1000
+    split: str = "train"
+    val_split: str = "val"
+    per_category: int | None = None
+    """Instances per class drawn from (None: the whole split)."""
+    crop: int = CROP_SIZE
+    shard_size: int = 500
+    views_per_instance: int = 10
+    tabletop_share: float = 0.2
+    noise_share: float = 0.3
+    min_pixels: int = 50
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not self.categories:
+            raise ValueError("DatasetConfig.categories is empty")
+        if self.images < 1 or self.val_images < 0 or self.shard_size < 1:
+            raise ValueError("images >= 1, val_images >= 0 and shard_size >= 1 are required")
+        if not (0 <= self.tabletop_share <= 1 and 0 <= self.noise_share <= 1):
+            raise ValueError("tabletop_share and noise_share are fractions in [0, 1]")
+
+    def shards(self) -> list[tuple[str, int, str, int]]:
+        """(split, shard index, kind, crops) of every shard; the kinds interleave so that
+        any prefix of the shards holds both at about ``tabletop_share``."""
+        out = []
+        for split, n in ((self.split, self.images), (self.val_split, self.val_images)):
+            for i in range(-(-n // self.shard_size)):
+                s = self.tabletop_share
+                kind = "tabletop" if int((i + 1) * s) > int(i * s) else "isolated"
+                out.append((split, i, kind, min(self.shard_size, n - i * self.shard_size)))
+        return out
+
+    def digest(self) -> str:
+        """Names the shard directory. The image counts are left out: shard i's crops do
+        not depend on how many shards there are, so a larger set reuses a smaller one's."""
+        from beo_bench.objects import LIBRARY_VERSION
+
+        fields = {k: v for k, v in asdict(self).items() if k not in ("images", "val_images")}
+        key = json.dumps([fields, DATA_VERSION, LIBRARY_VERSION], sort_keys=True)
+        return hashlib.sha256(key.encode()).hexdigest()[:12]
+
+
+def datasets_root() -> Path:
+    from beo_bench.objects.cache import cache_root
+
+    return cache_root() / "datasets" / "hbeo"
+
+
+def dataset_dir(config: DatasetConfig) -> Path:
+    return datasets_root() / config.digest()
+
+
+def canonical_rotation(R_rel: Mat3, symmetry: Symmetry | None) -> Mat3:
+    """The member of ``R_rel``'s symmetry class closest to the identity.
+
+    Rotations that differ by a symmetry of the object look the same, so an L2 regression
+    target must pick one of them (else it learns their average). For a continuous symmetry
+    about the canonical z axis, R Rz(theta) maximises its trace, i.e. is closest to the
+    identity, at theta = atan2(R01 - R10, R00 + R11); discrete symmetries are enumerated.
+    """
+    R = np.asarray(R_rel, dtype=np.float64)
+    if not symmetry:
+        return R
+    cands = [R]
+    for t in symmetry.get("discrete", []):
+        cands.append(R @ np.asarray(t, dtype=np.float64)[:3, :3])
+    if symmetry.get("continuous"):
+        axis = np.asarray(symmetry["continuous"][0]["axis"], dtype=np.float64)
+        if abs(abs(axis[2]) - 1) < 1e-6:  # the library's continuous symmetries are about z
+            out = []
+            for C in cands:
+                th = np.arctan2(C[0, 1] - C[1, 0], C[0, 0] + C[1, 1])
+                c, s = np.cos(th), np.sin(th)
+                out.append(C @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]))
+            cands = out
+    return max(cands, key=lambda C: float(np.trace(C)))
+
+
+@dataclass
+class Shard:
+    """Crops and targets of one shard (n items)."""
+
+    depth: np.ndarray
+    """(n, S, S) float16 normalised depth, NaN off the mask."""
+    label: np.ndarray
+    """(n,) int16 class index."""
+    instance: np.ndarray
+    """(n,) int32 index into ``keys``."""
+    keys: list[str]
+    rotation: np.ndarray
+    """(n, 3, 3) float32 canonical rotation relative to the crop-centre ray."""
+    offset: np.ndarray
+    """(n, 3) float32 translation target."""
+    log_size: np.ndarray
+    """(n, 3) float32 size target."""
+    noisy: np.ndarray
+    """(n,) bool."""
+
+    def save(self, path: Path) -> None:
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp.npz")
+        np.savez_compressed(
+            tmp,
+            depth=self.depth,
+            label=self.label,
+            instance=self.instance,
+            keys=np.array(self.keys),
+            rotation=self.rotation,
+            offset=self.offset,
+            log_size=self.log_size,
+            noisy=self.noisy,
+        )
+        os.replace(tmp, path)
+
+    @classmethod
+    def load(cls, path: Path) -> Shard:
+        with np.load(path) as z:
+            return cls(
+                depth=z["depth"],
+                label=z["label"],
+                instance=z["instance"],
+                keys=[str(k) for k in z["keys"]],
+                rotation=z["rotation"],
+                offset=z["offset"],
+                log_size=z["log_size"],
+                noisy=z["noisy"],
+            )
+
+
+class _Collector:
+    def __init__(self, categories: tuple[str, ...], crop: int) -> None:
+        self.categories = categories
+        self.crop = crop
+        self.rows: list[tuple[Any, ...]] = []
+        self.keys: dict[str, int] = {}
+
+    def add(
+        self, depth: np.ndarray, mask: np.ndarray, K: Mat3, truth: Any, R_cam: Mat3, t_cam: Any
+    ) -> None:
+        c = make_crop(depth, mask, K, self.crop)
+        R_rel = canonical_rotation(c.rotation_target(R_cam), truth.symmetry)
+        img = np.where(c.image[1] > 0.5, c.image[0], np.nan).astype(np.float16)
+        idx = self.keys.setdefault(truth.key, len(self.keys))
+        self.rows.append(
+            (
+                img,
+                self.categories.index(truth.category),
+                idx,
+                R_rel,
+                c.translation_target(t_cam),
+                c.size_target(truth.size),
+            )
+        )
+
+    def shard(self, noisy: list[bool]) -> Shard:
+        cols = list(zip(*self.rows, strict=True))
+        return Shard(
+            depth=np.stack(cols[0]),
+            label=np.asarray(cols[1], dtype=np.int16),
+            instance=np.asarray(cols[2], dtype=np.int32),
+            keys=list(self.keys),
+            rotation=np.stack(cols[3]).astype(np.float32),
+            offset=np.stack(cols[4]).astype(np.float32),
+            log_size=np.stack(cols[5]).astype(np.float32),
+            noisy=np.asarray(noisy, dtype=bool),
+        )
+
+
+_WORKER: dict[str, Any] = {}
+
+
+def _isolated_shard(config: DatasetConfig, split: str, rng: np.random.Generator, n: int) -> Shard:
+    from beo_bench.scenes.isolated import IsolatedRenderer
+    from beo_bench.scenes.noise import DepthNoise, apply_noise
+
+    from beo_bench.objects import ObjectSet
+
+    if "isolated" not in _WORKER:
+        _WORKER["isolated"] = IsolatedRenderer(cache_models=2)
+    r = _WORKER["isolated"]
+    objects = ObjectSet(split, config.categories, per_category=config.per_category)
+    col = _Collector(config.categories, config.crop)
+    noisy: list[bool] = []
+    noise = DepthNoise()
+    while len(col.rows) < n:
+        cat = config.categories[int(rng.integers(len(config.categories)))]
+        inst = objects.get(cat, int(rng.integers(objects.count(cat))))
+        for _ in range(min(config.views_per_instance, n - len(col.rows))):
+            v = r.render(inst, r.rig.sample(rng, np.zeros(3)))
+            depth = v.depth
+            is_noisy = bool(rng.random() < config.noise_share)
+            if is_noisy:
+                depth = apply_noise(depth, rng, noise)
+            mask = v.mask & (depth > 0)
+            if mask.sum() < 8:  # noise can drop a tiny far object entirely
+                continue
+            col.add(depth, mask, v.K, inst, v.R_cam, v.t_cam)
+            noisy.append(is_noisy)
+    return col.shard(noisy)
+
+
+def _tabletop_shard(config: DatasetConfig, split: str, rng: np.random.Generator, n: int) -> Shard:
+    from beo_bench.envs.pick import BEOPickEnv
+    from beo_bench.scenes.noise import DepthNoise, apply_noise
+
+    from beo_bench.objects import ObjectSet
+
+    key = f"tabletop-{split}-{config.categories}-{config.per_category}"
+    if key not in _WORKER:
+        objects = ObjectSet(split, config.categories, per_category=config.per_category)
+        _WORKER[key] = BEOPickEnv(
+            objects=objects,
+            categories=config.categories,
+            num_objects=(1, min(4, len(config.categories))),
+            noise=False,
+        )
+    env = _WORKER[key]
+    col = _Collector(config.categories, config.crop)
+    noisy: list[bool] = []
+    noise = DepthNoise()
+    while len(col.rows) < n:
+        obs, _ = env.reset(seed=int(rng.integers(2**31)))
+        depth = obs["depth"]
+        is_noisy = bool(rng.random() < config.noise_share)
+        if is_noisy:
+            depth = apply_noise(depth, rng, noise)
+        for g in env.ground_truth():
+            mask = (obs["segmentation"] == g.label) & (depth > 0)
+            if g.pixels < config.min_pixels or mask.sum() < config.min_pixels // 2:
+                continue
+            if len(col.rows) < n:
+                col.add(depth, mask, obs["intrinsics"], g, g.R_cam, g.t_cam)
+                noisy.append(is_noisy)
+    return col.shard(noisy)
+
+
+def render_shard(
+    config: DatasetConfig, split: str, index: int, kind: str, n: int, path: Path
+) -> int:
+    """Render the ``n`` crops of shard ``index`` of ``split`` to ``path``; returns ``n``.
+    The first m crops of a shard are the same for any n >= m."""
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    tag = 0 if split == config.split else 1
+    rng = np.random.default_rng(np.random.SeedSequence([config.seed, tag, index]))
+    make = _tabletop_shard if kind == "tabletop" else _isolated_shard
+    shard = make(config, split, rng, n)
+    shard.save(path)
+    return len(shard.label)
+
+
+def shard_path(root: Path, split: str, index: int, n: int) -> Path:
+    return root / f"{split}-{index:05d}-{n}.npz"
+
+
+def render_dataset(
+    config: DatasetConfig, workers: int | None = None, progress: bool = True
+) -> tuple[Path, dict[str, float]]:
+    """Render the shards of ``config`` that are not on disk yet (in ``workers`` processes,
+    default one per core) and return the dataset's directory and timing figures
+    (``images``, ``seconds``, ``images_per_s`` over the shards rendered now)."""
+    from tqdm import tqdm
+
+    from beo_bench.objects import ObjectSet
+    from beo_bench.objects.prepare import prepare
+
+    root = dataset_dir(config)
+    root.mkdir(parents=True, exist_ok=True)
+    meta = root / "config.json"
+    if not meta.exists():
+        tmp = meta.with_name(f".config.json.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(asdict(config), indent=2) + "\n")
+        os.replace(tmp, meta)
+    todo = [s for s in config.shards() if not shard_path(root, *_where(s)).exists()]
+    stats = {"images": 0.0, "seconds": 0.0, "images_per_s": 0.0}
+    if not todo:
+        return root, stats
+    # the objects' meshes and collision parts first, in parallel (cached on disk)
+    for split in {config.split, config.val_split}:
+        objects = ObjectSet(split, config.categories, per_category=config.per_category)
+        prepare(objects, workers=workers, progress=progress)
+    workers = (os.cpu_count() or 1) if workers is None else max(1, workers)
+    if mp.current_process().daemon:
+        workers = 1
+    t0 = time.perf_counter()
+    images = 0
+    bar = tqdm(
+        total=len(todo), desc="rendering training shards", unit="shard", disable=not progress
+    )
+    if workers == 1:
+        for split, i, kind, n in todo:
+            images += render_shard(config, split, i, kind, n, shard_path(root, split, i, n))
+            bar.update()
+            bar.set_postfix(img_s=f"{images / (time.perf_counter() - t0):.0f}")
+    else:
+        ctx = mp.get_context("forkserver")
+        with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_worker_init) as ex:
+            futs = [
+                ex.submit(render_shard, config, s, i, k, n, shard_path(root, s, i, n))
+                for s, i, k, n in todo
+            ]
+            for f in as_completed(futs):
+                images += f.result()
+                bar.update()
+                bar.set_postfix(img_s=f"{images / (time.perf_counter() - t0):.0f}")
+    bar.close()
+    dt = time.perf_counter() - t0
+    stats = {"images": float(images), "seconds": dt, "images_per_s": images / max(dt, 1e-9)}
+    return root, stats
+
+
+def _where(shard: tuple[str, int, str, int]) -> tuple[str, int, int]:
+    return shard[0], shard[1], shard[3]
+
+
+def _worker_init() -> None:
+    # one renderer process per core: keep torch and BLAS from oversubscribing the cores
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    os.environ["OMP_NUM_THREADS"] = "1"
+
+
+@dataclass
+class TrainingSet:
+    """Every shard of one split concatenated (float16 crops stay compact in memory)."""
+
+    depth: np.ndarray
+    label: np.ndarray
+    keys: list[str]
+    instance: np.ndarray
+    rotation: np.ndarray
+    offset: np.ndarray
+    log_size: np.ndarray
+    noisy: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.label.shape[0])
+
+
+def load_split(config: DatasetConfig, split: str) -> TrainingSet:
+    """The rendered crops of ``split`` (call :func:`render_dataset` first)."""
+    root = dataset_dir(config)
+    shards = [Shard.load(shard_path(root, s, i, n)) for s, i, _, n in config.shards() if s == split]
+    keys: dict[str, int] = {}
+    inst = []
+    for sh in shards:
+        remap = np.array([keys.setdefault(k, len(keys)) for k in sh.keys], dtype=np.int32)
+        inst.append(remap[sh.instance])
+
+    def cat(name: str) -> np.ndarray:
+        return np.concatenate([getattr(s, name) for s in shards])
+
+    return TrainingSet(
+        depth=cat("depth"),
+        label=cat("label").astype(np.int64),
+        keys=list(keys),
+        instance=np.concatenate(inst),
+        rotation=cat("rotation"),
+        offset=cat("offset"),
+        log_size=cat("log_size"),
+        noisy=cat("noisy"),
+    )

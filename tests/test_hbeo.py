@@ -1,0 +1,333 @@
+"""HBEO and HBEO-MDN: crops and their frame, the mixture head against scipy, the silhouette
+prior, batched re-projection, a short training run that learns, the three backends'
+conformance, and clear errors for mismatched checkpoints."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from beo_bench.perception.beo_model import BEOConfig, train_beo
+from beo_bench.perception.hbeo import HBEOBackend, sdf_errors, signed_distance, silhouettes
+from beo_bench.perception.hbeo_crop import make_crop
+from beo_bench.perception.hbeo_data import (
+    DatasetConfig,
+    canonical_rotation,
+    dataset_dir,
+    load_split,
+    render_dataset,
+)
+from beo_bench.perception.hbeo_net import (
+    HBEONet,
+    Mixture,
+    NetConfig,
+    losses,
+    point_rotation,
+    rotvec_to_matrix,
+    sixd_to_matrix,
+)
+from beo_bench.perception.hbeo_train import HBEOConfig, HBEOModel, load_hbeo, train_hbeo
+from scipy import ndimage
+from scipy.spatial.transform import Rotation
+from scipy.stats import multivariate_normal
+
+from beo_bench.backend import check_backend, sample_views
+from beo_bench.errors import CheckpointError, ViewError
+from beo_bench.metrics import rotation_error
+from beo_bench.objects import ObjectSet
+
+CATS = ("airplane", "bowl", "chair")
+
+
+# -- pure pieces -------------------------------------------------------------------------------
+def test_crop_frame_round_trips_pose_and_size() -> None:
+    """Targets computed from a pose convert back to the same pose (what inference relies
+    on), and the crop holds the object's normalised depth on its mask."""
+    (view,) = sample_views(picks=[("car", 0)], seed=3)
+    gt = view.ground_truth
+    c = make_crop(view.depth, view.mask, view.K)
+    R = c.rotation_from(c.rotation_target(gt.R_cam))
+    assert np.allclose(R, gt.R_cam, atol=1e-9)
+    assert np.allclose(c.translation_from(c.translation_target(gt.t_cam)), gt.t_cam, atol=1e-9)
+    assert np.allclose(c.size_from(c.size_target(gt.size)), gt.size, atol=1e-9)
+    # the ray frame's z is the ray through the crop centre
+    assert np.allclose(c.R_ray[:, 2], c.ray / np.linalg.norm(c.ray))
+    assert c.image.shape == (2, 64, 64) and c.mask.sum() > 200
+    assert np.all(c.image[0][~c.mask] == 0)
+
+
+def test_empty_mask_is_a_view_error() -> None:
+    with pytest.raises(ViewError, match="no pixel with valid depth"):
+        make_crop(np.ones((32, 32), np.float32), np.zeros((32, 32), bool), np.eye(3))
+
+
+def test_canonical_rotation_picks_the_symmetric_twin_closest_to_identity() -> None:
+    rng = np.random.default_rng(0)
+    cont = {"continuous": [{"axis": [0, 0, 1], "offset": [0, 0, 0]}], "discrete": []}
+    flip = np.diag([-1.0, -1.0, 1.0, 1.0]).tolist()
+    disc = {"continuous": [], "discrete": [flip]}
+    for _ in range(20):
+        R = Rotation.random(random_state=rng).as_matrix()
+        for sym in (cont, disc):
+            C = canonical_rotation(R, sym)
+            # same rotation up to the symmetry: zero symmetric error
+            assert rotation_error(C, R, sym) < 1e-4
+            # and no twin is closer to the identity (dense check of the continuous case)
+            twins = [R @ Rotation.from_euler("z", a).as_matrix() for a in np.linspace(0, 6.28, 720)]
+            twins = twins if sym is cont else [R, R @ np.diag([-1.0, -1.0, 1.0])]
+            assert np.trace(C) >= max(np.trace(T) for T in twins) - 1e-3
+
+
+def test_rotation_parametrisations() -> None:
+    rng = np.random.default_rng(1)
+    w = Rotation.random(50, random_state=rng).as_rotvec()
+    R = rotvec_to_matrix(torch.from_numpy(w)).numpy()
+    assert np.allclose(R, Rotation.from_rotvec(w).as_matrix(), atol=1e-9)
+    assert np.allclose(rotvec_to_matrix(torch.zeros(1, 3)).numpy(), np.eye(3))
+    M = sixd_to_matrix(torch.from_numpy(rng.normal(size=(50, 6)))).numpy()
+    assert np.allclose(M @ M.transpose(0, 2, 1), np.eye(3), atol=1e-9)
+    assert np.allclose(np.linalg.det(M), 1.0)
+
+
+@pytest.mark.parametrize("head", ["axis-angle", "6d", "mdn"])
+def test_every_rotation_head_trains_and_gives_proper_rotations(head) -> None:
+    torch.manual_seed(0)
+    cfg = NetConfig(classes=3, coefficients=7, rotation=head)
+    net = HBEONet(cfg)
+    R = torch.from_numpy(Rotation.random(8, random_state=0).as_matrix()).float()
+    tgt = {
+        "label": torch.arange(8) % 3,
+        "coefficients": torch.randn(8, 7),
+        "rotvec": torch.from_numpy(Rotation.from_matrix(R.double().numpy()).as_rotvec()).float(),
+        "R": R,
+        "offset": torch.randn(8, 3),
+        "log_size": torch.randn(8, 3),
+    }
+    x = torch.randn(8, 2, 64, 64)
+    opt = torch.optim.Adam(net.parameters(), lr=1e-3)
+    first = None
+    for _ in range(15):  # fitting one batch must drive its loss down
+        loss = losses(net(x), cfg, tgt)["total"]
+        first = float(loss.detach()) if first is None else first
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+    assert float(loss.detach()) < first
+    net.eval()
+    P = point_rotation(net(x), cfg).detach().double()
+    assert torch.allclose(P @ P.transpose(1, 2), torch.eye(3, dtype=torch.float64), atol=1e-5)
+    assert torch.allclose(torch.linalg.det(P), torch.ones(8, dtype=torch.float64), atol=1e-5)
+
+
+def _mixture(rng: np.random.Generator, B: int = 3, M: int = 5) -> Mixture:
+    raw = torch.from_numpy(rng.normal(size=(B, M * 7)))
+    return Mixture.from_raw(raw, M)
+
+
+def test_mdn_nll_equals_scipy() -> None:
+    """eq. 5.1-5.4 against an independent computation: sum_k pi_k N(y; mu_k, diag s_k)."""
+    rng = np.random.default_rng(2)
+    mix = _mixture(rng)
+    y = torch.from_numpy(rng.normal(size=(3, 3)))
+    ours = float(mix.nll(y))
+    pi = mix.log_weights.exp().numpy()
+    ref = []
+    for b in range(3):
+        p = sum(
+            pi[b, k]
+            * multivariate_normal(
+                mix.means[b, k].numpy(), np.diag(mix.variances[b, k].numpy())
+            ).pdf(y[b].numpy())
+            for k in range(5)
+        )
+        ref.append(-np.log(p))
+    assert ours == pytest.approx(np.mean(ref), rel=1e-9)
+    assert torch.all(mix.variances > 0)
+    assert torch.allclose(mix.log_weights.exp().sum(-1), torch.ones(3, dtype=torch.float64))
+
+
+def test_mdn_samples_have_the_mixture_moments() -> None:
+    rng = np.random.default_rng(3)
+    mix = _mixture(rng, B=2)
+    x = mix.sample(200_000, np.random.default_rng(4))  # (B, n, 3)
+    pi = mix.log_weights.exp().numpy()[..., None]
+    mu, var = mix.means.numpy(), mix.variances.numpy()
+    mean = (pi * mu).sum(1)
+    second = (pi * (var + mu**2)).sum(1)
+    assert np.allclose(x.mean(1), mean, atol=0.02)
+    assert np.allclose(x.var(1), second - mean**2, rtol=0.03, atol=0.02)
+
+
+# -- silhouette prior ------------------------------------------------------------------------
+def test_signed_distance_is_exact_and_reproducible() -> None:
+    """Against scipy's exact EDT, and bit-identical on every call (OpenCV's precise
+    transform alone differs in the last bit between calls)."""
+    rng = np.random.default_rng(6)
+    for _ in range(5):
+        m = np.zeros((64, 64), bool)
+        for _ in range(3):
+            r, c = rng.integers(5, 50, 2)
+            m[r : r + rng.integers(3, 14), c : c + rng.integers(3, 14)] = True
+        ref = ndimage.distance_transform_edt(~m) - ndimage.distance_transform_edt(m)
+        first = signed_distance(m)
+        assert np.abs(first - ref).max() < 1e-9
+        assert all(np.array_equal(first, signed_distance(m)) for _ in range(20))
+
+
+@pytest.fixture(scope="module")
+def car_view():
+    (view,) = sample_views(picks=[("car", 1)], seed=5)
+    inst = ObjectSet("test").get("car", 1)
+    return view, torch.from_numpy(inst.voxels(32).astype(np.float32))
+
+
+def _wrong(R: np.ndarray, deg: float, axis: str) -> np.ndarray:
+    return R @ Rotation.from_euler(axis, deg, degrees=True).as_matrix()
+
+
+def test_batched_reprojection_equals_per_sample(car_view) -> None:
+    view, shape = car_view
+    gt = view.ground_truth
+    c = make_crop(view.depth, view.mask, view.K)
+    Rs = np.stack([_wrong(gt.R_cam, a, "z") for a in (0, 30, 90, 150, 200)])
+    batched = silhouettes(shape, gt.size, Rs, gt.t_cam, view.K, c)
+    looped = np.stack([silhouettes(shape, gt.size, R[None], gt.t_cam, view.K, c)[0] for R in Rs])
+    assert batched.shape == (5, 64, 64)
+    assert np.array_equal(batched, looped)
+
+
+def test_silhouette_prior_ranks_the_true_rotation_first(car_view) -> None:
+    """The true shape re-projected at the true pose matches the observed mask (IoU), and
+    its SDF error is smaller than at any of several wrong rotations."""
+    view, shape = car_view
+    gt = view.ground_truth
+    c = make_crop(view.depth, view.mask, view.K)
+    Rs = np.stack([gt.R_cam] + [_wrong(gt.R_cam, a, ax) for ax in "zxy" for a in (40, 90, 180)])
+    masks = silhouettes(shape, gt.size, Rs, gt.t_cam, view.K, c)
+    iou = (masks[0] & c.mask).sum() / (masks[0] | c.mask).sum()
+    assert iou > 0.85
+    e = sdf_errors(c.mask, masks)
+    assert int(np.argmin(e)) == 0
+    prior = 1 / (e**4 + 1e-6)
+    assert prior[0] > 2 * np.max(prior[1:])
+
+
+# -- a short training run ------------------------------------------------------------------------
+def _config(kind: str, beo: str) -> HBEOConfig:
+    ds = DatasetConfig(
+        categories=CATS,
+        images=600,
+        val_images=150,
+        shard_size=150,
+        per_category=10,
+        tabletop_share=0.25,
+        seed=7,
+    )
+    return HBEOConfig(kind=kind, dataset=ds, epochs=4, batch_size=32, beo_model=beo)  # type: ignore[arg-type]
+
+
+@pytest.fixture(scope="module")
+def beo_dir(tmp_path_factory) -> str:
+    model = train_beo(BEOConfig(categories=CATS, per_category=10))
+    return str(model.save(tmp_path_factory.mktemp("beo") / "tiny"))
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory, beo_dir) -> dict[str, HBEOModel]:
+    out = {}
+    for kind in ("hbeo", "hbeo-mdn"):
+        path = tmp_path_factory.mktemp(kind) / "m"
+        out[kind] = train_hbeo(_config(kind, beo_dir), path, progress=False, workers=1)
+        out[kind + "-path"] = path  # type: ignore[assignment]
+    return out
+
+
+def test_dataset_is_deterministic_and_resumable(beo_dir) -> None:
+    """Shards do not depend on which run rendered them: delete one, render again, and the
+    crops come back identical; the rest are not re-rendered."""
+    cfg = _config("hbeo", beo_dir).dataset
+    render_dataset(cfg, workers=1, progress=False)
+    before = load_split(cfg, "train")
+    shards = sorted(dataset_dir(cfg).glob("train-*.npz"))
+    assert len(shards) == 4
+    shards[1].unlink()
+    _, stats = render_dataset(cfg, workers=1, progress=False)
+    assert stats["images"] == 150  # only the missing shard
+    after = load_split(cfg, "train")
+    assert np.array_equal(np.nan_to_num(before.depth), np.nan_to_num(after.depth))
+    assert np.array_equal(before.rotation, after.rotation)
+    assert len(before) == 600 and set(before.label.tolist()) == {0, 1, 2}
+    assert 0 < before.noisy.mean() < 1
+
+
+def test_short_training_lowers_loss_and_beats_chance(trained) -> None:
+    for kind in ("hbeo", "hbeo-mdn"):
+        hist = trained[kind].info["history"]
+        assert hist[-1]["train_loss"] < hist[0]["train_loss"]
+        assert hist[-1]["val_total"] < hist[0]["val_total"]
+        # held-out instances (the val split): three classes, chance is 1/3
+        assert hist[-1]["val_class_acc"] > 0.6, hist[-1]
+
+
+def test_each_mode_passes_check_backend(trained) -> None:
+    views = sample_views(n=2, categories=CATS)
+    for mode, kind in (("hbeo", "hbeo"), ("likelihood", "hbeo-mdn"), ("posterior", "hbeo-mdn")):
+        b = HBEOBackend(mode, model=str(trained[kind + "-path"]), samples=16)  # type: ignore[arg-type]
+        check_backend(b, views)
+        est = b.predict(views[0])
+        if mode == "hbeo":
+            assert est.pose_samples is None
+        else:
+            assert est.pose_samples.shape == (16, 3, 3)
+            assert est.pose_weights.sum() == pytest.approx(1.0)
+            # the estimate is the best-weighted sample
+            assert np.allclose(
+                est.rotation, est.pose_samples[np.argmax(est.pose_weights)], atol=1e-6
+            )
+
+
+def test_resume_after_a_kill_gives_the_same_model(tmp_path, beo_dir, trained) -> None:
+    """A run killed after epoch 2 (its checkpoint written) resumes there and ends with the
+    uninterrupted run's weights."""
+    cfg = _config("hbeo", beo_dir)
+    path = tmp_path / "m"
+
+    def kill_after_epoch_2(line: str) -> None:
+        if line.startswith("epoch 2:"):
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        train_hbeo(cfg, path, progress=False, workers=1, log=kill_after_epoch_2)
+    assert (path / "checkpoint.pt").exists() and not (path / "weights.pt").exists()
+    logs: list[str] = []
+    resumed = train_hbeo(cfg, path, progress=False, workers=1, log=logs.append)
+    assert logs[0].startswith("resuming") and len(logs) == 3  # epochs 3 and 4 only
+    assert not (path / "checkpoint.pt").exists()
+    ref = trained["hbeo"].net.state_dict()
+    for k, v in resumed.net.state_dict().items():
+        assert torch.equal(v, ref[k]), k
+
+
+def test_mismatched_checkpoints_are_refused(trained, beo_dir, tmp_path) -> None:
+    path = str(trained["hbeo-path"])
+    with pytest.raises(CheckpointError, match="trained for categories"):
+        load_hbeo(path, "hbeo", ("airplane", "bowl", "car"))
+    with pytest.raises(CheckpointError, match="holds a hbeo model"):
+        load_hbeo(path, "hbeo-mdn", CATS)
+    with pytest.raises(CheckpointError, match="no HBEO model"):
+        load_hbeo(str(tmp_path / "nothing"), "hbeo", CATS)
+    other = train_beo(BEOConfig(categories=CATS, per_category=8))
+    with pytest.raises(CheckpointError, match="another BEO subspace"):
+        HBEOModel.load(trained["hbeo-path"], beo=other)
+
+
+def test_cli_renders_a_dataset_and_trains_a_named_model(capsys) -> None:
+    from beo_bench.cli import main
+
+    small = ["--categories", *CATS, "--per-category", "10", "--images", "150", "--workers", "1"]
+    assert main(["render-dataset", *small, "--val-images", "30"]) == 0
+    assert "images/s" in capsys.readouterr().out
+    assert main(["train", "hbeo-mdn", *small, "--epochs", "1", "--name", "cli-test"]) == 0
+    assert "validation: class accuracy" in capsys.readouterr().out
+    model = load_hbeo("cli-test", "hbeo-mdn", CATS)
+    assert model.config.dataset.images == 150 and model.config.epochs == 1
