@@ -24,6 +24,7 @@ _IN_TREE = (
     "beo_bench.perception.icp",
     "beo_bench.perception.beo",
     "beo_bench.perception.hbeo",
+    "beo_bench.perception.swap",
 )
 """Modules whose import registers the in-tree backends."""
 

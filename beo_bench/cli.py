@@ -254,11 +254,12 @@ DEMO_SIZES = {"known-pose": 44, "pose-1dof": 44, "pose-3dof": 44, "tabletop": 6,
 
 
 def _default_backends() -> list[str]:
-    """Every registered backend (in-tree and plugins), bounds included."""
-    from beo_bench.backend import list_backends, load_plugins
+    """Every registered backend (in-tree and plugins), bounds included; diagnostic tools
+    that wrap another backend (``swap``) are run by name only."""
+    from beo_bench.backend import _REGISTRY, list_backends, load_plugins
 
     load_plugins()
-    return list_backends()
+    return [b for b in list_backends() if not getattr(_REGISTRY[b][0], "diagnostic", False)]
 
 
 def _print_leaderboard(written: list[Path], where: Path) -> None:

@@ -12,6 +12,7 @@ import pytest
 
 from beo_bench import backend as B
 from beo_bench.errors import BackendError, EstimateError, ViewError
+from beo_bench.objects import instance_from_key
 from beo_bench.types import Estimate, View
 
 # keep the class means small in tests (the default uses the whole train split)
@@ -19,6 +20,7 @@ FAST = {
     "random": {"mean_instances": 4},
     "icp": {"mean_instances": 4},
     "beo": {"instances": 4, "so3_samples": 64},
+    "swap": {"base": "random", "truth": "class+shape", "mean_instances": 4},
     **{
         name: {"instances": 4, "images": 200, "epochs": 1}
         for name in ("hbeo", "hbeo-mdn-likelihood", "hbeo-mdn-posterior")
@@ -168,3 +170,33 @@ def test_entry_point_plugin_is_listed_and_runs(tmp_path, views, monkeypatch) -> 
     finally:
         B._REGISTRY.pop("centroid-demo", None)
         sys.modules.pop("beo_plugin_demo", None)
+
+
+def test_swap_replaces_exactly_the_named_parts_and_hides_the_truth(views) -> None:
+    seen = []
+
+    class Spy:
+        name = "spy"
+
+        def predict(self, view):
+            seen.append(view.ground_truth)
+            return B.get_backend("random", mean_instances=4).predict(view)
+
+    B._add("spy", Spy, "test")
+    try:
+        base = B.get_backend("spy").predict(views[0])
+        seen.clear()  # from here on only swap calls the spy
+        pose = B.get_backend("swap", base="spy", truth="pose").predict(views[0])
+        gt = views[0].ground_truth
+        np.testing.assert_array_equal(pose.rotation, gt.R_cam)
+        np.testing.assert_array_equal(pose.translation, gt.t_cam)
+        np.testing.assert_array_equal(pose.class_probs, base.class_probs)  # untouched
+        np.testing.assert_array_equal(pose.shape, base.shape)
+        every = B.get_backend("swap", base="spy", truth="class+pose+shape").predict(views[0])
+        assert every.class_index == gt.class_index
+        np.testing.assert_array_equal(every.shape, instance_from_key(gt.key).voxels(32))
+        assert all(g is None for g in seen)  # the base never saw the truth
+        with pytest.raises(ValueError, match="truth="):
+            B.get_backend("swap", base="spy", truth="colour")
+    finally:
+        B._REGISTRY.pop("spy", None)

@@ -269,3 +269,44 @@ def test_prepare_runs_once_before_the_items_with_the_suite_classes(tmp_path) -> 
     from beo_bench.envs.pick import default_categories
 
     assert calls == [default_categories()]
+
+
+def test_ood_suite_gets_a_degradation_table(tmp_path) -> None:
+    """Runs of ``pose-3dof`` and ``pose-3dof-ood`` (the ood split) are compared backend by
+    backend in the ood suite's leaderboard."""
+    from beo_bench.bench.leaderboard import regenerate
+
+    runs = tmp_path / "runs"
+    for suite in ("pose-3dof", "pose-3dof-ood"):
+        for opts in ({"seed": 1, **FAST_RANDOM}, {"seed": 2, **FAST_RANDOM}):
+            cfg = RunConfig(get_suite(suite).with_overrides(size=4), "random", opts)
+            run(cfg, runs / f"{suite}-{opts['seed']}", progress=False, workers=1)
+    assert get_suite("pose-3dof-ood").split == "ood"
+    regenerate(runs, tmp_path / "board")
+    md = (tmp_path / "board" / "pose-3dof-ood.md").read_text()
+    assert "In distribution (`pose-3dof`) -> out of distribution (`pose-3dof-ood`)" in md
+    row = next(
+        line
+        for line in md.splitlines()
+        if line.startswith("| random (mean_instances=4, seed=1)") and "->" in line
+    )
+    assert row.count("->") == 4
+
+
+def test_pick_gap_table_reads_the_swap_runs() -> None:
+    from beo_bench.bench.leaderboard import gap_table
+
+    def row(backend: str, success: float, **kw) -> dict:
+        return {"backend": backend, "metrics": {"pick_success": success},
+                "provenance": {"backend_kwargs": kw}}  # fmt: skip
+
+    rows = [
+        row("icp", 0.5),
+        row("swap", 0.7, base="icp", truth="class"),
+        row("swap", 0.6, base="icp", truth="pose"),
+        row("oracle", 0.9),
+        row("oracle", 0.85, mesh=False),
+    ]
+    lines = gap_table(rows).splitlines()
+    assert lines[-1] == "| icp | 50% | 70% | 60% | - | 85% | 90% |"
+    assert gap_table(rows[:1]) == ""

@@ -243,6 +243,86 @@ def _error_vs_samples(
     return name
 
 
+def _newest_rows(ss: list[dict[str, Any]]) -> tuple[int, list[dict[str, Any]]]:
+    """The newest suite version present and its rows: one per backend and options (the
+    largest run)."""
+    newest = max(s["suite_version"] for s in ss)
+    best: dict[str, dict[str, Any]] = {}
+    for s in ss:
+        if s["suite_version"] == newest and s["n"] > best.get(label(s), {}).get("n", -1):
+            best[label(s)] = s
+    return newest, _ordered(list(best.values()))
+
+
+OOD_SUFFIX = "-ood"
+DEGRADATION: tuple[Column, ...] = (
+    ("rot_err_deg_mean", "rot. error mean (deg)", 1.0, "{:.1f}"),
+    ("gross_err_rate", "> 15 deg", 100.0, "{:.1f}%"),
+    ("class_acc", "class acc.", 100.0, "{:.1f}%"),
+    ("iou_mean", "IoU", 1.0, "{:.3f}"),
+)
+
+
+def degradation_table(
+    base: str, base_rows: list[dict[str, Any]], suite: str, rows: list[dict[str, Any]]
+) -> str:
+    """Each backend on ``base`` (in-distribution) and on ``suite`` (its ``-ood`` twin),
+    metric by metric: ``in -> out``."""
+    by_label = {label(s): s for s in base_rows}
+    both = [s for s in rows if label(s) in by_label]
+    lines = [
+        f"In distribution (`{base}`) -> out of distribution (`{suite}`):",
+        "",
+        "| backend | " + " | ".join(c[1] for c in DEGRADATION) + " |",
+        "|---|" + "---:|" * len(DEGRADATION),
+    ]
+    for s in both:
+        cells = []
+        for key, _, scale, fmt in DEGRADATION:
+            pair = []
+            for row in (by_label[label(s)], s):
+                if key == "class_acc" and row["metrics"].get("class_given"):
+                    pair.append("given")
+                else:
+                    pair.append(_fmt(row["metrics"].get(key), scale, fmt))
+            cells.append(" -> ".join(pair))
+        lines.append(f"| {_name(s)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def gap_table(rows: list[dict[str, Any]]) -> str:
+    """Where each backend's pick failures come from (``swap`` runs): its success rate, then
+    with the true class, pose or shape swapped in (one at a time), against the oracle.
+    Empty without swap runs."""
+    key = "pick_success"
+    swaps: dict[str, dict[str, float]] = {}
+    for s in rows:
+        kw = _kwargs(s)
+        if s["backend"] == "swap" and key in s["metrics"]:
+            base = str(kw.get("base", "icp"))
+            swaps.setdefault(base, {})[str(kw.get("truth", "class"))] = s["metrics"][key]
+    if not swaps:
+        return ""
+    plain = {label(s): s["metrics"].get(key) for s in rows}
+    oracle = plain.get("oracle")
+    parts = ("class", "pose", "shape")
+    lines = [
+        "Where the gap to the oracle comes from (`swap`: the backend's estimate with one "
+        "component replaced by the truth; shape swaps plan on the true voxels):",
+        "",
+        "| backend | pick success | true class | true pose (and size) | true shape | oracle "
+        "(voxels) | oracle |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for base, got in sorted(swaps.items()):
+        cells = [_fmt(plain.get(base), 100.0, "{:.0f}%")]
+        cells += [_fmt(got.get(p), 100.0, "{:.0f}%") for p in parts]
+        cells += [_fmt(plain.get("oracle (mesh=false)"), 100.0, "{:.0f}%")]
+        cells += [_fmt(oracle, 100.0, "{:.0f}%")]
+        lines.append(f"| {base} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> list[Path]:
     """Rewrite ``out`` from the summaries under ``runs``; returns the suites' Markdown files.
     Its own files (named after a suite) that no run produces any more are removed."""
@@ -263,16 +343,17 @@ def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> l
         "backend was told the class (the dissertation's ICP protocol).",
         "",
     ]
-    for suite, ss in sorted(by_suite.items()):
-        newest = max(s["suite_version"] for s in ss)
-        best: dict[str, dict[str, Any]] = {}
-        for s in ss:  # one row per backend and options: the largest run
-            if s["suite_version"] == newest and s["n"] > best.get(label(s), {}).get("n", -1):
-                best[label(s)] = s
-        rows = _ordered(list(best.values()))
+    chosen = {suite: _newest_rows(ss) for suite, ss in by_suite.items()}
+    for suite, (newest, rows) in sorted(chosen.items()):
         plots = _plots(out, suite, rows)
         desc = rows[0].get("provenance", {}).get("suite", {}).get("description", "")
         md = [f"# {suite} (suite version {newest})", "", desc, "", suite_table(rows), ""]
+        gap = gap_table(rows)
+        if gap:
+            md += [gap, ""]
+        base = suite.removesuffix(OOD_SUFFIX)
+        if base != suite and base in chosen:
+            md += [degradation_table(base, chosen[base][1], suite, rows), ""]
         md += [category_table(suite, rows), ""]
         md += [*[f"![{p}]({p})" for p in plots], ""]
         path = out / f"{suite}.md"

@@ -102,6 +102,18 @@ SUITES: dict[str, Suite] = {
             "(full azimuth, elevation range, roll 99% within 25 deg; Tables 4.1, 5.1, 5.2)",
         ),
         Suite(
+            "pose-3dof-ood",
+            1,
+            "isolated",
+            "3dof",
+            size=550,
+            seed=6000,
+            split="ood",
+            class_hint=True,
+            description="pose-3dof on the ood split: instances drawn outside the training "
+            "parameter ranges, to measure how each method degrades (compare with pose-3dof)",
+        ),
+        Suite(
             "tabletop",
             1,
             "tabletop",
