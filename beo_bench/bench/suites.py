@@ -110,8 +110,8 @@ SUITES: dict[str, Suite] = {
             seed=6000,
             split="ood",
             class_hint=True,
-            description="pose-3dof on the ood split: instances drawn outside the training "
-            "parameter ranges, to measure how each method degrades (compare with pose-3dof)",
+            description="pose-3dof on the ood split (every instance has at least one shape "
+            "parameter outside the training range): how each method degrades",
         ),
         Suite(
             "tabletop",
