@@ -5,8 +5,9 @@ It fits a box to the observed points and reads the class off the box's size:
 1. The observed points are the view's masked pixels back-projected (``View.points``).
 2. The rotation comes from their principal axes. With ``View.up_hint`` (the ``pose-1dof``
    protocol), the up axis is given and only the horizontal axes are fitted.
-3. The size is the points' extent along those axes. The visible side of an object is about
-   half of it, so the box is pushed back along the viewing ray by half its depth.
+3. The size is the points' extent along those axes; the extent along the viewing ray is at
+   least the median of the others (a view sees only the front). The box is pushed back
+   along the ray by a quarter of that depth, since its centre lies behind the seen side.
 4. The class is the one whose mean training size (from beo-bench's class means) is
    nearest in log-size. The shape is that class's mean occupancy grid.
 
