@@ -208,6 +208,16 @@ class Samples:
     silhouette_error: np.ndarray | None
 
 
+def _cross() -> torch.Tensor:
+    k = torch.zeros(1, 1, 3, 3, 3)
+    k[0, 0, 1, 1, :] = k[0, 0, 1, :, 1] = k[0, 0, :, 1, 1] = 1
+    return k
+
+
+_CROSS = _cross()
+"""The 3x3x3 6-neighbourhood (with the centre), built once for :func:`surface_points`."""
+
+
 def surface_points(shape: torch.Tensor, edge: float) -> torch.Tensor:
     """(P, 3) canonical-frame centres (m) of the surface voxels of ``shape`` > 0.5 (above
     half its maximum when nothing is): occupied voxels with an empty 6-neighbour."""
@@ -216,9 +226,7 @@ def surface_points(shape: torch.Tensor, edge: float) -> torch.Tensor:
     occ = (shape >= thr) & (shape > 0)
     empty = (~occ).float()[None, None]
     # a voxel is interior when its 6 neighbours are occupied: dilate the empty set by a cross
-    k = torch.zeros(1, 1, 3, 3, 3)
-    k[0, 0, 1, 1, :] = k[0, 0, 1, :, 1] = k[0, 0, :, 1, 1] = 1
-    near_empty = F.conv3d(F.pad(empty, (1,) * 6, value=1.0), k)[0, 0] > 0
+    near_empty = F.conv3d(F.pad(empty, (1,) * 6, value=1.0), _CROSS)[0, 0] > 0
     surf = (occ & near_empty).reshape(-1)
     return grid_centres(D)[surf] * edge
 

@@ -147,6 +147,9 @@ class Shard:
     noisy: np.ndarray
     """(n,) bool."""
 
+    def __len__(self) -> int:
+        return int(self.label.shape[0])
+
     def save(self, path: Path) -> None:
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp.npz")
         np.savez_compressed(
@@ -295,7 +298,7 @@ def render_shard(
     make = _tabletop_shard if kind == "tabletop" else _isolated_shard
     shard = make(config, split, rng, n)
     shard.save(path)
-    return len(shard.label)
+    return len(shard)
 
 
 def shard_path(root: Path, split: str, index: int, n: int) -> Path:
@@ -368,25 +371,9 @@ def _worker_init() -> None:
     os.environ["OMP_NUM_THREADS"] = "1"
 
 
-@dataclass
-class TrainingSet:
-    """Every shard of one split concatenated (float16 crops stay compact in memory)."""
-
-    depth: np.ndarray
-    label: np.ndarray
-    keys: list[str]
-    instance: np.ndarray
-    rotation: np.ndarray
-    offset: np.ndarray
-    log_size: np.ndarray
-    noisy: np.ndarray
-
-    def __len__(self) -> int:
-        return int(self.label.shape[0])
-
-
-def load_split(config: DatasetConfig, split: str) -> TrainingSet:
-    """The rendered crops of ``split`` (call :func:`render_dataset` first)."""
+def load_split(config: DatasetConfig, split: str) -> Shard:
+    """Every shard of ``split`` concatenated into one (call :func:`render_dataset` first);
+    the float16 crops stay compact in memory."""
     root = dataset_dir(config)
     shards = [Shard.load(shard_path(root, s, i, n)) for s, i, _, n in config.shards() if s == split]
     keys: dict[str, int] = {}
@@ -398,7 +385,7 @@ def load_split(config: DatasetConfig, split: str) -> TrainingSet:
     def cat(name: str) -> np.ndarray:
         return np.concatenate([getattr(s, name) for s in shards])
 
-    return TrainingSet(
+    return Shard(
         depth=cat("depth"),
         label=cat("label").astype(np.int64),
         keys=list(keys),

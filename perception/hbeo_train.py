@@ -29,7 +29,7 @@ from typing import Any, Literal
 import numpy as np
 import torch
 from beo_bench.perception.beo_model import BEOModel, load_model
-from beo_bench.perception.hbeo_data import DatasetConfig, TrainingSet, load_split, render_dataset
+from beo_bench.perception.hbeo_data import DatasetConfig, Shard, load_split, render_dataset
 from beo_bench.perception.hbeo_net import (
     HBEONet,
     NetConfig,
@@ -190,16 +190,14 @@ class HBEOModel:
             info=meta.get("info", {}),
         )
 
-    def check_matches(self, categories: tuple[str, ...], crop: int | None, where: str) -> None:
-        problems = []
+    def check_matches(self, categories: tuple[str, ...], where: str) -> None:
+        """Raise :class:`CheckpointError` unless trained for exactly these categories. (The
+        crop size needs no check: the network is built from the stored config, and weights
+        of another crop size fail to load.)"""
         if tuple(categories) != self.categories:
-            problems.append(f"categories {list(self.categories)} (asked: {list(categories)})")
-        if crop is not None and int(crop) != self.config.dataset.crop:
-            problems.append(f"crop size {self.config.dataset.crop} (asked: {crop})")
-        if problems:
             raise CheckpointError(
-                f"the {self.config.kind} model {where} was trained for "
-                + " and ".join(problems)
+                f"the {self.config.kind} model {where} was trained for categories "
+                f"{list(self.categories)} (asked: {list(categories)})"
                 + f"; train one with `beo-bench train {self.config.kind} --name NAME "
                 f"--categories {' '.join(categories)}` and pass `--opt model=NAME`"
             )
@@ -286,7 +284,7 @@ def crops_to_input(depth: torch.Tensor) -> torch.Tensor:
     return torch.stack([torch.where(m, d, torch.zeros_like(d)), m.float()], 1)
 
 
-def _tensors(ts: TrainingSet, codes: np.ndarray, mean: np.ndarray, std: np.ndarray) -> _Tensors:
+def _tensors(ts: Shard, codes: np.ndarray, mean: np.ndarray, std: np.ndarray) -> _Tensors:
     return _Tensors(
         x=torch.from_numpy(ts.depth),
         label=torch.from_numpy(ts.label),
@@ -475,7 +473,7 @@ def load_hbeo(
             f"{path} holds a {model.config.kind} model; this backend needs {kind} "
             f"(train one with `beo-bench train {kind}`)"
         )
-    model.check_matches(tuple(categories), None, f"at {path}")
+    model.check_matches(tuple(categories), f"at {path}")
     if model.info.get("library_version") != LIBRARY_VERSION:
         raise CheckpointError(
             f"the {kind} model at {path} was trained on object library version "
