@@ -1,30 +1,35 @@
 # Each public target sets up what it needs on a fresh machine: Debian GL libraries (as root),
 # a .venv, torch==2.13.0 (CPU) and the package in editable mode, all through constraints.txt.
-# The stamp makes a re-run cost nothing when pyproject.toml and constraints.txt are unchanged.
+# demo and bench install the package with its viz extra; test and lint add dev and ray (ray
+# alone is 30 s of a first demo's 15-minute budget). The stamps make a re-run cost nothing
+# when pyproject.toml and constraints.txt are unchanged.
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+DEV_STAMP := $(VENV)/.installed-dev
 GL_STAMP := $(VENV)/.gl-ok
 export MUJOCO_GL ?= egl
 export PYOPENGL_PLATFORM ?= egl
 
-.PHONY: demo test bench lint setup clean-venv
+.PHONY: demo test bench lint setup setup-dev clean-venv
 
 demo: setup
 	$(VENV)/bin/beo-bench demo
 
-test: setup lint
+test: setup-dev lint
 	$(PY) -m pytest -n 2 --dist loadfile
 
 bench: setup
 	$(PY) benchmarks/run.py
 
-lint: setup
+lint: setup-dev
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 
 setup: $(STAMP) $(GL_STAMP)
+
+setup-dev: setup $(DEV_STAMP)
 
 # Mesa's EGL (llvmpipe renders on the CPU) and OSMesa as the fallback; see DESIGN.md "Scenes".
 $(GL_STAMP):
@@ -45,6 +50,10 @@ $(STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -c constraints.txt torch==2.13.0
+	$(PY) -m pip install -q -c constraints.txt -e '.[viz]'
+	@touch $@
+
+$(DEV_STAMP): $(STAMP)
 	$(PY) -m pip install -q -c constraints.txt -e '.[dev,viz,ray]'
 	@touch $@
 

@@ -125,6 +125,20 @@ def test_a_saved_model_loads_identically(tmp_path) -> None:
     np.testing.assert_allclose(loaded.basis.T @ loaded.basis, np.eye(loaded.k), atol=1e-4)
 
 
+def test_training_gives_the_same_model_whatever_the_thread_count() -> None:
+    # so a retrained default model is bitwise the published one, on any number of cores
+    # (at 30 instances per class, two BLAS threads change the basis in the last bits)
+    from threadpoolctl import threadpool_limits
+
+    cfg = BEOConfig(categories=CATS, per_category=30)
+    with threadpool_limits(limits=2):
+        a = train_beo(cfg)
+    with threadpool_limits(limits=1):
+        b = train_beo(cfg)
+    for name in ("basis", "mean", "class_mean", "class_cov", "shrinkage"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
 def test_train_command_writes_a_named_model(tmp_path, monkeypatch) -> None:
     from beo_bench.cli import main
 

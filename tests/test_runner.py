@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from beo_bench import backend as B
-from beo_bench.bench.runner import RunConfig, RunError, read_rows, run
+from beo_bench.bench.runner import RunConfig, RunError, WorkerPool, read_rows, run
 from beo_bench.bench.suites import get_suite
 from beo_bench.bench.summary import TIMING_KEYS
 
@@ -81,6 +81,18 @@ def test_same_numbers_with_one_or_two_workers(tmp_path) -> None:
     a = _run(tmp_path / "a", "pose-3dof", "random", 10, opts=FAST_RANDOM, workers=1)
     b = _run(tmp_path / "b", "pose-3dof", "random", 10, opts=FAST_RANDOM, workers=2)
     assert _metrics_without_time(a) == _metrics_without_time(b)
+
+
+def test_a_kept_worker_pool_gives_every_run_its_own_numbers(tmp_path) -> None:
+    # a campaign's processes serve run after run: each must score as a fresh process would
+    runs = [("pose-3dof", "random", 6), ("pose-1dof", "oracle", 4), ("pose-3dof", "random", 7)]
+    opts = {"random": FAST_RANDOM, "oracle": {}}
+    with WorkerPool(2) as pool:
+        kept = [_run(tmp_path / "kept", s, b, n, opts=opts[b], pool=pool) for s, b, n in runs]
+    for (s, b, n), k in zip(runs, kept, strict=True):
+        alone = _run(tmp_path / "alone", s, b, n, opts=opts[b], workers=1)
+        assert k["n"] == n and k["provenance"]["workers"] == 2
+        assert _metrics_without_time(k) == _metrics_without_time(alone)
 
 
 def test_existing_results_need_resume(tmp_path) -> None:

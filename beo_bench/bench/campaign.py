@@ -79,22 +79,24 @@ def run_campaign(c: Campaign) -> list[Path]:
     files. A backend whose construction fails stops the campaign before anything runs."""
     from beo_bench.backend import get_backend, load_plugins
     from beo_bench.bench.leaderboard import regenerate
-    from beo_bench.bench.runner import RunConfig, run
+    from beo_bench.bench.runner import RunConfig, WorkerPool, run
     from beo_bench.bench.suites import get_suite
 
     load_plugins()
     suites = [get_suite(s).with_overrides(size=n, seed=c.seed) for s, n in c.suites.items()]
     for name, kwargs in c.backends:
         get_backend(name, **kwargs)  # fail here, with its message, not in a worker
-    for suite in suites:
-        for name, kwargs in c.backends:
-            out = c.runs / run_name(suite.name, name, kwargs, c.seed)
-            run(
-                RunConfig(suite, name, kwargs),
-                out,
-                workers=c.workers,
-                resume=True,
-                use_ray=c.use_ray,
-                progress=c.progress,
-            )
+    # one set of worker processes for every run (see WorkerPool: start-up once, not per run)
+    with WorkerPool(c.workers) as pool:
+        for suite in suites:
+            for name, kwargs in c.backends:
+                out = c.runs / run_name(suite.name, name, kwargs, c.seed)
+                run(
+                    RunConfig(suite, name, kwargs),
+                    out,
+                    resume=True,
+                    use_ray=c.use_ray,
+                    progress=c.progress,
+                    pool=pool,
+                )
     return regenerate(c.runs, c.leaderboards)

@@ -21,6 +21,7 @@ import sys
 import time
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -129,6 +130,7 @@ makes reductions identical, so results do not depend on how a run was spread out
 
 _THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 _WORKER: Any = None
+_WORKER_CFG: Any = None
 _INIT_ERROR = ""
 
 
@@ -154,19 +156,23 @@ def _pin_threads() -> Any:
 
 
 def _init_worker(cfg: RunConfig, pin: bool = True) -> None:
-    """Set up this process's evaluator. An error is kept and raised by the first item: a
-    pool whose initializer raises would only start new workers, forever."""
-    global _WORKER, _INIT_ERROR
+    """Set up this process's evaluator for ``cfg`` (closing one set up for another run).
+    An error is kept and raised by the first item: a pool whose initializer raises would
+    only start new workers, forever."""
+    global _WORKER, _WORKER_CFG, _INIT_ERROR
     from beo_bench.backend import load_plugins
     from beo_bench.bench.evaluate import Evaluator
 
     if pin:
         _pin_threads()
+    if _WORKER is not None:
+        _WORKER.close()
+    _WORKER, _WORKER_CFG = None, cfg
     try:
         load_plugins()
         _WORKER = Evaluator(cfg.suite, cfg.backend, cfg.backend_kwargs)
     except Exception as e:
-        _WORKER, _INIT_ERROR = None, f"{type(e).__name__}: {e}"
+        _INIT_ERROR = f"{type(e).__name__}: {e}"
         return
     if "torch" in sys.modules:  # loaded by the backend: the environment came too late
         sys.modules["torch"].set_num_threads(WORKER_THREADS)
@@ -182,7 +188,50 @@ def _work(index: int) -> tuple[int, list[dict[str, Any]]]:
     return index, [_clean(r) for r in _WORKER.run_item(index)]
 
 
+def _work_for(cfg: RunConfig, index: int) -> tuple[int, list[dict[str, Any]]]:
+    """One item of ``cfg`` in a :class:`WorkerPool` process, which sets ``cfg`` up the first
+    time it sees it (the items of one run arrive together, so that is once per run)."""
+    if _WORKER_CFG != cfg:
+        _init_worker(cfg, pin=False)
+    return _work(index)
+
+
+class WorkerPool:
+    """Worker processes kept across runs (``with WorkerPool(2) as pool: run(..., pool=pool)``).
+
+    A campaign's runs are often short (``make demo``: 35 runs of 6-44 items), and a fresh
+    pool per run pays process start-up, imports (mujoco, torch) and model loading each time:
+    about 3 s a run, more than the 44 oracle items cost. Here a worker rebuilds only its
+    evaluator when the run changes. Results do not depend on which process scores an item
+    (tested), so they equal a fresh pool's.
+    """
+
+    def __init__(self, workers: int | None = None) -> None:
+        self.workers = default_workers() if workers is None else max(1, int(workers))
+        self._pool: Any = None
+
+    def results(self, cfg: RunConfig, todo: list[int]) -> Iterator[tuple[int, list]]:
+        if self._pool is None:
+            # spawn: workers start clean (no inherited GL state or torch threads)
+            ctx = mp.get_context("spawn")
+            self._pool = ctx.Pool(self.workers, initializer=_pin_threads)
+        yield from self._pool.imap_unordered(partial(_work_for, cfg), todo, chunksize=1)
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool = None
+
+    def __enter__(self) -> WorkerPool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
 def _results(cfg: RunConfig, todo: list[int], workers: int) -> Iterator[tuple[int, list]]:
+    global _WORKER, _WORKER_CFG
     if workers <= 1:
         # in this process: pin its threads for the run, as a worker's, then restore them
         saved = {v: os.environ.get(v) for v in _THREAD_VARS}
@@ -198,6 +247,7 @@ def _results(cfg: RunConfig, todo: list[int], workers: int) -> Iterator[tuple[in
                 yield _work(i)
         finally:
             _WORKER.close()
+            _WORKER = _WORKER_CFG = None
             limiter.restore_original_limits()
             for var, value in saved.items():
                 if value is None:
@@ -207,10 +257,8 @@ def _results(cfg: RunConfig, todo: list[int], workers: int) -> Iterator[tuple[in
             if "torch" in sys.modules:
                 sys.modules["torch"].set_num_threads(torch_threads or default_workers())
         return
-    # spawn: workers start clean (no inherited GL state or torch threads)
-    ctx = mp.get_context("spawn")
-    with ctx.Pool(workers, initializer=_init_worker, initargs=(cfg,)) as pool:
-        yield from pool.imap_unordered(_work, todo, chunksize=1)
+    with WorkerPool(workers) as pool:
+        yield from pool.results(cfg, todo)
 
 
 def _ray_results(cfg: RunConfig, todo: list[int], workers: int) -> Iterator[tuple[int, list]]:
@@ -308,13 +356,17 @@ def run(
     resume: bool = False,
     use_ray: bool = False,
     progress: bool = True,
+    pool: WorkerPool | None = None,
 ) -> dict[str, Any]:
     """Run (or resume) ``cfg`` into ``out`` with ``workers`` processes (default: one per
-    core) or Ray actors; returns the summary."""
+    core), Ray actors, or the processes of ``pool`` (kept across runs; it sets the number
+    of workers); returns the summary."""
     from tqdm import tqdm
 
     from beo_bench.bench.summary import summarise
 
+    if pool is not None:
+        workers = pool.workers
     workers = default_workers() if workers is None else max(1, int(workers))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -346,7 +398,12 @@ def run(
     if todo:
         _prepare(cfg)
     t0 = time.perf_counter()
-    source = _ray_results if use_ray else _results
+    if use_ray:
+        source = _ray_results(cfg, todo, workers)
+    elif pool is not None and workers > 1:
+        source = pool.results(cfg, todo)
+    else:
+        source = _results(cfg, todo, workers)
     bar = tqdm(
         total=cfg.suite.size,
         initial=len(done),
@@ -355,7 +412,7 @@ def run(
         unit="item",
     )
     with bar, ResultsWriter(results) as writer:
-        for _, rows in source(cfg, todo, workers):
+        for _, rows in source:
             writer.append(rows)
             bar.update(1)
     wall = time.perf_counter() - t0
