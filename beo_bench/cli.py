@@ -95,7 +95,24 @@ def cmd_cache(args: argparse.Namespace) -> int:
     print(f"cache: {info['root']} ({_fmt_bytes(info['bytes'])})")
     for kind, k in info["kinds"].items():
         print(f"  {kind:<10} {k['entries']:>7} entries  {_fmt_bytes(k['bytes']):>10}")
+    _print_models(cache.cache_root() / "models")
     return 0
+
+
+def _print_models(root: Path) -> None:
+    """Each trained model with its content digest (equal digests: bitwise-equal models)."""
+    from beo_bench.errors import CheckpointError
+    from beo_bench.perception.digest import model_digest
+
+    dirs = sorted(d for d in root.glob("*/*") if d.is_dir()) if root.exists() else []
+    if dirs:
+        print("models (content digest):")
+    for d in dirs:
+        try:
+            digest = model_digest(d)
+        except CheckpointError as e:
+            digest = f"unusable: {e}"
+        print(f"  {d.parent.name}/{d.name}  {digest}")
 
 
 def cmd_view(args: argparse.Namespace) -> int:

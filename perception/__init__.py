@@ -11,6 +11,8 @@
   and 5), built from :mod:`.hbeo_crop` (object-centred crops and their frame),
   :mod:`.hbeo_data` (rendered training shards), :mod:`.hbeo_net` (the network, the
   mixture head) and :mod:`.hbeo_train` (training, checkpoints).
+- :mod:`.digest`: a trained model's content digest (is a retrained default model the
+  published one?);
 
 Backends are looked up through :func:`beo_bench.backend.get_backend`.
 """

@@ -11,6 +11,7 @@ import torch
 from beo_bench.perception.beo import BEOBackend, Hypotheses
 from beo_bench.perception.beo_model import BEOConfig, BEOModel, load_model, train_beo
 from beo_bench.perception.beo_observe import Observation
+from beo_bench.perception.digest import model_digest
 
 from beo_bench.backend import sample_views
 from beo_bench.errors import CheckpointError, ViewError
@@ -123,6 +124,12 @@ def test_a_saved_model_loads_identically(tmp_path) -> None:
         np.testing.assert_array_equal(getattr(loaded, name), getattr(model, name))
     # the basis is orthonormal
     np.testing.assert_allclose(loaded.basis.T @ loaded.basis, np.eye(loaded.k), atol=1e-4)
+    # the content digest (`beo-bench cache info`) is the arrays', and sees one ulp
+    assert model_digest(loaded.save(tmp_path / "again")) == model_digest(tmp_path / "m")
+    loaded.basis[0, 0] = np.nextafter(loaded.basis[0, 0], np.float32(1))
+    assert model_digest(loaded.save(tmp_path / "ulp")) != model_digest(tmp_path / "m")
+    with pytest.raises(CheckpointError, match="holds no model"):
+        model_digest(tmp_path)
 
 
 def test_training_gives_the_same_model_whatever_the_thread_count() -> None:

@@ -4,10 +4,13 @@ conformance, and clear errors for mismatched checkpoints."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
 from beo_bench.perception.beo_model import BEOConfig, train_beo
+from beo_bench.perception.digest import model_digest
 from beo_bench.perception.hbeo import HBEOBackend, sdf_errors, signed_distance, silhouettes
 from beo_bench.perception.hbeo_crop import make_crop
 from beo_bench.perception.hbeo_data import (
@@ -306,6 +309,8 @@ def test_resume_after_a_kill_gives_the_same_model(tmp_path, beo_dir, trained) ->
     ref = trained["hbeo"].net.state_dict()
     for k, v in resumed.net.state_dict().items():
         assert torch.equal(v, ref[k]), k
+    # and `beo-bench cache info` shows the two as the same model
+    assert model_digest(path) == model_digest(Path(trained["hbeo-path"]))
 
 
 def test_mismatched_checkpoints_are_refused(trained, beo_dir, tmp_path) -> None:

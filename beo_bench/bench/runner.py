@@ -211,6 +211,8 @@ class WorkerPool:
         self._pool: Any = None
 
     def results(self, cfg: RunConfig, todo: list[int]) -> Iterator[tuple[int, list]]:
+        if not todo:  # a finished run (resumed) starts no processes
+            return
         if self._pool is None:
             # spawn: workers start clean (no inherited GL state or torch threads)
             ctx = mp.get_context("spawn")

@@ -1,0 +1,51 @@
+"""A digest of a trained model's contents, to check that a retrained default model is
+bitwise the published one (``beo-bench cache info`` prints it for every cached model).
+
+It hashes array names, dtypes, shapes and bytes, not the files: a zip or pickle header can
+differ between two saves of equal arrays.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from beo_bench.errors import CheckpointError
+
+
+def _arrays(state: Any, prefix: str = "") -> Iterator[tuple[str, np.ndarray]]:
+    """The arrays in a nested dict of tensors or arrays, as (dotted name, array)."""
+    if isinstance(state, dict):
+        for k in sorted(state):
+            yield from _arrays(state[k], f"{prefix}{k}.")
+    elif hasattr(state, "detach"):  # a torch tensor
+        yield prefix[:-1], state.detach().cpu().numpy()
+    elif isinstance(state, np.ndarray):
+        yield prefix[:-1], state
+
+
+def model_digest(path: Path) -> str:
+    """The first 16 hex digits of SHA-256 over the arrays of the model directory ``path``
+    (``arrays.npz`` of a BEO model, ``weights.pt`` of an HBEO model)."""
+    if (path / "arrays.npz").exists():
+        with np.load(path / "arrays.npz") as z:
+            state: Any = {k: z[k] for k in z.files}
+    elif (path / "weights.pt").exists():
+        import torch
+
+        try:
+            state = torch.load(path / "weights.pt", map_location="cpu", weights_only=True)
+        except (OSError, RuntimeError) as e:
+            raise CheckpointError(f"{path}: unreadable weights ({e}); delete and retrain") from e
+    else:
+        raise CheckpointError(f"{path} holds no model (no arrays.npz or weights.pt)")
+    h = hashlib.sha256()
+    for name, a in _arrays(state):
+        a = np.ascontiguousarray(a)
+        h.update(f"{name}:{a.dtype.str}:{a.shape};".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()[:16]
