@@ -1,7 +1,8 @@
 """Runner figures (issue 4): the oracle on ``pose-3dof`` with 1000 views and 2 workers,
 beside the raw render rate and the same items done in one process without the runner, with
 the runner's own cost; and the ``icp`` backend's time per view and pose errors on
-``pose-1dof`` and ``pose-3dof``."""
+``pose-1dof`` and ``pose-3dof``; and a campaign's short runs with a fresh worker pool per run
+against one kept pool (issue 7)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from harness import report
 
 from beo_bench.backend import list_backends
 from beo_bench.bench.evaluate import Evaluator
-from beo_bench.bench.runner import RunConfig, read_rows, run
+from beo_bench.bench.runner import RunConfig, WorkerPool, read_rows, run
 from beo_bench.bench.suites import get_suite
 
 VIEWS = 1000
@@ -62,6 +63,8 @@ def main() -> None:
            "< 10%", own < 0.10)  # fmt: skip
     report(f"  speed-up over one process ({WORKERS} cores)", rate / direct, "x")
 
+    short_runs()
+
     if "icp" in list_backends():
         for name in ("pose-1dof", "pose-3dof"):
             s = get_suite(name).with_overrides(size=110)
@@ -78,3 +81,21 @@ def main() -> None:
             report(f"  icp on {name}: rotation error mean", m["rot_err_deg_mean"], "deg")
             report(f"  icp on {name}: rotation error median", m["rot_err_deg_median"], "deg")
             report(f"  icp on {name}: > 15 deg rate", 100 * m["gross_err_rate"], "%")
+
+
+def short_runs(n: int = 6, items: int = 44) -> None:
+    """``make demo``'s case: many short runs (here ``n`` runs of 44 ``oracle`` items on
+    ``known-pose`` with new seeds, so every run scores new items)."""
+    suites = [get_suite("known-pose").with_overrides(size=items, seed=9000 + k) for k in range(n)]
+    with tempfile.TemporaryDirectory() as d:
+        t0 = time.perf_counter()
+        for k, s in enumerate(suites):
+            run(RunConfig(s, "oracle"), Path(d) / f"fresh{k}", workers=WORKERS, progress=False)
+        fresh = (time.perf_counter() - t0) / n
+        t0 = time.perf_counter()
+        with WorkerPool(WORKERS) as pool:
+            for k, s in enumerate(suites):
+                run(RunConfig(s, "oracle"), Path(d) / f"kept{k}", pool=pool, progress=False)
+        kept = (time.perf_counter() - t0) / n
+    report(f"{n} short runs ({items} oracle items): s per run, a fresh pool per run", fresh, "s")
+    report("  s per run, one kept pool (beo-bench all)", kept, "s", "< fresh", kept < fresh)
