@@ -95,10 +95,16 @@ def load_plugins() -> list[str]:
     return names
 
 
-def list_backends() -> list[str]:
-    """Names of the registered backends, sorted."""
+def list_backends(diagnostic: bool = True) -> list[str]:
+    """Names of the registered backends, sorted; without the diagnostic tools that wrap
+    another backend (a class attribute ``diagnostic = True``, e.g. ``swap``) when
+    ``diagnostic`` is False."""
     _ensure_in_tree()
-    return sorted(_REGISTRY)
+    return sorted(
+        name
+        for name, (f, _) in _REGISTRY.items()
+        if diagnostic or not getattr(f, "diagnostic", False)
+    )
 
 
 def get_backend(name: str, **kwargs: Any) -> PerceptionBackend:

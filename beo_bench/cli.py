@@ -273,10 +273,10 @@ DEMO_SIZES = {"known-pose": 44, "pose-1dof": 44, "pose-3dof": 44, "tabletop": 6,
 def _default_backends() -> list[str]:
     """Every registered backend (in-tree and plugins), bounds included; diagnostic tools
     that wrap another backend (``swap``) are run by name only."""
-    from beo_bench.backend import _REGISTRY, list_backends, load_plugins
+    from beo_bench.backend import list_backends, load_plugins
 
     load_plugins()
-    return [b for b in list_backends() if not getattr(_REGISTRY[b][0], "diagnostic", False)]
+    return list_backends(diagnostic=False)
 
 
 def _print_leaderboard(written: list[Path], where: Path) -> None:

@@ -31,18 +31,19 @@ def _arrays(state: Any, prefix: str = "") -> Iterator[tuple[str, np.ndarray]]:
 def model_digest(path: Path) -> str:
     """The first 16 hex digits of SHA-256 over the arrays of the model directory ``path``
     (``arrays.npz`` of a BEO model, ``weights.pt`` of an HBEO model)."""
-    if (path / "arrays.npz").exists():
-        with np.load(path / "arrays.npz") as z:
-            state: Any = {k: z[k] for k in z.files}
-    elif (path / "weights.pt").exists():
-        import torch
-
-        try:
-            state = torch.load(path / "weights.pt", map_location="cpu", weights_only=True)
-        except (OSError, RuntimeError) as e:
-            raise CheckpointError(f"{path}: unreadable weights ({e}); delete and retrain") from e
-    else:
+    npz, pt = path / "arrays.npz", path / "weights.pt"
+    if not npz.exists() and not pt.exists():
         raise CheckpointError(f"{path} holds no model (no arrays.npz or weights.pt)")
+    try:
+        if npz.exists():
+            with np.load(npz) as z:
+                state: Any = {k: z[k] for k in z.files}
+        else:
+            import torch
+
+            state = torch.load(pt, map_location="cpu", weights_only=True)
+    except Exception as e:  # a torn or corrupt file: zip, pickle and OS errors alike
+        raise CheckpointError(f"{path}: unreadable model ({e}); delete it and retrain") from e
     h = hashlib.sha256()
     for name, a in _arrays(state):
         a = np.ascontiguousarray(a)

@@ -130,6 +130,9 @@ def test_a_saved_model_loads_identically(tmp_path) -> None:
     assert model_digest(loaded.save(tmp_path / "ulp")) != model_digest(tmp_path / "m")
     with pytest.raises(CheckpointError, match="holds no model"):
         model_digest(tmp_path)
+    (tmp_path / "ulp" / "arrays.npz").write_bytes(b"not a zip")  # a torn write
+    with pytest.raises(CheckpointError, match="unreadable model"):
+        model_digest(tmp_path / "ulp")
 
 
 def test_training_gives_the_same_model_whatever_the_thread_count() -> None:

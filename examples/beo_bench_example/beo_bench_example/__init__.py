@@ -60,7 +60,7 @@ class BoxFitBackend:
         local = (pts - centre) @ R
         lo, hi = local.min(axis=0), local.max(axis=0)
         size = np.maximum(hi - lo, 1e-3)
-        # the camera sees the front: push the box back by half its extent along the ray
+        # the camera sees the front: push the box back by a quarter of its depth along the ray
         ray = centre / np.linalg.norm(centre)
         depth_axis = int(np.argmax(np.abs(R.T @ ray)))
         size[depth_axis] = max(size[depth_axis], float(np.median(size)))
