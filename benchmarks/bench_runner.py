@@ -2,10 +2,12 @@
 beside the raw render rate and the same items done in one process without the runner, with
 the runner's own cost; and the ``icp`` backend's time per view and pose errors on
 ``pose-1dof`` and ``pose-3dof``; and a campaign's short runs with a fresh worker pool per run
-against one kept pool (issue 7)."""
+against one kept pool (issue 7); and what a backend that crashes its worker costs a run
+(the worker is replaced, the item recorded as failed)."""
 
 from __future__ import annotations
 
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -14,10 +16,11 @@ import numpy as np
 from beo_bench.scenes import OBJECT_RIG
 from harness import report
 
-from beo_bench.backend import list_backends
+from beo_bench.backend import list_backends, register_backend
 from beo_bench.bench.evaluate import Evaluator
 from beo_bench.bench.runner import RunConfig, WorkerPool, read_rows, run
 from beo_bench.bench.suites import get_suite
+from beo_bench.types import Estimate, View
 
 VIEWS = 1000
 WORKERS = 2
@@ -64,6 +67,7 @@ def main() -> None:
     report(f"  speed-up over one process ({WORKERS} cores)", rate / direct, "x")
 
     short_runs()
+    crash_recovery()
 
     if "icp" in list_backends():
         for name in ("pose-1dof", "pose-3dof"):
@@ -99,3 +103,48 @@ def short_runs(n: int = 6, items: int = 44) -> None:
         kept = (time.perf_counter() - t0) / n
     report(f"{n} short runs ({items} oracle items): s per run, a fresh pool per run", fresh, "s")
     report("  s per run, one kept pool (beo-bench all)", kept, "s", "< fresh", kept < fresh)
+
+
+CRASH = "bench-crash"
+
+
+@register_backend(CRASH)
+class _Crash:
+    """The oracle, except that it aborts its process on the views of class 0 (runs in the
+    workers because they import this module: ``WorkerPool(imports=[__name__])``)."""
+
+    name = CRASH
+    privileged = True
+    diagnostic = True
+
+    def __init__(self) -> None:
+        from beo_bench.backend import get_backend
+
+        self.inner = get_backend("oracle")
+
+    def predict(self, view: View) -> Estimate:
+        if view.ground_truth is not None and view.ground_truth.class_index == 0:
+            os.abort()
+        return self.inner.predict(view)
+
+
+def crash_recovery(items: int = 44) -> None:
+    """``items`` views of ``known-pose`` with the oracle, then with a backend that aborts on
+    one class (4 of the 44 items: each costs a new worker); both with one kept pool."""
+    s = get_suite("known-pose").with_overrides(size=items, seed=9100)
+    with tempfile.TemporaryDirectory() as d, WorkerPool(WORKERS, imports=[__name__]) as pool:
+        run(RunConfig(s, "oracle"), Path(d) / "warm", pool=pool, progress=False)  # warm caches
+        s = s.with_overrides(seed=9200)
+        t0 = time.perf_counter()
+        run(RunConfig(s, "oracle"), Path(d) / "clean", pool=pool, progress=False)
+        clean = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        summ = run(RunConfig(s, CRASH), Path(d) / "crash", pool=pool, progress=False)
+        crashed = time.perf_counter() - t0
+    n = summ["failure_kinds"].get("worker died", 0)
+    report(f"{items} oracle items, {WORKERS} kept workers: s per run", clean, "s")
+    report(
+        f"  s per crashed item ({n} items abort their worker: replaced, recorded)",
+        (crashed - clean) / max(n, 1),
+        "s",
+    )

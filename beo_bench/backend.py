@@ -3,19 +3,25 @@
 In-tree backends register with :func:`register_backend`; third-party packages declare an
 entry point in the group ``beo_bench.backends`` whose object is a backend class or factory
 (``name = "pkg.module:Factory"``); :func:`load_plugins` loads them (the CLI and the runner
-call it explicitly, so importing ``beo_bench`` never imports foreign code).
+call it explicitly, so importing ``beo_bench`` never imports foreign code). A plugin that
+fails to load is named in one :class:`PluginWarning` and skipped, so one broken package
+does not take the others down; asking for it by name then raises :class:`PluginError`.
 """
 
 from __future__ import annotations
 
 import importlib
+import inspect
+import multiprocessing
+import numbers
+import warnings
 from collections.abc import Callable
-from importlib.metadata import entry_points
+from importlib.metadata import EntryPoint, entry_points
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from beo_bench.errors import BackendError, EstimateError
+from beo_bench.errors import BackendError, BeoBenchError, EstimateError, PluginError, UsageError
 from beo_bench.types import Estimate, View
 
 ENTRY_POINT_GROUP = "beo_bench.backends"
@@ -51,7 +57,13 @@ class PerceptionBackend(Protocol):
 
 Factory = Callable[..., PerceptionBackend]
 _REGISTRY: dict[str, tuple[Factory, str]] = {}  # name -> (factory, origin)
+_BROKEN: dict[tuple[str, str], str] = {}  # (entry-point name, value) -> why it was skipped
 _loaded_in_tree = False
+
+
+class PluginWarning(UserWarning):
+    """A third-party backend plugin that was skipped (it failed to import, is not a
+    backend, or takes a name already registered); the other backends still load."""
 
 
 def register_backend(name: str, origin: str = "in-tree") -> Callable[[Factory], Factory]:
@@ -83,16 +95,69 @@ def _ensure_in_tree() -> None:
 
 def load_plugins() -> list[str]:
     """Register every backend advertised in the ``beo_bench.backends`` entry-point group;
-    returns their names. A plugin name that clashes with a registered one raises."""
+    returns the names registered. A plugin that fails to import, whose object is not a
+    backend class or factory, or whose name is taken is skipped with one
+    :class:`PluginWarning` naming it (the runner calls this in every worker: a broken
+    package must not stop the others); :func:`get_backend` of its name says why."""
     _ensure_in_tree()
     names = []
     for ep in entry_points(group=ENTRY_POINT_GROUP):
-        factory = ep.load()
-        dist = getattr(ep, "dist", None)
-        origin = f"plugin {dist.name if dist is not None else ep.value}"
-        _add(ep.name, factory, origin)
+        if (ep.name, ep.value) in _BROKEN:
+            continue  # already warned about in this process
+        try:
+            factory = ep.load()
+            _check_plugin_object(ep, factory)
+            _add(ep.name, factory, _plugin_origin(ep))
+        except Exception as e:  # whatever a foreign import raises: skip that plugin only
+            _skip_plugin(ep, e)
+            continue
         names.append(ep.name)
     return names
+
+
+def _skip_plugin(ep: EntryPoint, e: Exception) -> None:
+    """Remember why ``ep`` was skipped (for :func:`get_backend`) and warn, once."""
+    why = str(e) if isinstance(e, BeoBenchError) else f"{type(e).__name__}: {e}"
+    key = (ep.name, ep.value)
+    _BROKEN[key] = f"{_plugin_origin(ep)} (entry point {ep.name} = {ep.value}) was skipped: {why}"
+    if multiprocessing.parent_process() is not None:
+        return  # a runner worker: the main process loaded the plugins first and warned
+    warnings.warn(
+        f"backend {_BROKEN[key]}; fix or uninstall that package (the other backends are available)",
+        PluginWarning,
+        stacklevel=3,
+    )
+
+
+def _plugin_origin(ep: EntryPoint) -> str:
+    dist = getattr(ep, "dist", None)
+    return f"plugin {dist.name if dist is not None else ep.value}"
+
+
+def _check_plugin_object(ep: EntryPoint, obj: object) -> None:
+    """Refuse what cannot be a backend factory, without calling it (a call may be slow): a
+    non-callable, or a class without ``predict``."""
+    if not callable(obj) or (inspect.isclass(obj) and not callable(getattr(obj, "predict", 0))):
+        raise PluginError(
+            f"{ep.value} is a {type(obj).__name__}, not a backend class or factory (a class "
+            "with `name` and `predict(view)`, or a function returning such an object)"
+        )
+
+
+def buildable_in_fresh_process(name: str, imports: tuple[str, ...] = ()) -> bool:
+    """Whether a fresh process (a spawned runner worker, which imports the in-tree backends,
+    the entry points and ``imports``) can build backend ``name``. A backend registered at
+    run time in this process (a test, a notebook, a function defined inside another) exists
+    only here. An unknown name counts as buildable: the fresh process then says it is
+    unknown."""
+    entry = _REGISTRY.get(name)
+    if entry is None:
+        return True
+    factory, origin = entry
+    if "<locals>" in getattr(factory, "__qualname__", ""):
+        return False
+    module = getattr(factory, "__module__", "") or ""
+    return origin.startswith("plugin") or module in (*_IN_TREE, *imports)
 
 
 def list_backends(diagnostic: bool = True) -> list[str]:
@@ -108,28 +173,125 @@ def list_backends(diagnostic: bool = True) -> list[str]:
 
 
 def get_backend(name: str, **kwargs: Any) -> PerceptionBackend:
-    """A new backend ``name`` built with ``kwargs``."""
+    """A new backend ``name`` built with ``kwargs``. An unknown option, or a value of the
+    wrong type for an option whose default says its type, raises :class:`UsageError`
+    listing the backend's options; so does a ``ValueError`` of the backend's own checks."""
     _ensure_in_tree()
     if name not in _REGISTRY:
-        raise BackendError(
-            f"unknown backend {name!r}; registered: {sorted(_REGISTRY)} (third-party backends "
-            f"need their package installed and `load_plugins()`, which `beo-bench` calls)"
-        )
-    backend = _REGISTRY[name][0](**kwargs)
+        raise _unknown_backend(name)
+    factory = _REGISTRY[name][0]
+    _check_options(name, factory, kwargs)
+    try:
+        backend = factory(**kwargs)
+    except BeoBenchError:
+        raise
+    except ValueError as e:  # the backend's own check of an option value
+        raise UsageError(f"backend {name!r}: {e} ({_options_hint(factory)})") from e
+    except TypeError as e:
+        if "keyword argument" not in str(e):
+            raise  # a bug in the backend, not an option the user gave
+        raise UsageError(f"backend {name!r}: {e} ({_options_hint(factory)})") from e
     if not isinstance(backend, PerceptionBackend):
         raise BackendError(f"backend {name!r} has no `name` attribute or `predict(view)` method")
     return backend
 
 
+def _unknown_backend(name: str) -> BackendError:
+    broken = [why for (ep_name, _), why in _BROKEN.items() if ep_name == name]
+    if broken:
+        return PluginError(f"backend {name!r}: {broken[0]}; fix or reinstall that package")
+    return BackendError(
+        f"unknown backend {name!r}; registered: {sorted(_REGISTRY)} (third-party backends "
+        f"need their package installed and `load_plugins()`, which `beo-bench` calls)"
+    )
+
+
+def backend_options(name: str) -> dict[str, Any] | None:
+    """The options of backend ``name`` with their defaults (``inspect.Parameter.empty``
+    for a required one), or None when its factory takes arbitrary ``**kwargs``."""
+    _ensure_in_tree()
+    if name not in _REGISTRY:
+        raise _unknown_backend(name)
+    return _signature_options(_REGISTRY[name][0])
+
+
+def _signature_options(factory: Factory) -> dict[str, Any] | None:
+    try:
+        params = inspect.signature(factory).parameters.values()
+    except (TypeError, ValueError):  # a builtin or C callable: nothing to read
+        return None
+    if any(p.kind is p.VAR_KEYWORD for p in params):
+        return None  # passes options on (swap, hbeo): the receiver checks them
+    keyword = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    return {p.name: p.default for p in params if p.kind in keyword}
+
+
+def _options_hint(factory: Factory) -> str:
+    opts = _signature_options(factory)
+    if opts is None:
+        return "see the backend's documentation for its options"
+    if not opts:
+        return "it takes no options"
+    shown = ", ".join(k if v is inspect.Parameter.empty else f"{k}={v!r}" for k, v in opts.items())
+    return f"its options, with their defaults: {shown}"
+
+
+def _check_options(name: str, factory: Factory, kwargs: dict[str, Any]) -> None:
+    opts = _signature_options(factory)
+    if opts is None:
+        return
+    unknown = sorted(set(kwargs) - set(opts))
+    if unknown:
+        raise UsageError(
+            f"backend {name!r} has no option {', '.join(map(repr, unknown))}; "
+            f"{_options_hint(factory)} (on the command line: --opt KEY=VALUE)"
+        )
+    for key, value in kwargs.items():
+        expected = _type_mismatch(opts[key], value)
+        if expected:
+            raise UsageError(
+                f"backend {name!r} option {key}={value!r}: expected {expected} (default "
+                f"{opts[key]!r})"
+            )
+
+
+def _type_mismatch(default: Any, value: Any) -> str | None:
+    """What ``value`` should have been when the option's default shows its type and the
+    value cannot be one (booleans, integers, reals); else None. A None default or any other
+    type is left to the backend, and so is a None value (``--opt threads=null``: several
+    options take None for "the default" or "leave it alone")."""
+    if value is None:
+        return None
+    if isinstance(default, bool):
+        try:
+            as_bool(value)
+        except UsageError:
+            return "a boolean (true/false, yes/no, on/off, 1/0)"
+        return None
+    real = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    if isinstance(default, numbers.Integral):
+        if not real or float(value) != int(value):
+            return "an integer"
+    elif isinstance(default, numbers.Real) and not real:
+        return "a number"
+    return None
+
+
+_TRUE = ("1", "true", "yes", "on")
+_FALSE = ("0", "false", "no", "off")
+
+
 def as_bool(x: object) -> bool:
-    """A boolean backend option, also from its command-line spelling (``--opt mesh=no``)."""
-    if isinstance(x, str):
-        if x.lower() in ("1", "true", "yes", "on"):
-            return True
-        if x.lower() in ("0", "false", "no", "off"):
-            return False
-        raise ValueError(f"expected a boolean (true/false), got {x!r}")
-    return bool(x)
+    """A boolean backend option, also from its command-line spelling (``--opt mesh=no``).
+    Anything else (``"maybe"``, ``2``, a list) raises :class:`UsageError` (a ValueError)."""
+    if isinstance(x, str) and x.lower() in _TRUE + _FALSE:
+        return x.lower() in _TRUE
+    if isinstance(x, (bool, np.bool_)) or (isinstance(x, numbers.Integral) and x in (0, 1)):
+        return bool(x)
+    raise UsageError(
+        f"expected a boolean, got {x!r}: use one of {', '.join(_TRUE)} (true) or "
+        f"{', '.join(_FALSE)} (false)"
+    )
 
 
 def prepare_backend(backend: PerceptionBackend, categories: tuple[str, ...]) -> None:

@@ -1,20 +1,115 @@
-"""The ``beo-bench`` command."""
+"""The ``beo-bench`` command.
+
+Exit status: 0 on success, 1 on a failure (a run that cannot finish, a corrupt model, a
+full or read-only disk), 2 on a usage error (an argument, option or setting out of range),
+130 when interrupted. An error is one line on stderr, ``beo-bench: error: ...``, saying what
+was wrong and what to do; no traceback.
+"""
 
 from __future__ import annotations
 
 import argparse
+import errno
 import sys
 import time
-from collections.abc import Sequence
+import warnings
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from beo_bench.errors import BeoBenchError
+from beo_bench.errors import BeoBenchError, CorruptDataError, UsageError
 
 if TYPE_CHECKING:
     from beo_bench.perception.hbeo_train import HBEOConfig, Kind
+
+
+# -- argument types: an out-of-range number is a usage error (exit 2) before anything runs --
+def bounded_int(lo: int, hi: int | None = None, why: str = "") -> Callable[[str], int]:
+    """An argparse ``type`` accepting whole numbers in ``lo..hi`` (no upper bound when
+    ``hi`` is None); ``why`` ends the message when a value is refused."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+        if value < lo or (hi is not None and value > hi):
+            wanted = f">= {lo}" if hi is None else f"from {lo} to {hi}"
+            wanted = f"a whole number {wanted}"
+            raise argparse.ArgumentTypeError(f"{value} is out of range: give {wanted}{why}")
+        return value
+
+    parse.__name__ = "int"  # argparse names the type in some of its messages
+    return parse
+
+
+positive_int = bounded_int(1)
+nonneg_int = bounded_int(0)
+seed_int = bounded_int(0, why=" (numpy seeds are non-negative)")
+# Voxel grids hold D^3 cells per instance (and training stacks thousands of them): 128^3
+# is 2 M cells, 8 MB per float32 grid; beyond it memory, not the method, is the limit. Below
+# 8 cells per edge a shape is no longer recognisable.
+resolution_int = bounded_int(8, 128, why=" voxels per edge (memory grows as D^3)")
+
+
+def _image_side(text: str) -> int:
+    from beo_bench.scenes.camera import MAX_IMAGE_SIDE
+
+    return bounded_int(1, MAX_IMAGE_SIDE, why=" pixels (the off-screen GL buffer's limit)")(text)
+
+
+def positive_float(text: str) -> float:
+    """An argparse ``type``: a finite number > 0 (``nan`` and ``inf`` refused)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text} is out of range: give a number > 0")
+    return value
+
+
+def fraction(text: str) -> float:
+    """An argparse ``type``: a number in (0, 1]."""
+    value = positive_float(text)
+    if value > 1:
+        raise argparse.ArgumentTypeError(f"{text} is out of range: give a number in (0, 1]")
+    return value
+
+
+def key_value(text: str) -> str:
+    """An argparse ``type`` for ``--opt``: ``KEY=VALUE`` with a non-empty key."""
+    if "=" not in text or not text.split("=", 1)[0].strip():
+        raise argparse.ArgumentTypeError(f"{text!r}: use KEY=VALUE (e.g. samples=25)")
+    return text
+
+
+def backend_spec(text: str) -> str:
+    """An argparse ``type`` for ``all --backends``: ``NAME`` or ``NAME:K=V,K=V``."""
+    name, _, opts = text.partition(":")
+    if not name:
+        raise argparse.ArgumentTypeError(f"{text!r}: give NAME or NAME:KEY=VALUE,...")
+    for pair in (o for o in opts.split(",") if o):
+        try:
+            key_value(pair)
+        except argparse.ArgumentTypeError as e:
+            raise argparse.ArgumentTypeError(f"backend {text!r}: option {e}") from None
+    return text
+
+
+def model_name(text: str) -> str:
+    """An argparse ``type`` for ``train --name``: a plain name, never a path (the model is
+    stored under the cache's models directory, and training may replace a checkpoint
+    there)."""
+    from beo_bench.errors import InvalidNameError
+    from beo_bench.names import check_name
+
+    try:
+        return check_name(text, "model name")
+    except InvalidNameError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def _fmt_bytes(n: float) -> str:
@@ -104,7 +199,12 @@ def _print_models(root: Path) -> None:
     from beo_bench.errors import CheckpointError
     from beo_bench.perception.digest import model_digest
 
-    dirs = sorted(d for d in root.glob("*/*") if d.is_dir()) if root.exists() else []
+    # hidden siblings are a save in progress (.NAME.*.tmp) or a replaced model (.old)
+    dirs = (
+        sorted(d for d in root.glob("*/*") if d.is_dir() and not d.name.startswith("."))
+        if root.exists()
+        else []
+    )
     if dirs:
         print("models (content digest):")
     for d in dirs:
@@ -155,10 +255,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     from beo_bench.backend import get_backend, load_plugins
     from beo_bench.bench.campaign import parse_options, run_name
     from beo_bench.bench.runner import RunConfig, run
-    from beo_bench.bench.suites import get_suite
 
     load_plugins()
-    suite = get_suite(args.suite).with_overrides(size=args.episodes, seed=args.seed)
+    suite = _suite(args.suite).with_overrides(size=args.episodes, seed=args.seed)
     kwargs = parse_options(args.opt)
     get_backend(args.backend, **kwargs)  # fail here, with its message, not in a worker
     name = run_name(suite.name, args.backend, kwargs, args.seed)
@@ -169,6 +268,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         workers=args.workers,
         resume=args.resume,
         use_ray=args.ray,
+        **_timeout(args),
     )
     print(format_runs([summary]))
     print(f"\nresults: {out / 'results.jsonl'}\nsummary: {out / 'summary.json'}")
@@ -178,6 +278,22 @@ def cmd_run(args: argparse.Namespace) -> int:
         path = log_run(RunConfig(suite, args.backend, kwargs), args.rerun)
         print(f"recording of the first views: {path}  (open with `rerun {path}`)")
     return 0
+
+
+def _suite(name: str) -> Any:
+    """The suite ``name``; an unknown name is a usage error (exit 2), listing the suites."""
+    from beo_bench.bench.suites import UnknownSuiteError, get_suite
+
+    try:
+        return get_suite(name)
+    except UnknownSuiteError as e:
+        raise UsageError(str(e)) from e
+
+
+def _timeout(args: argparse.Namespace) -> dict[str, float]:
+    """``item_timeout`` for the runner, only when ``--item-timeout`` was given (otherwise
+    the runner's own default holds)."""
+    return {} if args.item_timeout is None else {"item_timeout": args.item_timeout}
 
 
 COLUMNS = (
@@ -220,8 +336,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
         p = Path(p)
         f = p / "summary.json" if p.is_dir() else p
         if not f.exists():
-            raise BeoBenchError(f"{f} does not exist: give run directories or summary.json files")
-        summaries.append(json.loads(f.read_text()))
+            raise UsageError(f"{f} does not exist: give run directories or summary.json files")
+        try:
+            summaries.append(json.loads(f.read_text()))
+        except (json.JSONDecodeError, UnicodeDecodeError) as e:
+            raise CorruptDataError(
+                f"{f} is not a readable summary ({e}); rerun that run with `beo-bench run "
+                "--resume` to rewrite it"
+            ) from e
     print(format_runs(summaries))
     return 0
 
@@ -308,6 +430,8 @@ def cmd_all(args: argparse.Namespace) -> int:
     from beo_bench.bench.suites import list_suites
 
     suites = args.suites or list_suites()
+    for s in suites:
+        _suite(s)  # an unknown name fails before any run starts
     specs = args.backends or _default_backends()
     c = Campaign(
         {s: args.episodes for s in suites},
@@ -317,6 +441,7 @@ def cmd_all(args: argparse.Namespace) -> int:
         workers=args.workers,
         use_ray=args.ray,
         seed=args.seed,
+        **_timeout(args),
     )
     _print_leaderboard(run_campaign(c), c.leaderboards)
     return 0
@@ -337,7 +462,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     looks for, so training it ahead of time only saves the first run the wait)."""
     if args.model != "beo":
         return _train_hbeo(args)
-    from beo_bench.perception.beo_model import BEOConfig, default_name, models_root, train_beo
+    from beo_bench.perception.beo_model import BEOConfig, default_name, model_path, train_beo
 
     cats = _categories(args)
     cfg = BEOConfig(
@@ -349,7 +474,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     name = args.name or default_name(cats, args.resolution, args.per_category)
     t0 = time.perf_counter()
     model = train_beo(cfg, progress=True)
-    path = model.save(models_root() / name)
+    path = model.save(model_path(name))
     print(
         f"BEO model {name!r}: {len(cats)} classes at {args.resolution}^3, subspace k={model.k} "
         f"(per class {dict(zip(cats, model.components.tolist(), strict=True))}), "
@@ -379,15 +504,13 @@ def _hbeo_config(args: argparse.Namespace, kind: Kind) -> HBEOConfig:
 
 
 def _train_hbeo(args: argparse.Namespace) -> int:
-    from beo_bench.perception.hbeo_train import default_name, models_root, train_hbeo
+    from beo_bench.perception.hbeo_train import default_name, model_path, train_hbeo
 
     cfg = _hbeo_config(args, args.model)
     name = args.name or default_name(cfg)
-    path = models_root() / name
-    if not args.resume and (path / "checkpoint.pt").exists():
-        (path / "checkpoint.pt").unlink()
+    path = model_path(name)
     t0 = time.perf_counter()
-    model = train_hbeo(cfg, path, progress=True, workers=args.workers)
+    model = train_hbeo(cfg, path, progress=True, workers=args.workers, resume=args.resume)
     last = model.info["history"][-1]
     speed = model.info["render_images_per_s"]
     rendered = f"rendered at {speed:.0f} images/s" if speed else "rendering cached"
@@ -407,9 +530,12 @@ def cmd_render_dataset(args: argparse.Namespace) -> int:
     cfg = _hbeo_config(args, "hbeo").dataset
     root, st = render_dataset(cfg, workers=args.workers, progress=True)
     if st["images"]:
+        repaired = int(st.get("repaired", 0))
         print(
             f"rendered {st['images']:.0f} crops in {st['seconds']:.1f} s "
-            f"({st['images_per_s']:.0f} images/s) -> {root}"
+            f"({st['images_per_s']:.0f} images/s)"
+            + (f", {repaired} damaged shards among them re-rendered" if repaired else "")
+            + f" -> {root}"
         )
     else:
         print(f"all {cfg.images} + {cfg.val_images} crops already rendered -> {root}")
@@ -417,10 +543,24 @@ def cmd_render_dataset(args: argparse.Namespace) -> int:
 
 
 def _dataset_args(g: Any) -> None:
-    g.add_argument("--images", type=int, default=None, help="training crops")
-    g.add_argument("--val-images", type=int, default=None, help="validation crops (val split)")
-    g.add_argument("--seed", type=int, default=None, help="seeds rendering and training")
-    g.add_argument("--workers", type=int, default=None, help="render processes (default: cores)")
+    g.add_argument("--images", type=positive_int, default=None, help="training crops")
+    g.add_argument(
+        "--val-images", type=nonneg_int, default=None, help="validation crops (val split)"
+    )
+    g.add_argument("--seed", type=seed_int, default=None, help="seeds rendering and training")
+    g.add_argument(
+        "--workers", type=positive_int, default=None, help="render processes (default: cores)"
+    )
+
+
+def _item_timeout_arg(g: Any) -> None:
+    g.add_argument(
+        "--item-timeout",
+        type=positive_float,
+        default=None,
+        metavar="S",
+        help="seconds one item may take before it is recorded as failed (default: the runner's)",
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -431,11 +571,11 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--out", default="out/demo", help="where images and results go")
     d.add_argument(
         "--per-category",
-        type=int,
+        type=positive_int,
         default=20,
         help="test-split instances per category to process and summarise",
     )
-    d.add_argument("--workers", type=int, default=None, help="default: one per core")
+    d.add_argument("--workers", type=positive_int, default=None, help="default: one per core")
     d.set_defaults(func=cmd_demo)
 
     o = sub.add_parser("objects", help="process and summarise an object set")
@@ -446,45 +586,62 @@ def build_parser() -> argparse.ArgumentParser:
     )
     o.add_argument(
         "--per-category",
-        type=int,
+        type=positive_int,
         default=None,
         help="instances per category (default: the split's size)",
     )
-    o.add_argument("--resolution", type=int, default=32, help="voxel grid size D")
-    o.add_argument("--workers", type=int, default=2)
+    o.add_argument(
+        "--resolution", type=resolution_int, default=32, help="voxel grid size D (8-128)"
+    )
+    o.add_argument("--workers", type=positive_int, default=2)
     o.add_argument("--sheet", type=Path, default=None, help="write a contact sheet PNG")
     o.set_defaults(func=cmd_objects)
 
     v = sub.add_parser("view", help="write a BEOPick-v0 scene to a rerun .rrd and a PNG")
-    v.add_argument("--seed", type=int, default=0)
+    v.add_argument("--seed", type=seed_int, default=0)
     v.add_argument("--out", type=Path, default=Path("out/view"))
     v.add_argument("--split", default="test", choices=["train", "val", "test", "ood"])
-    v.add_argument("--num-objects", type=int, default=None, help="default: 1-4")
-    v.add_argument("--image-size", type=int, nargs=2, default=[640, 480], metavar=("W", "H"))
+    v.add_argument("--num-objects", type=positive_int, default=None, help="default: 1-4")
+    v.add_argument(
+        "--image-size", type=_image_side, nargs=2, default=[640, 480], metavar=("W", "H")
+    )
     v.add_argument("--no-rrd", action="store_true", help="only the PNG")
     v.set_defaults(func=cmd_view)
 
     pc = sub.add_parser(
         "pick-check", help="pick success of the ground-truth grasp planner (the ceiling)"
     )
-    pc.add_argument("--episodes", type=int, default=100)
-    pc.add_argument("--seed", type=int, default=0, help="first episode seed")
+    pc.add_argument("--episodes", type=positive_int, default=100)
+    pc.add_argument("--seed", type=seed_int, default=0, help="first episode seed")
     pc.add_argument("--split", default="test", choices=["train", "val", "test", "ood"])
     pc.set_defaults(func=cmd_pick_check)
 
     r = sub.add_parser("run", help="score a backend on a suite")
     r.add_argument("--suite", required=True)
     r.add_argument("--backend", required=True)
-    r.add_argument("--episodes", type=int, default=None, help="items (default: the suite's)")
-    r.add_argument("--seed", type=int, default=None, help="replace the suite's base seed")
     r.add_argument(
-        "--workers", type=int, default=None, help="worker processes (default: one per core)"
+        "--episodes", type=positive_int, default=None, help="items (default: the suite's)"
+    )
+    r.add_argument("--seed", type=seed_int, default=None, help="replace the suite's base seed")
+    r.add_argument(
+        "--workers",
+        type=positive_int,
+        default=None,
+        help="worker processes (default: one per core)",
     )
     r.add_argument("--out", default=None, help="default: runs/SUITE__BACKEND")
     r.add_argument("--resume", action="store_true", help="continue a killed run in --out")
     r.add_argument("--ray", action="store_true", help="run the items as Ray tasks")
     r.add_argument("--rerun", default=None, help="also write a rerun .rrd of the first views")
-    r.add_argument("--opt", action="append", default=[], metavar="KEY=VALUE", help="backend option")
+    r.add_argument(
+        "--opt",
+        type=key_value,
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="backend option",
+    )
+    _item_timeout_arg(r)
     r.set_defaults(func=cmd_run)
 
     al = sub.add_parser(
@@ -493,14 +650,18 @@ def build_parser() -> argparse.ArgumentParser:
     al.add_argument("--suites", nargs="+", default=None, help="default: every suite")
     al.add_argument(
         "--backends",
+        type=backend_spec,
         nargs="+",
         default=None,
         metavar="NAME[:K=V,...]",
         help="default: every registered backend; options after a colon",
     )
-    al.add_argument("--episodes", type=int, default=None, help="items per suite (default: its own)")
-    al.add_argument("--seed", type=int, default=None, help="replace the suites' base seeds")
-    al.add_argument("--workers", type=int, default=None, help="default: one per core")
+    al.add_argument(
+        "--episodes", type=positive_int, default=None, help="items per suite (default: its own)"
+    )
+    al.add_argument("--seed", type=seed_int, default=None, help="replace the suites' base seeds")
+    al.add_argument("--workers", type=positive_int, default=None, help="default: one per core")
+    _item_timeout_arg(al)
     al.add_argument("--ray", action="store_true", help="run the items as Ray tasks")
     al.add_argument("--runs", default="runs", help="where the runs go (resumed when present)")
     al.add_argument("--out", default="leaderboards")
@@ -518,20 +679,25 @@ def build_parser() -> argparse.ArgumentParser:
     tr = sub.add_parser("train", help="train a perception model (beo, hbeo, hbeo-mdn)")
     tr.add_argument("model", choices=["beo", "hbeo", "hbeo-mdn"])
     tr.add_argument("--categories", nargs="+", default=None, help="default: the 11 built-in")
-    tr.add_argument("--name", default=None, help="model name (default: the default model's name)")
+    tr.add_argument(
+        "--name",
+        type=model_name,
+        default=None,
+        help="model name, a plain name (default: the default model's name)",
+    )
     tb = tr.add_argument_group("beo")
-    tb.add_argument("--resolution", type=int, default=32, help="voxels per edge (D)")
+    tb.add_argument("--resolution", type=resolution_int, default=32, help="voxels per edge (D)")
     tr.add_argument(
         "--per-category",
-        type=int,
+        type=positive_int,
         default=None,
         help="train instances per class (hbeo: for the crops and the default BEO subspace)",
     )
-    tb.add_argument("--variance-fraction", type=float, default=0.6)
+    tb.add_argument("--variance-fraction", type=fraction, default=0.6, help="in (0, 1]")
     th = tr.add_argument_group("hbeo and hbeo-mdn (defaults: the default small model's)")
     _dataset_args(th)
-    th.add_argument("--epochs", type=int, default=None)
-    th.add_argument("--batch-size", type=int, default=None)
+    th.add_argument("--epochs", type=positive_int, default=None)
+    th.add_argument("--batch-size", type=positive_int, default=None)
     th.add_argument("--size", choices=["small", "dissertation"], default=None)
     th.add_argument("--rotation", choices=["axis-angle", "6d"], default=None, help="hbeo only")
     th.add_argument(
@@ -544,24 +710,86 @@ def build_parser() -> argparse.ArgumentParser:
 
     rd = sub.add_parser("render-dataset", help="render HBEO's training crops (cached shards)")
     rd.add_argument("--categories", nargs="+", default=None, help="default: the 11 built-in")
-    rd.add_argument("--per-category", type=int, default=None, help="instances per class")
+    rd.add_argument("--per-category", type=positive_int, default=None, help="instances per class")
     _dataset_args(rd)
     rd.set_defaults(func=cmd_render_dataset)
 
+    from beo_bench.objects.cache import KINDS
+
     c = sub.add_parser("cache", help="inspect or clear the asset cache")
     c.add_argument("action", choices=["info", "clear"])
-    c.add_argument("--kind", default=None, help="only this kind of entry (with clear)")
+    # a kind is a name from a fixed list, never a path: `clear` deletes what it names
+    c.add_argument(
+        "--kind",
+        default=None,
+        choices=list(KINDS),
+        help="only this kind of entry (with clear): "
+        + "; ".join(f"{k}: {v}" for k, v in KINDS.items()),
+    )
     c.set_defaults(func=cmd_cache)
     return p
 
 
+RESUME_HINTS = {
+    "run": "run the same command with --resume to continue",
+    "all": "run the same command again to continue (finished runs are kept)",
+    "demo": "run the same command again to continue (finished runs are kept)",
+    "train": "run the same command again to continue from the last finished epoch",
+    "render-dataset": "run the same command again to continue (finished shards are kept)",
+}
+"""What to tell a user who pressed Ctrl-C, per command (the others have nothing to resume)."""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line ``argv``; returns the exit status (argparse's own usage errors
+    exit 2 through ``SystemExit``)."""
     args = build_parser().parse_args(argv)
-    try:
-        return int(args.func(args))
-    except BeoBenchError as e:
-        print(f"beo-bench: error: {e}", file=sys.stderr)
-        return 2
+    with warnings.catch_warnings():
+        warnings.showwarning = _show_warning
+        try:
+            return int(args.func(args))
+        except BeoBenchError as e:
+            return _fail(str(e), e.exit_code)
+        except OSError as e:
+            return _fail(_os_error(e), 1)
+        except KeyboardInterrupt:
+            hint = RESUME_HINTS.get(args.command, "run the command again to start over")
+            return _fail(f"interrupted; {hint}", 130, what="")
+
+
+def _fail(message: str, code: int, what: str = "error: ") -> int:
+    # one line: the message's own line breaks would read as several errors
+    print(f"beo-bench: {what}{' '.join(message.split())}", file=sys.stderr)
+    return code
+
+
+def _os_error(e: OSError) -> str:
+    """A line naming the path and what to do about a file-system failure."""
+    paths = " -> ".join(str(f) for f in (e.filename, e.filename2) if f)
+    why = e.strerror or str(e) or type(e).__name__
+    if e.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        todo = "choose a writable place (e.g. --out) or fix its permissions"
+    elif e.errno in (errno.ENOSPC, errno.EDQUOT):
+        todo = "free some disk space or choose another place (e.g. --out), then resume"
+    elif e.errno in (errno.ENOTDIR, errno.EISDIR, errno.EEXIST):
+        todo = "a file or directory is in the way: choose another place (e.g. --out) or move it"
+    elif e.errno == errno.ENOENT:
+        todo = "check that the path exists"
+    else:
+        todo = "check the path and the disk"
+    return f"{why}{': ' + paths if paths else ''}; {todo}"
+
+
+def _show_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: Any = None,
+    line: str | None = None,
+) -> None:
+    """Warnings as one line each, like the errors (no source file, no code line)."""
+    print(f"beo-bench: warning: {message}", file=sys.stderr)
 
 
 if __name__ == "__main__":

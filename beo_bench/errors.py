@@ -11,9 +11,14 @@ from __future__ import annotations
 class BeoBenchError(Exception):
     """Base class of every error this package raises on bad input or state."""
 
+    exit_code = 1
+    """What the CLI exits with: 1 for a failure, 2 for a usage error (see UsageError)."""
+
 
 class UnknownCategoryError(BeoBenchError, KeyError):
     """A category name that no registry or dataset knows."""
+
+    exit_code = 2
 
     def __str__(self) -> str:  # KeyError would quote the message
         return str(self.args[0]) if self.args else ""
@@ -26,9 +31,13 @@ class InstanceIndexError(BeoBenchError, IndexError):
 class UnknownSplitError(BeoBenchError, ValueError):
     """A split name that is not one of the library's splits."""
 
+    exit_code = 2
+
 
 class InvalidKeyError(BeoBenchError, ValueError):
     """An instance key that cannot be parsed or resolved."""
+
+    exit_code = 2
 
 
 class MeshError(BeoBenchError, ValueError):
@@ -54,6 +63,8 @@ class DatasetLayoutError(BeoBenchError, ValueError):
 class EnvConfigError(BeoBenchError, ValueError):
     """An environment setting that is unknown or impossible (raised at ``gym.make``)."""
 
+    exit_code = 2
+
 
 class ActionError(BeoBenchError, ValueError):
     """An action of the wrong shape, with NaN/inf, or with a zero quaternion."""
@@ -70,6 +81,8 @@ class EstimateError(BeoBenchError, ValueError):
 class BackendError(BeoBenchError, KeyError):
     """An unknown backend name, or a second registration under a taken name."""
 
+    exit_code = 2
+
     def __str__(self) -> str:  # KeyError would quote the message
         return str(self.args[0]) if self.args else ""
 
@@ -77,3 +90,28 @@ class BackendError(BeoBenchError, KeyError):
 class CheckpointError(BeoBenchError, ValueError):
     """A trained model that is missing, corrupt, or made for other settings (categories,
     resolution, subspace, crop size) than the ones asked for."""
+
+
+# -- added for the safety and integrity work: every failure the CLI reports has a class ----
+class UsageError(BeoBenchError, ValueError):
+    """A command-line argument, option value or setting that is out of range or malformed.
+    The CLI exits with status 2 for it (as argparse does for its own usage errors)."""
+
+    exit_code = 2
+
+
+class InvalidNameError(UsageError):
+    """A model, run or cache-kind name that is not a plain name (path separators, ``..``,
+    an absolute path, or characters outside ``[A-Za-z0-9._-]``)."""
+
+
+class CorruptDataError(BeoBenchError, ValueError):
+    """A file this package wrote earlier (cache entry, training shard, results file, run
+    record) that is truncated or damaged. The message says whether it was rebuilt, skipped
+    or must be deleted."""
+
+
+class PluginError(BackendError):
+    """A third-party backend plugin (entry point) that fails to import or register."""
+
+    exit_code = 1

@@ -13,11 +13,18 @@ The action is a grasp in the world frame, Box(8): TCP position (3), orientation 
 (4, w x y z, normalised by the env) of the gripper frame (+z approach, +y closing axis; see
 ``beo_bench.scenes.gripper``) and the finger opening (1, metres, 0-0.08). ``step`` executes
 it physically; reward 1 when an object of the target class ends lifted at least 10 cm above
-its rest height, else 0. The episode terminates on success or after ``max_attempts``.
+its rest height, else 0. The episode terminates on success or after ``max_attempts``;
+``step`` after that (or before ``reset``) raises :class:`EnvStateError`.
+
+Bad settings raise :class:`~beo_bench.errors.EnvConfigError` at ``gym.make`` and bad
+actions :class:`~beo_bench.errors.ActionError` at ``step``, each saying what to change.
 """
 
 from __future__ import annotations
 
+import math
+import numbers
+from collections import Counter
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -32,7 +39,7 @@ from beo_bench.scenes.noise import DepthNoise, apply_noise
 from beo_bench.scenes.renderer import Renderer
 from gymnasium import spaces
 
-from beo_bench.errors import ActionError, EnvConfigError
+from beo_bench.errors import ActionError, BeoBenchError, EnvConfigError
 from beo_bench.grasping import Grasp, plan_grasps
 from beo_bench.objects import ObjectSet
 from beo_bench.objects import categories as registered_categories
@@ -40,6 +47,10 @@ from beo_bench.types import ObjectState
 
 FAR_CLIP = 20.0
 """Largest depth a scene can report (the far clip plane, metres)."""
+
+OPENING_TOLERANCE = 1e-6
+"""How far (m) a finger opening may stray outside [0, ``MAX_OPENING``] and still be taken
+(clipped): float32 rounding of a bound, not a user's mistake."""
 
 KWARGS = (
     "split",
@@ -54,6 +65,12 @@ KWARGS = (
     "render_mode",
     "table",
 )
+
+
+class EnvStateError(BeoBenchError, RuntimeError):
+    """A call the episode's state does not allow: ``step`` before ``reset`` or after the
+    episode terminated (gymnasium's ``OrderEnforcing`` raises ``ResetNeeded`` for the first
+    through ``gym.make``; the env itself checks both)."""
 
 
 class BEOPickEnv(gym.Env):
@@ -98,6 +115,7 @@ class BEOPickEnv(gym.Env):
         self._obs: dict[str, Any] | None = None
         self._target = 0
         self._attempts = 0
+        self._terminated = False
 
     # -- configuration -----------------------------------------------------------------------
     def _configure(
@@ -117,6 +135,8 @@ class BEOPickEnv(gym.Env):
         if render_mode not in (None, "rgb_array"):
             raise EnvConfigError(f"render_mode={render_mode!r}: use None or 'rgb_array'")
         self.render_mode = render_mode
+        if categories is not None:
+            categories = _category_names(categories)
         try:
             self.objects = objects if objects is not None else ObjectSet(split, categories)
         except Exception as e:  # unknown split or category: say so at make time
@@ -131,8 +151,7 @@ class BEOPickEnv(gym.Env):
                 f"{list(self.objects.categories)}; choose among those"
             )
         self.categories: tuple[str, ...] = cats
-        lo, hi = (num_objects, num_objects) if np.isscalar(num_objects) else num_objects
-        lo, hi = int(lo), int(hi)
+        lo, hi = _count_range(num_objects)
         if not 1 <= lo <= hi:
             raise EnvConfigError(
                 f"num_objects={num_objects}: give a count >= 1 or a range (min, max) with "
@@ -145,8 +164,8 @@ class BEOPickEnv(gym.Env):
             )
         self.num_objects = (lo, hi)
         self.max_objects = hi
+        width, height = _image_size(image_size)
         try:
-            width, height = (int(v) for v in image_size)
             self.intrinsics = Intrinsics(width, height, float(fovy_deg))
         except (TypeError, ValueError) as e:
             raise EnvConfigError(f"image_size={image_size}, fovy_deg={fovy_deg}: {e}") from e
@@ -157,7 +176,7 @@ class BEOPickEnv(gym.Env):
         self.noise = DepthNoise() if noise is True else (noise or None)
         if self.noise is not None and not isinstance(self.noise, DepthNoise):
             raise EnvConfigError(f"noise={noise!r}: use False, True or a DepthNoise")
-        if int(max_attempts) < 1:
+        if _whole(max_attempts, "max_attempts") < 1:
             raise EnvConfigError(f"max_attempts={max_attempts}: allow at least one attempt")
         self.max_attempts = int(max_attempts)
         self.table = table or TableConfig()
@@ -186,7 +205,7 @@ class BEOPickEnv(gym.Env):
         """Per object: label, category, key, symmetry, size, pose in camera and world frames,
         visible pixels in the current observation. Never part of the observation."""
         if self._scene is None or self._obs is None:
-            raise RuntimeError("call reset() before ground_truth()")
+            raise EnvStateError("call reset() before ground_truth()")
         world_to_cam = np.linalg.inv(self._cam)
         seg = self._obs["segmentation"]
         counts = np.bincount(seg.ravel(), minlength=len(self._scene.instances) + 1)
@@ -213,7 +232,7 @@ class BEOPickEnv(gym.Env):
     def object_mesh_world(self, label: int) -> trimesh.Trimesh:
         """The ground-truth mesh of object ``label`` posed in the world frame (a copy)."""
         if self._scene is None:
-            raise RuntimeError("call reset() before object_mesh_world()")
+            raise EnvStateError("call reset() before object_mesh_world()")
         if not 1 <= label <= len(self._scene.instances):
             raise ValueError(
                 f"label {label}: this scene has objects 1..{len(self._scene.instances)}"
@@ -265,6 +284,7 @@ class BEOPickEnv(gym.Env):
         self._cam = self.rig.sample(rng, np.array([0.0, 0.0, self.table.table_height]))
         self._target = int(rng.integers(k)) + 1
         self._attempts = 0
+        self._terminated = False
         obs = self._observe()
         return _copy(obs), {"num_objects": k, "attempt": 0}
 
@@ -287,7 +307,12 @@ class BEOPickEnv(gym.Env):
 
     def step(self, action: Any) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
         if self._scene is None or self._obs is None:
-            raise RuntimeError("call reset() before step()")
+            raise EnvStateError("call reset() before step(): there is no episode to act in")
+        if self._terminated:
+            raise EnvStateError(
+                "step() after the episode terminated (success or max_attempts grasps): call "
+                "reset() to start a new episode"
+            )
         T, opening = parse_action(action)
         outcome: GraspOutcome = execute_grasp(self._scene, T, opening, self._rest)
         self._attempts += 1
@@ -299,6 +324,7 @@ class BEOPickEnv(gym.Env):
         if lifted and not success:
             reason = "wrong_class"
         terminated = success or self._attempts >= self.max_attempts
+        self._terminated = terminated
         info = {
             "success": success,
             "reason": reason,
@@ -322,7 +348,7 @@ class BEOPickEnv(gym.Env):
         if self.render_mode != "rgb_array":
             return None
         if self._scene is None or self._renderer is None:
-            raise RuntimeError("call reset() before render()")
+            raise EnvStateError("call reset() before render()")
         return self._renderer.render_rgb(self._scene.data, self._cam)
 
     def close(self) -> None:
@@ -331,6 +357,62 @@ class BEOPickEnv(gym.Env):
             self._renderer = None
         self._scene = None
         super().close()
+
+
+def _whole(value: Any, what: str) -> int:
+    """``value`` as an int when it is a whole number (an int, or a float without fraction);
+    strings are refused too, since ``int("3")`` would hide a setting of the wrong type."""
+    real = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    if not real or not math.isfinite(value) or float(value) != int(value):
+        raise EnvConfigError(f"{what}={value!r}: give a whole number")
+    return int(value)
+
+
+def _count_range(num_objects: Any) -> tuple[int, int]:
+    """(min, max) of a ``num_objects`` given as a count or a (min, max) pair."""
+    if isinstance(num_objects, numbers.Real) and not isinstance(num_objects, bool):
+        n = _whole(num_objects, "num_objects")
+        return n, n
+    if isinstance(num_objects, np.ndarray):
+        num_objects = num_objects.tolist()  # a 0-d array becomes a scalar, refused below
+    if isinstance(num_objects, (tuple, list)) and len(num_objects) == 2:
+        lo, hi = num_objects
+        return _whole(lo, "num_objects"), _whole(hi, "num_objects")
+    raise EnvConfigError(
+        f"num_objects={num_objects!r}: give a count such as 2 or a range (min, max) such as (1, 4)"
+    )
+
+
+def _image_size(image_size: Any) -> tuple[int, int]:
+    """(width, height) of an ``image_size``; a string is refused ("640" would otherwise
+    unpack digit by digit)."""
+    if isinstance(image_size, np.ndarray):
+        image_size = image_size.tolist()
+    if not isinstance(image_size, (tuple, list)) or len(image_size) != 2:
+        raise EnvConfigError(
+            f"image_size={image_size!r}: give (width, height) in pixels as two whole numbers, "
+            "e.g. (640, 480)"
+        )
+    width, height = image_size
+    return _whole(width, "image_size width"), _whole(height, "image_size height")
+
+
+def _category_names(categories: Any) -> tuple[str, ...]:
+    """The ``categories`` setting as a tuple of names, each once: ``target_class`` indexes
+    this list, so a repeated name would make two labels mean one class."""
+    if isinstance(categories, str) or not isinstance(categories, (tuple, list)):
+        raise EnvConfigError(
+            f"categories={categories!r}: give a list of category names, e.g. ['mug', 'bowl']"
+        )
+    if not all(isinstance(c, str) for c in categories):
+        raise EnvConfigError(f"categories={categories!r}: every entry must be a category name")
+    repeated = sorted(c for c, n in Counter(categories).items() if n > 1)
+    if repeated:
+        raise EnvConfigError(
+            f"categories lists {repeated} more than once: give each category once (the "
+            "target_class is an index into this list)"
+        )
+    return tuple(categories)
 
 
 def _copy(obs: dict[str, Any]) -> dict[str, Any]:
@@ -352,8 +434,9 @@ def _pickable(category: str) -> bool:
 
 def parse_action(action: Any) -> tuple[np.ndarray, float]:
     """The gripper pose (4x4, world) and opening of an action; raises :class:`ActionError`
-    on a wrong shape, NaN/inf or a zero quaternion, and normalises the quaternion."""
-    a = np.asarray(action, dtype=np.float64)
+    on a non-numeric action (strings, dicts), a wrong shape, NaN/inf, a zero quaternion or
+    a finger opening outside [0, ``MAX_OPENING``], and normalises the quaternion."""
+    a = _numeric(action)
     if a.shape != (8,):
         raise ActionError(
             f"action has shape {a.shape}; BEOPick-v0 takes 8 numbers: position x y z (m, "
@@ -361,6 +444,12 @@ def parse_action(action: Any) -> tuple[np.ndarray, float]:
         )
     if not np.all(np.isfinite(a)):
         raise ActionError(f"action {a.tolist()} contains NaN or inf; every entry must be finite")
+    opening = float(a[7])
+    if not -OPENING_TOLERANCE <= opening <= MAX_OPENING + OPENING_TOLERANCE:
+        raise ActionError(
+            f"finger opening {opening} m (entry 7) is outside the gripper's range [0, "
+            f"{MAX_OPENING}] m; give an opening in that range (it is never clipped for you)"
+        )
     q = a[3:7]
     norm = float(np.linalg.norm(q))
     if norm < 1e-9:
@@ -374,4 +463,20 @@ def parse_action(action: Any) -> tuple[np.ndarray, float]:
     T = np.eye(4)
     T[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix()
     T[:3, 3] = a[:3]
-    return T, float(a[7])
+    return T, min(max(opening, 0.0), MAX_OPENING)
+
+
+def _numeric(action: Any) -> np.ndarray:
+    """``action`` as a float64 array if it holds numbers (ints or floats) only; numpy would
+    turn ``"0.1"`` into 0.1 and fail on a dict with a bare TypeError."""
+    try:
+        raw = np.asarray(action)
+    except (TypeError, ValueError) as e:  # ragged nested lists
+        raise ActionError(f"action {action!r} is not an array of 8 numbers: {e}") from e
+    if raw.dtype.kind not in "iuf":
+        raise ActionError(
+            f"action {action!r} is not numeric ({type(action).__name__} of dtype "
+            f"{raw.dtype}); give 8 numbers: position x y z (m, world), quaternion w x y z, "
+            "finger opening (m)"
+        )
+    return raw.astype(np.float64)

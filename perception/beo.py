@@ -38,10 +38,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import torch
-from beo_bench.perception.beo_model import BEOModel, load_model
+from beo_bench.perception.beo_model import BEOModel, load_model, model_dir
 from beo_bench.perception.beo_observe import (
     Observation,
     distance_transform,
@@ -49,9 +50,11 @@ from beo_bench.perception.beo_observe import (
     voxelise,
 )
 from beo_bench.perception.beo_project import Subspace, project
+from beo_bench.perception.digest import model_digest
 
 from beo_bench.backend import as_bool, register_backend
 from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
+from beo_bench.names import check_name
 from beo_bench.types import Estimate, View
 
 
@@ -93,8 +96,9 @@ class BEOBackend:
 
     Keyword arguments (``beo-bench run --opt KEY=VALUE``):
 
-    - ``model`` (None): a model name (``beo-bench train beo --name``) or directory; None
-      uses the default model for the view's categories, trained on first use;
+    - ``model`` (None): a model name (``beo-bench train beo --name``; a name under the
+      cache's models, never a path); None uses the default model for the view's
+      categories, trained on first use;
     - ``resolution`` (32): D of the voxel grids (must match the model);
     - ``class_given`` (False): use ``View.class_hint`` where a suite gives it; BEO's own
       protocol estimates the class jointly with the pose, so off by default;
@@ -136,7 +140,9 @@ class BEOBackend:
         coarse_components: int = 48,
         instances: int | None = None,
     ) -> None:
-        self.model_name = None if model in (None, "", "None", "default") else str(model)
+        self.model_name = (
+            None if model in (None, "", "None", "default") else check_name(str(model), "model")
+        )
         self.resolution = int(resolution)
         self.class_given = as_bool(class_given)
         self.lasso = float(lasso)
@@ -161,11 +167,24 @@ class BEOBackend:
         if not 0 < self.fine_deg <= self.yaw_step_deg:
             raise ValueError(f"fine_deg={fine_deg} must be in (0, yaw_step_deg]")
         self._models: dict[tuple[str, ...], tuple[BEOModel, Subspace, Subspace]] = {}
+        self._dir: Path | None = None
+        self._digests: dict[Path, str] = {}
 
     # -- model ----------------------------------------------------------------------------
     def prepare(self, categories: tuple[str, ...]) -> None:
         """Load (or train, on first use, with progress) the model for ``categories``."""
-        self._model(tuple(categories), progress=True)
+        cats = tuple(categories)
+        self._model(cats, progress=True)
+        self._dir = model_dir(self.model_name, cats, self.resolution, self.instances)
+
+    def model_digest(self) -> str | None:
+        """The content digest (:func:`~beo_bench.perception.digest.model_digest`) of the
+        model the last :meth:`prepare` loaded; None before any."""
+        if self._dir is None:
+            return None
+        if self._dir not in self._digests:
+            self._digests[self._dir] = model_digest(self._dir)
+        return self._digests[self._dir]
 
     def _model(
         self, cats: tuple[str, ...], progress: bool = False

@@ -16,8 +16,10 @@ Training (``beo-bench train beo``; the default model trains on first use):
    covariance of eq. 3.9 (:mod:`.shrinkage`); classification is MAP over them (eq. 3.10-3.11).
 
 A model directory holds ``config.json`` (settings, categories, resolution, library and
-format versions, training time) and ``arrays.npz``; it is written to a temporary directory
-and renamed into place, so a killed training leaves no half model behind.
+format versions, training time, the digest of the arrays) and ``arrays.npz``; it is written
+to a temporary directory and renamed into place, so a killed training leaves no half model
+behind, and it replaces only a BEO model this package wrote (:mod:`.modeldir`). Models are
+addressed by name under :func:`models_root`, never by a path.
 """
 
 from __future__ import annotations
@@ -30,17 +32,25 @@ import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from beo_bench.perception import modeldir
+from beo_bench.perception.digest import state_digest
 from beo_bench.perception.means import training_voxels
 from beo_bench.perception.shrinkage import shrinkage_covariance
 from beo_bench.perception.vbpca import VBPCAConfig, fit_vbpca
 from threadpoolctl import threadpool_limits
 
 from beo_bench.errors import CheckpointError
+from beo_bench.names import inside
 
 FORMAT_VERSION = 1
 DEFAULT_NAME = "default"
+FILES = frozenset({"config.json", "arrays.npz"})
+"""Exactly what a BEO model directory holds."""
+ARRAYS = ("basis", "mean", "class_mean", "class_cov", "class_size", "components", "shrinkage")
+"""The arrays of ``arrays.npz``."""
 
 
 @dataclass(frozen=True)
@@ -120,9 +130,19 @@ class BEOModel:
         return self.log_norm[None] - 0.5 * np.sum(z**2, axis=2)
 
     # -- storage --------------------------------------------------------------------------
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The stored arrays, by name (:data:`ARRAYS`)."""
+        return {name: getattr(self, name) for name in ARRAYS}
+
     def save(self, path: Path) -> Path:
-        """Write the model to the directory ``path`` atomically (replacing one there)."""
+        """Write the model to the directory ``path`` atomically. An existing ``path`` is
+        replaced only when it is a BEO model this package wrote (:class:`CheckpointError`
+        otherwise, leaving it untouched), and only after the new model is complete."""
+        from beo_bench.objects import cache
+
         path = Path(path)
+        modeldir.check_replaceable(path, FILES, ("beo",))  # fail before writing anything
+        cache.claim_for(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"))
         try:
@@ -131,60 +151,65 @@ class BEOModel:
                 "format": FORMAT_VERSION,
                 "config": {**asdict(self.config), "categories": list(self.categories)},
                 "k": self.k,
+                "digest": state_digest(self.arrays()),
                 "info": self.info,
             }
             (tmp / "config.json").write_text(json.dumps(meta, indent=2) + "\n")
             with open(tmp / "arrays.npz", "wb") as f:
-                np.savez(
-                    f,
-                    basis=self.basis,
-                    mean=self.mean,
-                    class_mean=self.class_mean,
-                    class_cov=self.class_cov,
-                    class_size=self.class_size,
-                    components=self.components,
-                    shrinkage=self.shrinkage,
-                )
+                np.savez(f, **self.arrays())
                 f.flush()
                 os.fsync(f.fileno())
-            old = None
-            if path.exists():
-                old = path.with_name(f".{path.name}.{os.getpid()}.old")
-                os.replace(path, old)
-            os.replace(tmp, path)
-            if old is not None:
-                shutil.rmtree(old, ignore_errors=True)
+            modeldir.install(tmp, path, FILES, ("beo",))
         except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
+            shutil.rmtree(tmp, ignore_errors=True)  # our own temporary directory
             raise
         return path
 
     @classmethod
     def load(cls, path: Path) -> BEOModel:
-        """Read a model directory written by :meth:`save`."""
+        """Read a model directory written by :meth:`save`; :class:`CheckpointError` for a
+        missing, torn, empty, damaged or foreign one, saying how to get a good one."""
         path = Path(path)
+        retrain = (
+            f"delete {path} and train it again with `beo-bench train beo --name {path.name}` "
+            "(a run retrains a default model by itself)"
+        )
         try:
             meta = json.loads((path / "config.json").read_text())
-            with np.load(path / "arrays.npz") as z:
+            with np.load(path / "arrays.npz") as z:  # allow_pickle stays False
                 arrays = {k: z[k] for k in z.files}
         except FileNotFoundError as e:
             raise CheckpointError(
                 f"no BEO model at {path}: train one with `beo-bench train beo` "
                 "(or let the backend train the default model on first use)"
             ) from e
-        except (OSError, ValueError, KeyError) as e:
+        except Exception as e:  # zip, zlib, EOF, JSON and OS errors: a torn or damaged file
             raise CheckpointError(
-                f"the BEO model at {path} is unreadable ({e}); delete the directory and "
-                "train again with `beo-bench train beo`"
+                f"the BEO model at {path} is unreadable ({type(e).__name__}: {e}); {retrain}"
             ) from e
-        if meta.get("kind") != "beo" or meta.get("format") != FORMAT_VERSION:
+        if not isinstance(meta, dict) or meta.get("kind") != "beo":
+            kind = meta.get("kind") if isinstance(meta, dict) else None
             raise CheckpointError(
-                f"{path} holds a {meta.get('kind')!r} model of format {meta.get('format')}, "
-                f"not a BEO model of format {FORMAT_VERSION}; retrain with `beo-bench train beo`"
+                f"{path} holds a {kind!r} model, not a BEO model; retrain with "
+                "`beo-bench train beo`"
             )
-        c = dict(meta["config"])
-        c["categories"] = tuple(c["categories"])
-        return cls(config=BEOConfig(**c), info=meta.get("info", {}), **arrays)
+        if meta.get("format") != FORMAT_VERSION:
+            raise CheckpointError(
+                f"{path} holds a BEO model of format {meta.get('format')}, not "
+                f"{FORMAT_VERSION}; retrain with `beo-bench train beo`"
+            )
+        problem = _array_problem(arrays, meta)
+        if problem is not None:
+            raise CheckpointError(f"the BEO model at {path} is damaged ({problem}); {retrain}")
+        try:
+            c = dict(meta["config"])
+            c["categories"] = tuple(c["categories"])
+            # __post_init__ factors the covariances: a damaged one fails here
+            return cls(config=BEOConfig(**c), info=meta.get("info", {}), **arrays)
+        except Exception as e:
+            raise CheckpointError(
+                f"the BEO model at {path} is damaged ({type(e).__name__}: {e}); {retrain}"
+            ) from e
 
     def check_matches(self, categories: tuple[str, ...], resolution: int, where: str) -> None:
         """Raise :class:`CheckpointError` unless the model was trained for exactly these
@@ -202,11 +227,60 @@ class BEOModel:
             )
 
 
+def _array_problem(arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> str | None:
+    """What is wrong with a model's arrays (names, shapes, values, digest), or None."""
+    if set(arrays) != set(ARRAYS):
+        return f"arrays {sorted(arrays)}, expected {sorted(ARRAYS)}"
+    try:
+        C, D, k = len(meta["config"]["categories"]), int(meta["config"]["resolution"]), meta["k"]
+    except (KeyError, TypeError, ValueError):
+        return "config.json lacks categories, resolution or k"
+    want = {
+        "basis": (D**3, k),
+        "mean": (D**3,),
+        "class_mean": (C, k),
+        "class_cov": (C, k, k),
+        "class_size": (C, 3),
+        "components": (C,),
+        "shrinkage": (C, 2),
+    }
+    for name, shape in want.items():
+        a = arrays[name]
+        if a.shape != shape or a.dtype.kind not in "fiu":
+            return f"{name} is {a.dtype} {a.shape}, expected numbers of shape {shape}"
+        if not np.isfinite(a).all():
+            return f"{name} holds NaN or inf"
+    # models written before the digest was stored have none: their arrays were checked above
+    if "digest" in meta and meta["digest"] != state_digest(arrays):
+        return "its arrays do not match the digest in config.json"
+    return None
+
+
 def models_root() -> Path:
     """Where named BEO models live: ``<asset cache>/models/beo``."""
     from beo_bench.objects.cache import cache_root
 
     return cache_root() / "models" / "beo"
+
+
+def model_path(name: str) -> Path:
+    """The directory of the BEO model called ``name``: a plain name under
+    :func:`models_root` (:class:`~beo_bench.errors.InvalidNameError` for a path, ``..``
+    or a leading dot)."""
+    return inside(models_root(), name, "BEO model name")
+
+
+def model_dir(
+    name: str | None,
+    categories: tuple[str, ...],
+    resolution: int = 32,
+    per_category: int | None = None,
+) -> Path:
+    """Where :func:`load_model` looks: the named model's directory, or with ``name=None``
+    the default model's for these settings."""
+    if name is None:
+        return model_path(default_name(categories, resolution, per_category))
+    return model_path(name)
 
 
 def default_name(
@@ -287,24 +361,21 @@ def load_model(
     train_default: bool = True,
     per_category: int | None = None,
 ) -> BEOModel:
-    """The model called ``name`` (a name under :func:`models_root` or a directory path), or
-    with ``name=None`` the default model for ``categories`` and ``resolution``, trained and
-    stored on first use (on the first ``per_category`` training instances of each class, or
-    all of them). Raises :class:`CheckpointError` for a missing named model or one
-    trained for other categories or another resolution."""
+    """The model called ``name`` (a plain name under :func:`models_root`; a path is refused
+    with :class:`~beo_bench.errors.InvalidNameError`), or with ``name=None`` the default
+    model for ``categories`` and ``resolution``, trained and stored on first use (on the
+    first ``per_category`` training instances of each class, or all of them). Raises
+    :class:`CheckpointError` for a missing, damaged or mismatched model."""
     from beo_bench.objects import LIBRARY_VERSION
 
-    if name is None:
-        path = models_root() / default_name(categories, resolution, per_category)
-        if not (path / "config.json").exists():
-            if not train_default:
-                raise CheckpointError(f"no default BEO model at {path}")
-            cfg = BEOConfig(
-                categories=tuple(categories), resolution=int(resolution), per_category=per_category
-            )
-            train_beo(cfg, progress=progress).save(path)
-    else:
-        path = Path(name) if os.sep in name or Path(name).is_dir() else models_root() / name
+    path = model_dir(name, categories, resolution, per_category)
+    if name is None and not (path / "config.json").exists():
+        if not train_default:
+            raise CheckpointError(f"no default BEO model at {path}")
+        cfg = BEOConfig(
+            categories=tuple(categories), resolution=int(resolution), per_category=per_category
+        )
+        train_beo(cfg, progress=progress).save(path)
     model = BEOModel.load(path)
     model.check_matches(tuple(categories), resolution, f"at {path}")
     if model.info.get("library_version") != LIBRARY_VERSION:

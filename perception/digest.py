@@ -28,25 +28,35 @@ def _arrays(state: Any, prefix: str = "") -> Iterator[tuple[str, np.ndarray]]:
         yield prefix[:-1], state
 
 
-def model_digest(path: Path) -> str:
-    """The first 16 hex digits of SHA-256 over the arrays of the model directory ``path``
-    (``arrays.npz`` of a BEO model, ``weights.pt`` of an HBEO model)."""
-    npz, pt = path / "arrays.npz", path / "weights.pt"
-    if not npz.exists() and not pt.exists():
-        raise CheckpointError(f"{path} holds no model (no arrays.npz or weights.pt)")
-    try:
-        if npz.exists():
-            with np.load(npz) as z:
-                state: Any = {k: z[k] for k in z.files}
-        else:
-            import torch
-
-            state = torch.load(pt, map_location="cpu", weights_only=True)
-    except Exception as e:  # a torn or corrupt file: zip, pickle and OS errors alike
-        raise CheckpointError(f"{path}: unreadable model ({e}); delete it and retrain") from e
+def state_digest(state: Any) -> str:
+    """The first 16 hex digits of SHA-256 over the arrays of ``state`` (a nested dict of
+    tensors or arrays): their dotted names, dtypes, shapes and bytes, in name order."""
     h = hashlib.sha256()
     for name, a in _arrays(state):
         a = np.ascontiguousarray(a)
         h.update(f"{name}:{a.dtype.str}:{a.shape};".encode())
         h.update(a.tobytes())
     return h.hexdigest()[:16]
+
+
+def model_digest(path: Path) -> str:
+    """:func:`state_digest` of the model directory ``path`` (``arrays.npz`` of a BEO model,
+    ``weights.pt`` of an HBEO model). Raises :class:`CheckpointError` for a directory
+    without a model or with a torn, empty or corrupt one."""
+    path = Path(path)
+    npz, pt = path / "arrays.npz", path / "weights.pt"
+    if not npz.exists() and not pt.exists():
+        raise CheckpointError(f"{path} holds no model (no arrays.npz or weights.pt)")
+    try:
+        if npz.exists():
+            with np.load(npz) as z:  # allow_pickle stays False
+                state: Any = {k: z[k] for k in z.files}
+        else:
+            import torch
+
+            state = torch.load(pt, map_location="cpu", weights_only=True)
+    except Exception as e:  # a torn or corrupt file: zip, pickle and OS errors alike
+        raise CheckpointError(
+            f"{path}: unreadable model ({type(e).__name__}: {e}); delete it and retrain"
+        ) from e
+    return state_digest(state)

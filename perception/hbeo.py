@@ -22,8 +22,11 @@ normalised scores (density, or density x prior).
 
 from __future__ import annotations
 
+import inspect
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 import cv2
@@ -31,14 +34,16 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 from beo_bench.perception.beo_observe import grid_centres
+from beo_bench.perception.digest import model_digest
 from beo_bench.perception.hbeo_crop import Crop, make_crop
 from beo_bench.perception.hbeo_net import Mixture, point_rotation
-from beo_bench.perception.hbeo_train import HBEOModel, load_hbeo
+from beo_bench.perception.hbeo_train import HBEOModel, load_hbeo, model_dir
 from scipy.spatial.transform import Rotation
 from scipy.special import logsumexp
 
 from beo_bench.backend import register_backend
 from beo_bench.geometry import orthonormalise
+from beo_bench.names import check_name
 from beo_bench.types import Estimate, View
 
 Mode = Literal["hbeo", "likelihood", "posterior"]
@@ -49,8 +54,9 @@ PRIOR_EPS = 1e-6
 class HBEOBackend:
     """HBEO / HBEO-MDN (module docstring). Keyword arguments (``--opt KEY=VALUE``):
 
-    - ``model`` (None): a model name (``beo-bench train hbeo|hbeo-mdn --name``) or
-      directory; None uses the default small model, trained on first use;
+    - ``model`` (None): a model name (``beo-bench train hbeo|hbeo-mdn --name``; a name
+      under the cache's models, never a path); None uses the default small model, trained
+      on first use;
     - ``samples`` (25, MDN modes): N, the rotation samples drawn per view;
     - ``seed`` (0): with the crop's bytes, seeds the sampling (same view, same estimate);
     - ``instances``, ``images``, ``epochs`` (None): train the default model on this many
@@ -75,7 +81,9 @@ class HBEOBackend:
         self.mode = mode
         self.name = "hbeo" if mode == "hbeo" else f"hbeo-mdn-{mode}"
         self.kind = "hbeo" if mode == "hbeo" else "hbeo-mdn"
-        self.model_name = None if model in (None, "", "None", "default") else str(model)
+        self.model_name = (
+            None if model in (None, "", "None", "default") else check_name(str(model), "model")
+        )
         self.samples = int(samples)
         self.seed = int(seed)
         if self.samples < 1:
@@ -88,10 +96,24 @@ class HBEOBackend:
         if self.threads is not None:
             torch.set_num_threads(max(1, self.threads))
         self._models: dict[tuple[str, ...], tuple[HBEOModel, np.ndarray, np.ndarray]] = {}
+        self._dir: Path | None = None
+        self._digests: dict[Path, str] = {}
 
     def prepare(self, categories: tuple[str, ...]) -> None:
         """Load (or train on first use, with progress bars) the model for ``categories``."""
-        self._model(tuple(categories), progress=True)
+        cats = tuple(categories)
+        self._model(cats, progress=True)
+        self._dir = model_dir(self.model_name, self.kind, cats, **self.small)  # type: ignore[arg-type]
+
+    def model_digest(self) -> str | None:
+        """The content digest (:func:`~beo_bench.perception.digest.model_digest`) of the
+        network the last :meth:`prepare` loaded (its weights; the BEO subspace it regresses
+        is pinned by the fingerprint in its config); None before any."""
+        if self._dir is None:
+            return None
+        if self._dir not in self._digests:
+            self._digests[self._dir] = model_digest(self._dir)
+        return self._digests[self._dir]
 
     def _model(
         self, cats: tuple[str, ...], progress: bool = False
@@ -289,16 +311,19 @@ def sdf_errors(observed: np.ndarray, masks: np.ndarray) -> np.ndarray:
     return e
 
 
-@register_backend("hbeo")
-def _hbeo(**kw: object) -> HBEOBackend:
-    return HBEOBackend("hbeo", **kw)  # type: ignore[arg-type]
+def _factory(mode: Mode) -> Callable[..., HBEOBackend]:
+    def make(**kw: object) -> HBEOBackend:
+        return HBEOBackend(mode, **kw)  # type: ignore[arg-type]
+
+    # the options a user may pass are HBEOBackend's without ``mode``: published as the
+    # factory's signature, `beo-bench run --opt bogus=1` lists them and type-checks values
+    params = list(inspect.signature(HBEOBackend.__init__).parameters.values())
+    make.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
+        [p for p in params if p.name not in ("self", "mode")]
+    )
+    return make
 
 
-@register_backend("hbeo-mdn-likelihood")
-def _likelihood(**kw: object) -> HBEOBackend:
-    return HBEOBackend("likelihood", **kw)  # type: ignore[arg-type]
-
-
-@register_backend("hbeo-mdn-posterior")
-def _posterior(**kw: object) -> HBEOBackend:
-    return HBEOBackend("posterior", **kw)  # type: ignore[arg-type]
+register_backend("hbeo")(_factory("hbeo"))
+register_backend("hbeo-mdn-likelihood")(_factory("likelihood"))
+register_backend("hbeo-mdn-posterior")(_factory("posterior"))

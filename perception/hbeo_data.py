@@ -14,7 +14,9 @@ A share ``noise_share`` of the images get the depth-sensor noise model. Shard ``
 generated from ``SeedSequence([seed, i])`` alone, by whichever worker renders it, so a
 dataset is the same however it is split over processes and a killed run resumes at the
 first missing shard. Shards are ``np.savez_compressed`` files written through a temporary
-file and a rename.
+file and a rename, with a checksum of their arrays (the asset cache's ``__checksum__``): a
+shard that is truncated, altered, lacks rows or has no checksum is re-rendered by
+:func:`render_dataset` and refused by :func:`load_split` with :class:`CorruptDataError`.
 
 Each crop is stored with the targets that do not depend on a subspace: class, the
 instance's key (the shape coefficients of eq. 4.1 are computed at training time from the
@@ -26,6 +28,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import multiprocessing as mp
 import os
 import time
@@ -37,9 +40,15 @@ from typing import Any
 import numpy as np
 from beo_bench.perception.hbeo_crop import CROP_SIZE, make_crop
 
+from beo_bench.errors import CorruptDataError
+from beo_bench.objects import cache
 from beo_bench.types import Mat3, Symmetry
 
 DATA_VERSION = 1
+FIELDS = ("depth", "label", "instance", "keys", "rotation", "offset", "log_size", "noisy")
+"""The arrays of a shard file (besides its checksum)."""
+
+_log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -150,34 +159,86 @@ class Shard:
     def __len__(self) -> int:
         return int(self.label.shape[0])
 
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The shard as the arrays of its file (:data:`FIELDS`)."""
+        return {
+            "depth": self.depth,
+            "label": self.label,
+            "instance": self.instance,
+            "keys": np.array(self.keys),
+            "rotation": self.rotation,
+            "offset": self.offset,
+            "log_size": self.log_size,
+            "noisy": self.noisy,
+        }
+
     def save(self, path: Path) -> None:
+        """Write the shard with its checksum, atomically (temporary file, then rename)."""
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp.npz")
-        np.savez_compressed(
-            tmp,
-            depth=self.depth,
-            label=self.label,
-            instance=self.instance,
-            keys=np.array(self.keys),
-            rotation=self.rotation,
-            offset=self.offset,
-            log_size=self.log_size,
-            noisy=self.noisy,
-        )
-        os.replace(tmp, path)
+        try:
+            with open(tmp, "wb") as f:
+                np.savez_compressed(f, **cache.with_checksum(self.arrays()))
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)  # our own temporary file
+            raise
 
     @classmethod
-    def load(cls, path: Path) -> Shard:
-        with np.load(path) as z:
-            return cls(
-                depth=z["depth"],
-                label=z["label"],
-                instance=z["instance"],
-                keys=[str(k) for k in z["keys"]],
-                rotation=z["rotation"],
-                offset=z["offset"],
-                log_size=z["log_size"],
-                noisy=z["noisy"],
+    def load(cls, path: Path, n: int | None = None) -> Shard:
+        """Read a shard written by :meth:`save` (of ``n`` crops, if given).
+        :class:`CorruptDataError` when it is truncated, altered or incomplete."""
+        arrays, why = _read_shard(path, n)
+        if why is not None:
+            raise CorruptDataError(
+                f"training shard {path} is {why}; run `beo-bench render-dataset` (or train "
+                "again) to render it anew"
             )
+        return cls(
+            depth=arrays["depth"],
+            label=arrays["label"],
+            instance=arrays["instance"],
+            keys=[str(k) for k in arrays["keys"]],
+            rotation=arrays["rotation"],
+            offset=arrays["offset"],
+            log_size=arrays["log_size"],
+            noisy=arrays["noisy"],
+        )
+
+
+def _read_shard(path: Path, n: int | None) -> tuple[dict[str, np.ndarray], str | None]:
+    """A shard file's arrays and None, or ({}, what is wrong with it)."""
+    if not path.exists():
+        return {}, "missing"
+    try:
+        with np.load(path) as z:  # allow_pickle stays False
+            arrays = {k: z[k] for k in z.files}
+    except Exception as e:  # zip, zlib, EOF and OS errors: a torn or damaged file
+        return {}, f"damaged (unreadable: {type(e).__name__}: {e})"
+    why = _shard_problem(arrays, n)
+    return (arrays, None) if why is None else ({}, f"damaged ({why})")
+
+
+def _shard_problem(arrays: dict[str, np.ndarray], n: int | None) -> str | None:
+    """Why a shard's arrays cannot be trusted (checksum, fields, row counts), or None."""
+    problem = cache.checksum_problem(arrays)
+    if problem is not None:
+        return problem
+    if set(arrays) != {*FIELDS, cache.CHECKSUM_KEY}:
+        return f"fields {sorted(arrays)}, expected {sorted(FIELDS)}"
+    rows = {k: len(arrays[k]) for k in FIELDS if k != "keys"}
+    if len(set(rows.values())) != 1 or (n is not None and rows["label"] != n):
+        return f"row counts {rows}, expected {n if n is not None else 'equal ones'}"
+    if len(arrays["instance"]) and int(arrays["instance"].max()) >= len(arrays["keys"]):
+        return "an instance index beyond its keys"
+    return None
+
+
+def shard_problem(path: Path, n: int) -> str | None:
+    """Why the shard file ``path`` of ``n`` crops must be (re-)rendered (``"missing"`` or
+    ``"damaged (...)"``), or None when it is complete and matches its checksum."""
+    return _read_shard(path, n)[1]
 
 
 class _Collector:
@@ -308,23 +369,33 @@ def shard_path(root: Path, split: str, index: int, n: int) -> Path:
 def render_dataset(
     config: DatasetConfig, workers: int | None = None, progress: bool = True
 ) -> tuple[Path, dict[str, float]]:
-    """Render the shards of ``config`` that are not on disk yet (in ``workers`` processes,
-    default one per core) and return the dataset's directory and timing figures
-    (``images``, ``seconds``, ``images_per_s`` over the shards rendered now)."""
+    """Render the shards of ``config`` that are not on disk yet or are damaged (in
+    ``workers`` processes, default one per core) and return the dataset's directory and
+    figures: ``images``, ``seconds``, ``images_per_s`` over the shards rendered now, and
+    ``repaired``, how many of them were on disk but damaged (or from an older version)."""
     from tqdm import tqdm
 
     from beo_bench.objects import ObjectSet
     from beo_bench.objects.prepare import prepare
 
     root = dataset_dir(config)
+    cache.claim_for(root)
     root.mkdir(parents=True, exist_ok=True)
     meta = root / "config.json"
     if not meta.exists():
         tmp = meta.with_name(f".config.json.{os.getpid()}.tmp")
         tmp.write_text(json.dumps(asdict(config), indent=2) + "\n")
         os.replace(tmp, meta)
-    todo = [s for s in config.shards() if not shard_path(root, *_where(s)).exists()]
-    stats = {"images": 0.0, "seconds": 0.0, "images_per_s": 0.0}
+    todo, repaired = [], 0
+    for s in config.shards():
+        path = shard_path(root, *_where(s))
+        why = shard_problem(path, s[3])
+        if why is not None:
+            todo.append(s)
+        if why is not None and why != "missing":
+            repaired += 1
+            _log.warning("training shard %s is %s; re-rendering it", path, why)
+    stats = {"images": 0.0, "seconds": 0.0, "images_per_s": 0.0, "repaired": float(repaired)}
     if not todo:
         return root, stats
     # the objects' meshes and collision parts first, in parallel (cached on disk)
@@ -357,7 +428,12 @@ def render_dataset(
                 bar.set_postfix(img_s=f"{images / (time.perf_counter() - t0):.0f}")
     bar.close()
     dt = time.perf_counter() - t0
-    stats = {"images": float(images), "seconds": dt, "images_per_s": images / max(dt, 1e-9)}
+    stats = {
+        "images": float(images),
+        "seconds": dt,
+        "images_per_s": images / max(dt, 1e-9),
+        "repaired": float(repaired),
+    }
     return root, stats
 
 
@@ -373,9 +449,23 @@ def _worker_init() -> None:
 
 def load_split(config: DatasetConfig, split: str) -> Shard:
     """Every shard of ``split`` concatenated into one (call :func:`render_dataset` first);
-    the float16 crops stay compact in memory."""
+    the float16 crops stay compact in memory. :class:`CorruptDataError` for a damaged shard."""
     root = dataset_dir(config)
-    shards = [Shard.load(shard_path(root, s, i, n)) for s, i, _, n in config.shards() if s == split]
+    shards = [
+        Shard.load(shard_path(root, s, i, n), n) for s, i, _, n in config.shards() if s == split
+    ]
+    if not shards:  # e.g. val_images=0: an empty split, not a crash in np.concatenate
+        S = config.crop
+        return Shard(
+            depth=np.zeros((0, S, S), np.float16),
+            label=np.zeros(0, np.int64),
+            instance=np.zeros(0, np.int32),
+            keys=[],
+            rotation=np.zeros((0, 3, 3), np.float32),
+            offset=np.zeros((0, 3), np.float32),
+            log_size=np.zeros((0, 3), np.float32),
+            noisy=np.zeros(0, bool),
+        )
     keys: dict[str, int] = {}
     inst = []
     for sh in shards:

@@ -3,12 +3,19 @@
 A model is a directory under ``<asset cache>/models/hbeo/<name>/``:
 
 - ``config.json``: the :class:`HBEOConfig`, the subspace's fingerprint, the class list,
-  the per-epoch validation history and provenance;
-- ``weights.pt``: the network's weights and the coefficient standardisation;
-- ``checkpoint.pt`` while training: weights, optimiser and epoch, written after every
-  epoch through a temporary file and a rename, so a killed run resumes at the last finished
-  epoch with the same result it would have had (each epoch's shuffle is seeded by
-  (seed, epoch)).
+  the per-epoch validation history, provenance and the digest of the weights;
+- ``weights.pt``: the network's weights and the coefficient standardisation (tensors only,
+  read with ``torch.load(weights_only=True)``);
+- while training, ``checkpoint.pt`` (weights, optimiser and scheduler state: tensors and
+  plain containers only, read with ``weights_only=True``, so a crafted file cannot run code)
+  and ``checkpoint.json`` beside it (config, subspace, history, epoch and the SHA-256 of the
+  checkpoint file), written after every epoch (:func:`_write_checkpoint`), so a killed run
+  resumes at the last finished epoch with the same result it would have had (each epoch's
+  shuffle is seeded by (seed, epoch)).
+
+The finished model is written to a temporary sibling directory and renamed into place,
+replacing only a model directory this package wrote (:mod:`.modeldir`); models are
+addressed by name under :func:`models_root`, never by a path.
 
 The network regresses the subspace coefficients of eq. 4.1, o' = W^T (o - mu), of BEO's
 shared subspace (the same W and mu as the ``beo`` backend); a model is refused with
@@ -19,8 +26,11 @@ differs from the one asked for.
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
+import shutil
+import tempfile
 import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -28,7 +38,9 @@ from typing import Any, Literal
 
 import numpy as np
 import torch
+from beo_bench.perception import modeldir
 from beo_bench.perception.beo_model import BEOModel, load_model
+from beo_bench.perception.digest import state_digest
 from beo_bench.perception.hbeo_data import DatasetConfig, Shard, load_split, render_dataset
 from beo_bench.perception.hbeo_net import (
     HBEONet,
@@ -39,9 +51,16 @@ from beo_bench.perception.hbeo_net import (
 )
 
 from beo_bench.errors import CheckpointError
+from beo_bench.names import inside
 
 Kind = Literal["hbeo", "hbeo-mdn"]
+KINDS: tuple[str, ...] = ("hbeo", "hbeo-mdn")
 FORMAT_VERSION = 1
+CHECKPOINT_FORMAT = 2
+"""Format 1 was one pickled file; 2 keeps everything but tensors in ``checkpoint.json``."""
+CHECKPOINT_FILES = ("checkpoint.pt", "checkpoint.next.pt", "checkpoint.json")
+FILES = frozenset({"config.json", "weights.pt", *CHECKPOINT_FILES})
+"""Everything an HBEO model directory holds (the checkpoint files while it trains)."""
 
 
 @dataclass(frozen=True)
@@ -122,48 +141,91 @@ class HBEOModel:
     def categories(self) -> tuple[str, ...]:
         return self.config.categories
 
-    def save(self, path: Path) -> Path:
-        path.mkdir(parents=True, exist_ok=True)
-        state = {
+    def state(self) -> dict[str, Any]:
+        """What ``weights.pt`` holds: tensors only."""
+        return {
             "net": self.net.state_dict(),
             "coef_mean": torch.from_numpy(self.coef_mean),
             "coef_std": torch.from_numpy(self.coef_std),
         }
-        tmp = path / f".weights.pt.{os.getpid()}.tmp"
-        torch.save(state, tmp)
-        os.replace(tmp, path / "weights.pt")
-        meta = {
-            "kind": self.config.kind,
-            "format": FORMAT_VERSION,
-            "config": self.config.to_json(),
-            "subspace": fingerprint(self.beo),
-            "k": self.beo.k,
-            "info": self.info,
-        }
-        tmp = path / f".config.json.{os.getpid()}.tmp"
-        tmp.write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
-        os.replace(tmp, path / "config.json")
+
+    def save(self, path: Path) -> Path:
+        """Write the model to the directory ``path`` atomically (a temporary sibling renamed
+        into place). An existing ``path`` is replaced only when it is an HBEO model (or a
+        training of one) this package wrote: :class:`CheckpointError` otherwise, leaving it
+        untouched. Replacing a training directory removes its checkpoint."""
+        from beo_bench.objects import cache
+
+        path = Path(path)
+        modeldir.check_replaceable(path, FILES, KINDS)  # fail before writing anything
+        cache.claim_for(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"))
+        try:
+            state = self.state()
+            with open(tmp / "weights.pt", "wb") as f:
+                torch.save(state, f)
+                f.flush()
+                os.fsync(f.fileno())
+            meta = {
+                "kind": self.config.kind,
+                "format": FORMAT_VERSION,
+                "config": self.config.to_json(),
+                "subspace": fingerprint(self.beo),
+                "k": self.beo.k,
+                "digest": state_digest(state),
+                "info": self.info,
+            }
+            (tmp / "config.json").write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
+            modeldir.install(tmp, path, FILES, KINDS)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)  # our own temporary directory
+            raise
         return path
 
     @classmethod
     def load(cls, path: Path, beo: BEOModel | None = None) -> HBEOModel:
+        """Read a model directory written by :meth:`save`; :class:`CheckpointError` for a
+        missing, torn, empty, damaged or mismatched one, saying how to get a good one."""
+        path = Path(path)
         if not (path / "config.json").exists() or not (path / "weights.pt").exists():
             raise CheckpointError(
                 f"no HBEO model at {path}: train one with `beo-bench train hbeo` (or "
                 "`hbeo-mdn`), or leave the model option unset for the default"
             )
+        retrain = (
+            f"delete {path} and train it again with `beo-bench train hbeo|hbeo-mdn --name "
+            f"{path.name}` (a run retrains a default model by itself)"
+        )
         try:
             meta = json.loads((path / "config.json").read_text())
             cfg = HBEOConfig.from_json(meta["config"])
-            state = torch.load(path / "weights.pt", map_location="cpu", weights_only=True)
-        except (OSError, ValueError, KeyError, TypeError, RuntimeError) as e:
+        except Exception as e:  # JSON, missing or unknown fields, bad values
             raise CheckpointError(
-                f"the HBEO model at {path} is unreadable ({e}); delete it and retrain"
+                f"the HBEO model at {path} has an unreadable config.json "
+                f"({type(e).__name__}: {e}); {retrain}"
             ) from e
         if meta.get("format") != FORMAT_VERSION:
             raise CheckpointError(
                 f"{path} holds format {meta.get('format')}, this version reads "
                 f"{FORMAT_VERSION}; retrain with `beo-bench train {cfg.kind}`"
+            )
+        if meta.get("kind") != cfg.kind:
+            raise CheckpointError(
+                f"{path}/config.json names kind {meta.get('kind')!r} but holds a {cfg.kind} "
+                f"configuration; {retrain}"
+            )
+        try:
+            state = torch.load(path / "weights.pt", map_location="cpu", weights_only=True)
+        except Exception as e:  # empty, truncated, garbage or non-tensor (pickled code) data
+            raise CheckpointError(
+                f"the {cfg.kind} model at {path} has unreadable weights "
+                f"({type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}); {retrain}"
+            ) from e
+        problem = _state_problem(state, meta)
+        if problem is not None:
+            raise CheckpointError(
+                f"the {cfg.kind} model at {path} is damaged ({problem}); {retrain}"
             )
         if beo is None:
             beo = load_model(
@@ -179,7 +241,9 @@ class HBEOModel:
         try:
             net.load_state_dict(state["net"])
         except RuntimeError as e:
-            raise CheckpointError(f"{path}: weights do not fit the network ({e})") from e
+            raise CheckpointError(f"{path}: weights do not fit the network ({e}); {retrain}") from e
+        if tuple(state["coef_mean"].shape) != (beo.k,) or state["coef_std"].shape != (beo.k,):
+            raise CheckpointError(f"{path}: the coefficient standardisation is not ({beo.k},)")
         net.eval()
         return cls(
             config=cfg,
@@ -203,6 +267,24 @@ class HBEOModel:
             )
 
 
+def _state_problem(state: Any, meta: dict[str, Any]) -> str | None:
+    """What is wrong with the contents of ``weights.pt`` (layout, values, digest), or None."""
+    if not isinstance(state, dict) or not {"net", "coef_mean", "coef_std"} <= set(state):
+        return "weights.pt does not hold net, coef_mean and coef_std"
+    if not isinstance(state["net"], dict) or not all(
+        isinstance(v, torch.Tensor) for v in state["net"].values()
+    ):
+        return "the network's weights are not tensors"
+    for name in ("coef_mean", "coef_std"):
+        t = state[name]
+        if not isinstance(t, torch.Tensor) or t.ndim != 1 or not bool(torch.isfinite(t).all()):
+            return f"{name} is not a finite vector"
+    # models written before the digest was stored have none
+    if "digest" in meta and meta["digest"] != state_digest(state):
+        return "the weights do not match the digest in config.json"
+    return None
+
+
 TRAIN_THREADS = 2
 """Threads for training, whatever the machine's core count. A float reduction split over
 another number of threads sums in another order, so the weights would differ in the last
@@ -212,9 +294,17 @@ default ``hbeo`` model on 2 cores reproduced every weight exactly.)"""
 
 
 def models_root() -> Path:
+    """Where named HBEO and HBEO-MDN models live: ``<asset cache>/models/hbeo``."""
     from beo_bench.objects.cache import cache_root
 
     return cache_root() / "models" / "hbeo"
+
+
+def model_path(name: str) -> Path:
+    """The directory of the HBEO / HBEO-MDN model called ``name``: a plain name under
+    :func:`models_root` (:class:`~beo_bench.errors.InvalidNameError` for a path, ``..``
+    or a leading dot)."""
+    return inside(models_root(), name, "HBEO model name")
 
 
 def default_config(
@@ -332,11 +422,23 @@ def train_hbeo(
     progress: bool = True,
     workers: int | None = None,
     log: Any = print,
+    resume: bool = True,
 ) -> HBEOModel:
-    """Train (or resume training) the model ``config`` describes into ``path``, with torch
-    and BLAS on ``TRAIN_THREADS`` threads (the caller's settings are restored afterwards)."""
+    """Train (or, with ``resume``, resume training) the model ``config`` describes into the
+    model directory ``path``, with torch and BLAS on ``TRAIN_THREADS`` threads (the caller's
+    settings are restored afterwards). ``resume=False`` discards a checkpoint there first.
+
+    ``path`` must be missing or a model directory this package wrote (checked before any
+    work: :class:`CheckpointError` otherwise). A checkpoint that does not match its
+    ``checkpoint.json`` or cannot be read as plain tensors raises :class:`CheckpointError`
+    (it is never run as code); one for other settings is ignored and training starts over."""
     from threadpoolctl import threadpool_limits
 
+    path = Path(path)
+    modeldir.check_replaceable(path, FILES, KINDS)
+    if not resume and path.exists():
+        for name in CHECKPOINT_FILES:  # the directory is ours (checked above)
+            (path / name).unlink(missing_ok=True)
     threads = torch.get_num_threads()
     torch.set_num_threads(TRAIN_THREADS)
     try:
@@ -346,10 +448,118 @@ def train_hbeo(
         torch.set_num_threads(threads)
 
 
+# -- checkpoints ----------------------------------------------------------------------------------
+def _atomic_write(path: Path, data: bytes) -> None:
+    """``data`` to ``path`` through a temporary file (``.<name>.<pid>.tmp``) and a rename."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def _plain(config: HBEOConfig) -> Any:
+    """``config`` as it reads back from JSON (tuples become lists), for comparisons."""
+    return json.loads(json.dumps(config.to_json()))
+
+
+def _write_sidecar(path: Path, config: HBEOConfig, subspace: str, **fields: Any) -> None:
+    meta = {
+        "kind": config.kind,
+        "format": CHECKPOINT_FORMAT,
+        "config": config.to_json(),
+        "subspace": subspace,
+        **fields,
+    }
+    _atomic_write(path / "checkpoint.json", (json.dumps(meta, indent=1) + "\n").encode())
+
+
+def _write_checkpoint(
+    path: Path, config: HBEOConfig, subspace: str, state: dict[str, Any], history: list[Any]
+) -> None:
+    """One epoch's checkpoint. The tensors go to ``checkpoint.next.pt``, then
+    ``checkpoint.json`` names its SHA-256, then it is renamed to ``checkpoint.pt``: a kill
+    at any point leaves a ``checkpoint.json`` whose hash matches one of the two files."""
+    buf = io.BytesIO()
+    torch.save(state, buf)
+    data = buf.getvalue()
+    _atomic_write(path / "checkpoint.next.pt", data)
+    _write_sidecar(
+        path,
+        config,
+        subspace,
+        epoch=state["epoch"],
+        history=history,
+        sha256=hashlib.sha256(data).hexdigest(),
+    )
+    os.replace(path / "checkpoint.next.pt", path / "checkpoint.pt")
+
+
+def _read_checkpoint(
+    path: Path, config: HBEOConfig, subspace: str, log: Any
+) -> tuple[dict[str, Any], list[Any]] | None:
+    """The (tensor state, history) of the last finished epoch in ``path``, or None when
+    there is no checkpoint for this config and subspace (training starts over). A damaged
+    or altered checkpoint raises :class:`CheckpointError`; nothing in it is run as code."""
+    again = f"delete {path}/checkpoint.* (or run `beo-bench train` without --resume) to start over"
+    side = path / "checkpoint.json"
+    if not side.exists():
+        if (path / "checkpoint.pt").exists():
+            old = path / "checkpoint.pt"
+            log(f"ignoring {old}: no checkpoint.json beside it (an older version's); starting over")
+        return None
+    try:
+        meta = json.loads(side.read_text())
+        epoch, want = int(meta["epoch"]), meta["sha256"]
+    except Exception as e:  # a damaged sidecar
+        raise CheckpointError(f"{side} is damaged ({type(e).__name__}: {e}); {again}") from e
+    if meta.get("format") != CHECKPOINT_FORMAT or meta.get("config") != _plain(config):
+        log(f"the checkpoint in {path} is for other settings; training starts over")
+        return None
+    if meta.get("subspace") != subspace:
+        log(f"the checkpoint in {path} is for another BEO subspace; training starts over")
+        return None
+    if epoch < 0:  # training had started, no epoch had finished
+        return None
+    files = [path / n for n in ("checkpoint.pt", "checkpoint.next.pt") if (path / n).exists()]
+    if not files:  # deleted to start over (by hand, or `train` without --resume)
+        log(f"no checkpoint.pt beside {side}; training starts over")
+        return None
+    for f in files:
+        data = f.read_bytes()
+        if hashlib.sha256(data).hexdigest() == want:
+            break
+    else:
+        raise CheckpointError(
+            f"{path}/checkpoint.pt does not match the SHA-256 in checkpoint.json (damaged or "
+            f"replaced); {again}"
+        )
+    try:
+        # weights_only: tensors and plain containers; a pickled object is refused, never run
+        state = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
+        ok = isinstance(state, dict) and state["epoch"] == epoch
+        ok = ok and all(isinstance(state[k], dict) for k in ("net", "opt", "sched"))
+    except Exception as e:
+        raise CheckpointError(
+            f"{path}/checkpoint.pt is unreadable as plain tensors ({type(e).__name__}: "
+            f"{str(e).splitlines()[0] if str(e) else ''}); {again}"
+        ) from e
+    if not ok:
+        raise CheckpointError(f"{path}/checkpoint.pt lacks net, opt, sched or epoch; {again}")
+    return state, list(meta.get("history", []))
+
+
 def _train(
     config: HBEOConfig, path: Path, progress: bool, workers: int | None, log: Any
 ) -> HBEOModel:
     from tqdm import tqdm
+
+    from beo_bench.objects import cache
 
     t0 = time.perf_counter()
     beo = load_model(
@@ -359,6 +569,9 @@ def _train(
         progress=progress,
         per_category=config.beo_instances,
     )
+    subspace = fingerprint(beo)
+    # the checkpoint is checked before the minutes of rendering: a bad one fails fast
+    resumed = _read_checkpoint(path, config, subspace, log)
     _, render_stats = render_dataset(config.dataset, workers=workers, progress=progress)
     t_render = time.perf_counter() - t0
     train = load_split(config.dataset, config.dataset.split)
@@ -375,16 +588,24 @@ def _train(
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=config.lr, total_steps=steps)
     history: list[dict[str, float]] = []
     start = 0
-    ckpt = path / "checkpoint.pt"
-    if ckpt.exists():
-        state = torch.load(ckpt, map_location="cpu", weights_only=False)
-        if state.get("config") == config.to_json() and state.get("subspace") == fingerprint(beo):
+    cache.claim_for(path)
+    path.mkdir(parents=True, exist_ok=True)
+    if resumed is not None:
+        state, history = resumed
+        try:
             net.load_state_dict(state["net"])
             opt.load_state_dict(state["opt"])
             sched.load_state_dict(state["sched"])
-            history, start = state["history"], state["epoch"] + 1
-            log(f"resuming {path.name} after epoch {start}/{config.epochs}")
-    path.mkdir(parents=True, exist_ok=True)
+        except (RuntimeError, KeyError, ValueError, TypeError) as e:
+            raise CheckpointError(
+                f"{path}/checkpoint.pt does not fit this network ({e}); delete "
+                f"{path}/checkpoint.* to start over"
+            ) from e
+        start = int(state["epoch"]) + 1
+        log(f"resuming {path.name} after epoch {start}/{config.epochs}")
+    else:
+        # before any checkpoint.pt exists, so the directory always shows whose it is
+        _write_sidecar(path, config, subspace, epoch=-1, history=[], sha256=None)
     t_train = time.perf_counter()
     for epoch in range(start, config.epochs):
         net.train()
@@ -410,17 +631,12 @@ def _train(
             row.update({f"val_{k}": v for k, v in evaluate(net, va).items()})
         history.append(row)
         state = {
-            "config": config.to_json(),
-            "subspace": fingerprint(beo),
             "net": net.state_dict(),
             "opt": opt.state_dict(),
             "sched": sched.state_dict(),
-            "history": history,
             "epoch": epoch,
         }
-        tmp = path / f".checkpoint.pt.{os.getpid()}.tmp"
-        torch.save(state, tmp)
-        os.replace(tmp, ckpt)
+        _write_checkpoint(path, config, subspace, state, history)
         # logged after the checkpoint: an epoch reported done is on disk
         log(
             f"epoch {epoch + 1}: train loss {run:.3f}"
@@ -451,9 +667,18 @@ def _train(
             "total_s": round(time.perf_counter() - t0, 1),
         },
     )
-    model.save(path)
-    ckpt.unlink(missing_ok=True)
+    model.save(path)  # replacing the training directory drops its checkpoint
     return model
+
+
+def model_dir(
+    name: str | None, kind: Kind, categories: tuple[str, ...], **small: int | None
+) -> Path:
+    """Where :func:`load_hbeo` looks: the named model's directory, or with ``name=None``
+    the default ``kind`` model's for ``categories`` and ``small``."""
+    if name is None:
+        return model_path(default_name(default_config(kind, categories, **small)))
+    return model_path(name)
 
 
 def load_hbeo(
@@ -464,20 +689,17 @@ def load_hbeo(
     train_default: bool = True,
     **small: int | None,
 ) -> HBEOModel:
-    """The model called ``name`` (under :func:`models_root`, or a directory), or with
-    ``name=None`` the default ``kind`` model for ``categories`` (made smaller by ``small``:
-    :func:`default_config`'s ``instances``, ``images``, ``epochs``), trained on first use."""
+    """The model called ``name`` (a plain name under :func:`models_root`; a path is refused
+    with :class:`~beo_bench.errors.InvalidNameError`), or with ``name=None`` the default
+    ``kind`` model for ``categories`` (made smaller by ``small``: :func:`default_config`'s
+    ``instances``, ``images``, ``epochs``), trained on first use."""
     from beo_bench.objects import LIBRARY_VERSION
 
-    if name is None:
-        cfg = default_config(kind, categories, **small)
-        path = models_root() / default_name(cfg)
-        if not (path / "weights.pt").exists():
-            if not train_default:
-                raise CheckpointError(f"no default {kind} model at {path}")
-            train_hbeo(cfg, path, progress=progress)
-    else:
-        path = Path(name) if os.sep in name or Path(name).is_dir() else models_root() / name
+    path = model_dir(name, kind, categories, **small)
+    if name is None and not (path / "weights.pt").exists():
+        if not train_default:
+            raise CheckpointError(f"no default {kind} model at {path}")
+        train_hbeo(default_config(kind, categories, **small), path, progress=progress)
     model = HBEOModel.load(path)
     if model.config.kind != kind:
         raise CheckpointError(

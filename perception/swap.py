@@ -54,6 +54,11 @@ class SwapBackend:
     def prepare(self, categories: tuple[str, ...]) -> None:
         prepare_backend(self.base, categories)
 
+    def model_digest(self) -> str | None:
+        """The wrapped backend's model digest (None when it has no learned model)."""
+        digest = getattr(self.base, "model_digest", None)
+        return digest() if callable(digest) else None
+
     def predict(self, view: View) -> Estimate:
         gt = view.ground_truth
         if gt is None:

@@ -18,6 +18,14 @@ from beo_bench.types import Mat3, Mat4
 # OpenCV camera axes -> MuJoCo camera axes: flip y (down -> up) and z (forward -> backward).
 _CV_TO_MJ = np.diag([1.0, -1.0, -1.0])
 
+MAX_IMAGE_SIDE = 8192
+"""Largest image width or height (pixels). Off-screen frames live in GL renderbuffers, and
+a side beyond the context's ``GL_MAX_RENDERBUFFER_SIZE`` makes MuJoCo fail only at the first
+render ("Offscreen framebuffer is not complete"); Mesa's llvmpipe, the CPU renderer, allows
+16384 (measured with ``glGetIntegerv``), and an 8192 x 8192 frame already holds about 1 GB
+in GL buffers and output arrays. Checked when the intrinsics are made, so a too-large size
+fails at ``gym.make`` with a message rather than deep in a reset."""
+
 ROLL_SIGMA_DEG = 25.0 / 2.5758293035489
 """A zero-mean Gaussian with 99% of its mass within +/-25 degrees (z_{0.995} = 2.5758)."""
 
@@ -38,6 +46,12 @@ class Intrinsics:
         if int(self.width) < 1 or int(self.height) < 1:
             raise ValueError(
                 f"image size {self.width}x{self.height}: width and height must be >= 1 pixel"
+            )
+        if max(int(self.width), int(self.height)) > MAX_IMAGE_SIDE:
+            raise ValueError(
+                f"image size {self.width}x{self.height}: width and height must be at most "
+                f"{MAX_IMAGE_SIDE} pixels (the off-screen GL buffer's limit); use a smaller "
+                "image_size"
             )
         if not 1.0 <= float(self.fovy_deg) <= 170.0:
             raise ValueError(f"fovy_deg={self.fovy_deg}: use a field of view in [1, 170] degrees")

@@ -9,12 +9,18 @@ import numpy as np
 import pytest
 import torch
 from beo_bench.perception.beo import BEOBackend, Hypotheses
-from beo_bench.perception.beo_model import BEOConfig, BEOModel, load_model, train_beo
+from beo_bench.perception.beo_model import (
+    BEOConfig,
+    BEOModel,
+    load_model,
+    model_path,
+    train_beo,
+)
 from beo_bench.perception.beo_observe import Observation
 from beo_bench.perception.digest import model_digest
 
 from beo_bench.backend import sample_views
-from beo_bench.errors import CheckpointError, ViewError
+from beo_bench.errors import CheckpointError, InvalidNameError, ViewError
 from beo_bench.geometry import yaw_starts
 from beo_bench.metrics import rotation_error, voxel_iou
 from beo_bench.objects import instance_from_key
@@ -24,9 +30,11 @@ CATS = ("bottle", "bowl", "car", "mug")
 
 
 @pytest.fixture(scope="module")
-def model_dir(tmp_path_factory) -> str:
+def model_name() -> str:
+    """A small model saved under the (per-session) cache's models: models go by name."""
     model = train_beo(BEOConfig(categories=CATS, per_category=12))
-    return str(model.save(tmp_path_factory.mktemp("beo") / "small"))
+    model.save(model_path("test-beo-small"))
+    return "test-beo-small"
 
 
 def render(split: str, picks: list[tuple[str, int]], seed: int, protocol: str) -> list[View]:
@@ -46,8 +54,8 @@ def render(split: str, picks: list[tuple[str, int]], seed: int, protocol: str) -
     return out
 
 
-def test_a_training_object_at_its_true_pose_is_classified_and_completed(model_dir) -> None:
-    b = BEOBackend(model=model_dir)
+def test_a_training_object_at_its_true_pose_is_classified_and_completed(model_name) -> None:
+    b = BEOBackend(model=model_name)
     ious = []
     for view in render("train", [("car", 0), ("mug", 1), ("bowl", 2)], 0, "known"):
         est = b.predict(view)
@@ -60,15 +68,15 @@ def test_a_training_object_at_its_true_pose_is_classified_and_completed(model_di
     assert min(ious) > 0.5 and np.mean(ious) > 0.65, ious
 
 
-def test_test_split_partial_views_are_classified_above_chance(model_dir) -> None:
-    b = BEOBackend(model=model_dir)
+def test_test_split_partial_views_are_classified_above_chance(model_name) -> None:
+    b = BEOBackend(model=model_name)
     views = render("test", [(c, i) for i in range(4) for c in CATS], 1, "known")
     acc = np.mean([b.predict(v).class_index == v.ground_truth.class_index for v in views])
     assert acc >= 0.6  # chance: 0.25
 
 
-def test_1dof_search_recovers_the_yaw_of_asymmetric_instances(model_dir) -> None:
-    b = BEOBackend(model=model_dir, class_given=True)
+def test_1dof_search_recovers_the_yaw_of_asymmetric_instances(model_name) -> None:
+    b = BEOBackend(model=model_name, class_given=True)
     views = render("train", [("car", 3), ("mug", 4), ("car", 5), ("mug", 6)], 2, "1dof")
     errs = []
     for v in views:
@@ -78,8 +86,8 @@ def test_1dof_search_recovers_the_yaw_of_asymmetric_instances(model_dir) -> None
     assert np.median(errs) < 5.0, errs
 
 
-def test_a_batch_of_hypotheses_scores_like_one_at_a_time(model_dir) -> None:
-    b = BEOBackend(model=model_dir, chunk=4)
+def test_a_batch_of_hypotheses_scores_like_one_at_a_time(model_name) -> None:
+    b = BEOBackend(model=model_name, chunk=4)
     view = render("test", [("mug", 0)], 3, "1dof")[0]
     obs = Observation.from_view(view)
     model, full, coarse = b._model(CATS)
@@ -94,8 +102,8 @@ def test_a_batch_of_hypotheses_scores_like_one_at_a_time(model_dir) -> None:
         torch.testing.assert_close(f(hyp), one(f), rtol=1e-4, atol=1e-4)
 
 
-def test_bad_views_raise_clear_errors(model_dir) -> None:
-    b = BEOBackend(model=model_dir)
+def test_bad_views_raise_clear_errors(model_name) -> None:
+    b = BEOBackend(model=model_name)
     view = render("test", [("bowl", 0)], 4, "known")[0]
     with pytest.raises(ViewError, match="mask is empty"):
         b.predict(replace(view, mask=np.zeros_like(view.mask)))
@@ -103,17 +111,19 @@ def test_bad_views_raise_clear_errors(model_dir) -> None:
         b.predict(replace(view, depth=np.full_like(view.depth, np.nan)))
 
 
-def test_mismatched_or_missing_checkpoints_are_refused(model_dir, tmp_path) -> None:
+def test_mismatched_or_missing_checkpoints_are_refused(model_name, tmp_path) -> None:
     with pytest.raises(CheckpointError, match="categories"):
-        load_model(model_dir, ("bottle", "bowl", "car"), 32)
+        load_model(model_name, ("bottle", "bowl", "car"), 32)
     with pytest.raises(CheckpointError, match="resolution 32"):
-        load_model(model_dir, CATS, 16)
+        load_model(model_name, CATS, 16)
     with pytest.raises(CheckpointError, match="no BEO model"):
+        load_model("nothing", CATS, 32)
+    with pytest.raises(InvalidNameError, match="not a plain name"):  # names are names
         load_model(str(tmp_path / "nothing"), CATS, 32)
-    (tmp_path / "broken").mkdir()
-    (tmp_path / "broken" / "config.json").write_text("{not json")
+    model_path("broken").mkdir(parents=True)
+    (model_path("broken") / "config.json").write_text("{not json")
     with pytest.raises(CheckpointError, match="unreadable"):
-        load_model(str(tmp_path / "broken"), CATS, 32)
+        load_model("broken", CATS, 32)
 
 
 def test_a_saved_model_loads_identically(tmp_path) -> None:

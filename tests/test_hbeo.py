@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import torch
 from beo_bench.perception.beo_model import BEOConfig, train_beo
+from beo_bench.perception.beo_model import model_path as beo_model_path
 from beo_bench.perception.digest import model_digest
 from beo_bench.perception.hbeo import HBEOBackend, sdf_errors, signed_distance, silhouettes
 from beo_bench.perception.hbeo_crop import make_crop
@@ -29,13 +30,19 @@ from beo_bench.perception.hbeo_net import (
     rotvec_to_matrix,
     sixd_to_matrix,
 )
-from beo_bench.perception.hbeo_train import HBEOConfig, HBEOModel, load_hbeo, train_hbeo
+from beo_bench.perception.hbeo_train import (
+    HBEOConfig,
+    HBEOModel,
+    load_hbeo,
+    model_path,
+    train_hbeo,
+)
 from scipy import ndimage
 from scipy.spatial.transform import Rotation
 from scipy.stats import multivariate_normal
 
 from beo_bench.backend import check_backend, sample_views
-from beo_bench.errors import CheckpointError, ViewError
+from beo_bench.errors import CheckpointError, InvalidNameError, ViewError
 from beo_bench.metrics import rotation_error
 from beo_bench.objects import ObjectSet
 
@@ -230,16 +237,18 @@ def _config(kind: str, beo: str) -> HBEOConfig:
 
 
 @pytest.fixture(scope="module")
-def beo_dir(tmp_path_factory) -> str:
+def beo_dir() -> str:
+    """The name of a tiny BEO model in the (per-session) cache: models go by name."""
     model = train_beo(BEOConfig(categories=CATS, per_category=10))
-    return str(model.save(tmp_path_factory.mktemp("beo") / "tiny"))
+    model.save(beo_model_path("test-hbeo-subspace"))
+    return "test-hbeo-subspace"
 
 
 @pytest.fixture(scope="module")
-def trained(tmp_path_factory, beo_dir) -> dict[str, HBEOModel]:
+def trained(beo_dir) -> dict[str, HBEOModel]:
     out = {}
     for kind in ("hbeo", "hbeo-mdn"):
-        path = tmp_path_factory.mktemp(kind) / "m"
+        path = model_path(f"test-{kind}")
         out[kind] = train_hbeo(_config(kind, beo_dir), path, progress=False, workers=1)
         out[kind + "-path"] = path  # type: ignore[assignment]
     return out
@@ -275,7 +284,7 @@ def test_short_training_lowers_loss_and_beats_chance(trained) -> None:
 def test_each_mode_passes_check_backend(trained) -> None:
     views = sample_views(n=2, categories=CATS)
     for mode, kind in (("hbeo", "hbeo"), ("likelihood", "hbeo-mdn"), ("posterior", "hbeo-mdn")):
-        b = HBEOBackend(mode, model=str(trained[kind + "-path"]), samples=16)  # type: ignore[arg-type]
+        b = HBEOBackend(mode, model=trained[kind + "-path"].name, samples=16)  # type: ignore[arg-type]
         check_backend(b, views)
         est = b.predict(views[0])
         if mode == "hbeo":
@@ -313,14 +322,16 @@ def test_resume_after_a_kill_gives_the_same_model(tmp_path, beo_dir, trained) ->
     assert model_digest(path) == model_digest(Path(trained["hbeo-path"]))
 
 
-def test_mismatched_checkpoints_are_refused(trained, beo_dir, tmp_path) -> None:
-    path = str(trained["hbeo-path"])
+def test_mismatched_checkpoints_are_refused(trained, beo_dir) -> None:
+    name = trained["hbeo-path"].name
     with pytest.raises(CheckpointError, match="trained for categories"):
-        load_hbeo(path, "hbeo", ("airplane", "bowl", "car"))
+        load_hbeo(name, "hbeo", ("airplane", "bowl", "car"))
     with pytest.raises(CheckpointError, match="holds a hbeo model"):
-        load_hbeo(path, "hbeo-mdn", CATS)
+        load_hbeo(name, "hbeo-mdn", CATS)
     with pytest.raises(CheckpointError, match="no HBEO model"):
-        load_hbeo(str(tmp_path / "nothing"), "hbeo", CATS)
+        load_hbeo("nothing", "hbeo", CATS)
+    with pytest.raises(InvalidNameError, match="not a plain name"):  # names are names
+        load_hbeo(str(trained["hbeo-path"]), "hbeo", CATS)
     other = train_beo(BEOConfig(categories=CATS, per_category=8))
     with pytest.raises(CheckpointError, match="another BEO subspace"):
         HBEOModel.load(trained["hbeo-path"], beo=other)

@@ -62,7 +62,8 @@ def parse_backend_spec(spec: str) -> tuple[str, dict[str, Any]]:
 @dataclass
 class Campaign:
     """Which suites (name -> items, None for the suite's own size) and backends (name,
-    options) to run, where, and how."""
+    options) to run, where, and how. ``item_timeout``: seconds per item in every run (None:
+    each suite's ``item_timeout_s``)."""
 
     suites: dict[str, int | None]
     backends: list[tuple[str, dict[str, Any]]]
@@ -72,6 +73,7 @@ class Campaign:
     use_ray: bool = False
     seed: int | None = None
     progress: bool = True
+    item_timeout: float | None = None
 
 
 def run_campaign(c: Campaign) -> list[Path]:
@@ -79,11 +81,13 @@ def run_campaign(c: Campaign) -> list[Path]:
     files. A backend whose construction fails stops the campaign before anything runs."""
     from beo_bench.backend import get_backend, load_plugins
     from beo_bench.bench.leaderboard import regenerate
-    from beo_bench.bench.runner import RunConfig, WorkerPool, run
+    from beo_bench.bench.runner import RunConfig, WorkerPool, item_timeout_s, run
     from beo_bench.bench.suites import get_suite
 
     load_plugins()
     suites = [get_suite(s).with_overrides(size=n, seed=c.seed) for s, n in c.suites.items()]
+    for suite in suites:
+        item_timeout_s(suite, c.item_timeout)  # a bad value fails here, before any run
     for name, kwargs in c.backends:
         get_backend(name, **kwargs)  # fail here, with its message, not in a worker
     # one set of worker processes for every run (see WorkerPool: start-up once, not per run)
@@ -98,5 +102,6 @@ def run_campaign(c: Campaign) -> list[Path]:
                     use_ray=c.use_ray,
                     progress=c.progress,
                     pool=pool,
+                    item_timeout=c.item_timeout,
                 )
     return regenerate(c.runs, c.leaderboards)

@@ -3,13 +3,16 @@
 A :class:`Evaluator` owns what is slow to create (a renderer or an env, the backend) and
 turns item index ``i`` of a suite into result rows: plain JSON-serialisable dicts, one per
 scored view (isolated, tabletop) or episode (pick). A backend that raises or returns
-garbage is recorded as a failure with its reason and scored as wrong; the run goes on.
+garbage is recorded as a failure with its reason and scored as wrong; the run goes on. One
+that hangs or kills its worker is recorded the same way by the worker pool, from the rows
+the evaluator announced before calling it (:func:`failed_rows`).
 """
 
 from __future__ import annotations
 
 import functools
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -128,17 +131,13 @@ def _resample(grid: np.ndarray, D: int) -> np.ndarray:
     return g[np.ix_(idx, idx, idx)]
 
 
-class Evaluator:
-    """Scores ``backend`` on items of ``suite``. Create one per worker process."""
+class ItemViews:
+    """Generates a suite's items (views with their truth) without a backend: what a failed
+    item's rows need when its backend hung or crashed (:meth:`templates`)."""
 
-    def __init__(self, suite: Suite, backend: str, backend_kwargs: dict[str, Any] | None = None):
+    def __init__(self, suite: Suite) -> None:
         self.suite = suite
-        self.backend: PerceptionBackend = get_backend(backend, **(backend_kwargs or {}))
-        self.privileged = bool(getattr(self.backend, "privileged", False))
-        # the true class goes only to a backend that asks, and only where the suite allows
-        self.class_hint = suite.class_hint and bool(
-            getattr(self.backend, "wants_class_hint", False)
-        )
+        self.class_hint = False
         self._renderer: Any = None
         self._env: Any = None
         self._objects: ObjectSet | None = None
@@ -185,21 +184,6 @@ class Evaluator:
         obs, _ = env.reset(seed=episode_seed(self.suite, index))
         return self._views_of_scene(obs, env)
 
-    def run_item(self, index: int) -> list[dict[str, Any]]:
-        """The result rows of item ``index``. The first row carries ``item_ms``: the whole
-        item's time in this worker (rendering, every prediction, scoring, grasping)."""
-        t0 = time.perf_counter()
-        if self.suite.kind == "isolated":
-            view, gt = self.isolated_view(index)
-            rows = [self._score(index, 0, view, gt)]
-        elif self.suite.kind == "tabletop":
-            rows = self._tabletop(index)
-        else:
-            rows = [self._pick(index)]
-        if rows:
-            rows[0]["item_ms"] = 1000 * (time.perf_counter() - t0)
-        return rows
-
     def isolated_view(self, index: int) -> tuple[View, GroundTruth]:
         r = self._isolated()
         assert self._objects is not None
@@ -245,8 +229,81 @@ class Evaluator:
             out.append((view, gt))
         return out
 
-    def _tabletop(self, index: int) -> list[dict[str, Any]]:
-        return [self._score(index, j, v, gt) for j, (v, gt) in enumerate(self.cases(index))]
+    def base_row(self, index: int, j: int, view: View, gt: GroundTruth) -> dict[str, Any]:
+        """The row of view ``j`` of item ``index`` as far as it is known without the backend."""
+        return {
+            "item": index,
+            "view": j,
+            "key": gt.key,
+            "category": gt.category,
+            "true_class": gt.class_index,
+            "pixels": int(np.count_nonzero(view.mask)),
+            "class_given": self.class_hint,
+        }
+
+    def pick_row(
+        self, index: int, obs: dict[str, Any], env: Any, views: list[tuple[View, GroundTruth]]
+    ) -> dict[str, Any]:
+        """The row of pick episode ``index`` as far as it is known without the backend."""
+        target = int(obs["target_class"])
+        return {
+            "item": index,
+            "view": 0,
+            "category": env.categories[target],
+            "true_class": target,
+            "views": len(views),
+        }
+
+    def templates(self, index: int) -> list[dict[str, Any]]:
+        """Item ``index``'s rows before any backend call (see :func:`failed_rows`)."""
+        if self.suite.kind != "pick":
+            return [self.base_row(index, j, v, gt) for j, (v, gt) in enumerate(self.cases(index))]
+        env = self._pick_env()
+        obs, _ = env.reset(seed=episode_seed(self.suite, index))
+        return [self.pick_row(index, obs, env, self._views_of_scene(obs, env))]
+
+
+Announce = Callable[[list[dict[str, Any]]], None]
+"""Told an item's rows as far as they are known before the backend is called (the
+worker pool's ``begin`` message)."""
+
+
+def _no_announce(rows: list[dict[str, Any]]) -> None:
+    pass
+
+
+class Evaluator(ItemViews):
+    """Scores ``backend`` on items of ``suite``. Create one per worker process."""
+
+    def __init__(self, suite: Suite, backend: str, backend_kwargs: dict[str, Any] | None = None):
+        super().__init__(suite)
+        self.backend: PerceptionBackend = get_backend(backend, **(backend_kwargs or {}))
+        self.privileged = bool(getattr(self.backend, "privileged", False))
+        # the true class goes only to a backend that asks, and only where the suite allows
+        self.class_hint = suite.class_hint and bool(
+            getattr(self.backend, "wants_class_hint", False)
+        )
+
+    def run_item(self, index: int, announce: Announce = _no_announce) -> list[dict[str, Any]]:
+        """The result rows of item ``index``. The first row carries ``item_ms`` (the whole
+        item's time in this worker: rendering, every prediction, scoring, grasping) and
+        ``item_rows`` (how many rows the item has: a reader can tell a complete item from one
+        that lost a line). ``announce`` gets the rows known before the backend is called."""
+        t0 = time.perf_counter()
+        if self.suite.kind == "isolated":
+            view, gt = self.isolated_view(index)
+            announce([self.base_row(index, 0, view, gt)])
+            rows = [self._score(index, 0, view, gt)]
+        elif self.suite.kind == "tabletop":
+            cases = self.cases(index)
+            announce([self.base_row(index, j, v, gt) for j, (v, gt) in enumerate(cases)])
+            rows = [self._score(index, j, v, gt) for j, (v, gt) in enumerate(cases)]
+        else:
+            rows = [self._pick(index, announce)]
+        if rows:
+            rows[0]["item_ms"] = 1000 * (time.perf_counter() - t0)
+            rows[0]["item_rows"] = len(rows)
+        return rows
 
     # -- backend calls ---------------------------------------------------------------------
     def _predict(self, view: View, gt: GroundTruth) -> tuple[Estimate | None, float, str | None]:
@@ -264,17 +321,8 @@ class Evaluator:
 
     def _score(self, index: int, j: int, view: View, gt: GroundTruth) -> dict[str, Any]:
         est, seconds, failure = self._predict(view, gt)
-        row: dict[str, Any] = {
-            "item": index,
-            "view": j,
-            "key": gt.key,
-            "category": gt.category,
-            "true_class": gt.class_index,
-            "pixels": int(np.count_nonzero(view.mask)),
-            "ms": 1000 * seconds,
-            "failure": failure,
-            "class_given": self.class_hint,
-        }
+        row = self.base_row(index, j, view, gt)
+        row.update(ms=1000 * seconds, failure=failure)
         if est is None:
             row.update(pred_class=-1, correct=False)
             return row
@@ -293,7 +341,7 @@ class Evaluator:
         return row
 
     # -- pick ------------------------------------------------------------------------------
-    def _pick(self, index: int) -> dict[str, Any]:
+    def _pick(self, index: int, announce: Announce = _no_announce) -> dict[str, Any]:
         """One BEOPick-v0 episode decided from the backend's estimates of every visible
         object: the target is the object with the highest probability of the asked class;
         the grasp is planned on its estimated surface (``Estimate.mesh``, else marching cubes
@@ -305,14 +353,10 @@ class Evaluator:
         env = self._pick_env()
         obs, _ = env.reset(seed=episode_seed(self.suite, index))
         target = int(obs["target_class"])
-        row: dict[str, Any] = {
-            "item": index,
-            "view": 0,
-            "category": env.categories[target],
-            "true_class": target,
-            "failure": None,
-        }
         views = self._views_of_scene(obs, env)
+        row = self.pick_row(index, obs, env, views)
+        announce([dict(row)])
+        row["failure"] = None
         estimates, total, failures = [], 0.0, []
         for v, gt in views:
             est, seconds, failure = self._predict(v, gt)
@@ -322,7 +366,6 @@ class Evaluator:
                 failures.append(failure)
         row["ms"] = 1000 * total / max(len(views), 1)  # per view, as in the other suites
         row["ms_decision"] = 1000 * total  # every view of the scene: one pick decision
-        row["views"] = len(views)
         scores = [-1.0 if e is None else float(e.class_probs[target]) for e in estimates]
         if not views or max(scores) < 0:
             row.update(success=False, reason="no_estimate", failure=(failures or [None])[0])
@@ -353,6 +396,26 @@ class Evaluator:
         _, reward, _, _, info = env.step(grasps[0].action)
         row.update(success=bool(reward > 0), reason=str(info["reason"]))
         return row
+
+
+def failed_rows(kind: str, templates: list[dict[str, Any]], reason: str) -> list[dict[str, Any]]:
+    """The rows of an item whose backend never answered (``reason``: ``timeout after 60 s``,
+    ``worker died: signal 6``), from its rows as known before the backend was called. They
+    are scored as a backend's exception is: class wrong, no pose or shape (the summary counts
+    a rotation error of 180 degrees, IoU 0), the pick unsuccessful (its ``reason`` is
+    ``timeout`` or ``worker_died``). No time is recorded: the backend gave none."""
+    rows = []
+    for t in templates:
+        row = {**t, "failure": reason}
+        if kind == "pick":
+            why = "timeout" if reason.startswith("timeout") else "worker_died"
+            row.update(success=False, reason=why)
+        else:
+            row.update(pred_class=-1, correct=False)
+        rows.append(row)
+    if rows:
+        rows[0]["item_rows"] = len(rows)
+    return rows
 
 
 def local_mesh(est: Estimate) -> Any:

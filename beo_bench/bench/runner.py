@@ -1,38 +1,89 @@
 """``beo-bench run``: score a backend on a suite, in parallel, resumable.
 
 Results go to ``OUT/results.jsonl`` (one line per scored view or episode) and
-``OUT/summary.json``. Each finished *item* (a view, a scene's views, an episode) is
-appended as whole lines in one ``write`` on a file opened with ``O_APPEND`` (fsynced
-about once a second), so a run killed at any moment leaves only complete items plus at
-most one torn line; resuming
-drops the torn line, skips the items already present and runs the rest. The summary is
-computed from the rows sorted by (item, view), so it does not depend on the number of
-workers, the order in which they finish, or interruptions.
+``OUT/summary.json``; ``OUT/run.json`` records what the run is (suite, backend, options,
+the backend's model digest, the object library version), and a resume must match it.
+
+Integrity (see the "Failure behaviour" doc):
+
+- one run at a time per directory: the run holds an exclusive ``flock`` on ``OUT/run.lock``
+  (with its PID in it) from start to end; a second run or resume gets a :class:`RunError`
+  naming the holder. The kernel drops the lock when the holder dies, so a stale lock file
+  blocks nothing (and is never deleted: the next run reuses it);
+- each finished *item* (a view, a scene's views, an episode) is appended as whole lines to
+  a file opened with ``O_APPEND``, looping until every byte is written; a failed write (a
+  full disk) cuts the file back to its last complete item and stops the run with a
+  :class:`RunError` (resume after freeing space). Lines are fsynced about once a second;
+- reading skips and reports (a :class:`ResultsWarning`) any line that is not a result row,
+  anywhere in the file, an item's rows that are incomplete (it is run again) and a second
+  set of rows of an item (the first complete set is kept); a torn last line is cut off;
+- every item runs in a worker process with a deadline (``Suite.item_timeout_s``,
+  ``item_timeout``): a worker that hangs, crashes or exits is replaced and its item recorded
+  as failed (:mod:`.pool`); only a backend registered at run time in this process (which
+  workers cannot build) runs in-process, without those protections.
+
+The summary is computed from the rows sorted by (item, view), so it does not depend on the
+number of workers, the order in which they finish, or interruptions.
 """
 
 from __future__ import annotations
 
+import contextlib
+import errno
+import fcntl
 import json
-import multiprocessing as mp
+import math
 import os
 import platform
 import subprocess
-import sys
 import time
+import warnings
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
-from functools import partial
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from beo_bench.bench.pool import (
+    WORKER_THREADS,
+    RunError,
+    WorkerPool,
+    default_workers,
+    in_process_results,
+    jsonable,
+    ray_results,
+)
 from beo_bench.bench.suites import Suite
-from beo_bench.errors import BeoBenchError
+from beo_bench.errors import CorruptDataError, UsageError
+
+__all__ = [
+    "WORKER_THREADS",
+    "CorruptRunError",
+    "ResultsWarning",
+    "RunConfig",
+    "RunError",
+    "RunUsageError",
+    "WorkerPool",
+    "default_workers",
+    "item_timeout_s",
+    "lock_run_dir",
+    "read_rows",
+    "run",
+    "scan_rows",
+]
 
 
-class RunError(BeoBenchError, ValueError):
-    """A run that cannot start or resume as asked."""
+class RunUsageError(RunError, UsageError):
+    """A run asked for in a way that cannot work (``--out`` is a file, results there need
+    ``--resume``, they belong to another run or model); exit status 2."""
+
+
+class CorruptRunError(RunError, CorruptDataError):
+    """A run directory's ``run.json`` or ``results.jsonl`` that is damaged beyond skipping a
+    line: nothing is overwritten, the message says what to do."""
+
+
+class ResultsWarning(UserWarning):
+    """Lines of a results file that were skipped (damaged, incomplete, duplicated)."""
 
 
 @dataclass(frozen=True)
@@ -44,249 +95,387 @@ class RunConfig:
     backend_kwargs: dict[str, Any] = field(default_factory=dict)
 
 
+LOCK_NAME = "run.lock"
+RESULTS_NAME = "results.jsonl"
+RECORD_NAME = "run.json"
+
+
+# -- errors from the file system -------------------------------------------------------------
+def io_error(e: OSError, path: Path, doing: str) -> RunError:
+    """A :class:`RunError` saying what failed on ``path`` and what to do about it."""
+    if e.errno in (errno.ENOSPC, errno.EDQUOT):
+        return RunError(
+            f"no space left on the device of {path} while {doing}: the complete items "
+            "written so far are kept; free some space, then run again with --resume"
+        )
+    if e.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        return RunError(
+            f"cannot write {path} while {doing} ({e.strerror}): a run needs a writable "
+            "directory; choose another --out or make this one writable"
+        )
+    return RunError(f"{path}: {e.strerror or e} while {doing}")
+
+
 # -- results file ----------------------------------------------------------------------------
-def read_rows(path: Path, repair: bool = False) -> list[dict[str, Any]]:
-    """The complete rows of a results file. A torn last line (a killed writer) is ignored,
-    and cut off the file when ``repair``."""
-    if not path.exists():
-        return []
-    data = path.read_bytes()
+@dataclass
+class RowScan:
+    """What :func:`scan_rows` found in a results file."""
+
+    rows: list[dict[str, Any]] = field(default_factory=list)
+    """Each item's first complete set of rows, in file order."""
+    damaged: list[int] = field(default_factory=list)
+    """Line numbers (1-based) that are not result rows (torn, corrupt)."""
+    torn_tail: bool = False
+    """The file ended in an unfinished line (cut off when repairing)."""
+    incomplete: list[int] = field(default_factory=list)
+    """Items with a set of rows that misses some (a damaged line): that set is ignored."""
+    duplicates: list[int] = field(default_factory=list)
+    """Items with more than one complete set of rows (two runs into one directory): all
+    but the first are ignored."""
+
+    def report(self, path: Path) -> str:
+        """One sentence per kind of damage ("" when the file is clean)."""
+        parts = []
+        if self.damaged:
+            n = len(self.damaged)
+            parts.append(f"skipped {n} damaged line(s) (lines {_items(self.damaged)})")
+        if self.torn_tail:
+            parts.append("cut off a torn last line (a run stopped mid-write)")
+        if self.incomplete:
+            parts.append(
+                f"ignored incomplete rows of {len(self.incomplete)} item(s) "
+                f"{_items(self.incomplete)} (an item without a complete set is run again)"
+            )
+        if self.duplicates:
+            parts.append(
+                f"dropped a second set of rows of {len(self.duplicates)} item(s) "
+                f"{_items(self.duplicates)}, keeping the first (two runs wrote into one "
+                "directory?)"
+            )
+        return f"{path}: " + "; ".join(parts) if parts else ""
+
+
+def _items(items: list[int]) -> str:
+    shown = sorted(set(items))
+    return str(shown[:10])[:-1] + (", ...]" if len(shown) > 10 else "]")
+
+
+def _row(line: bytes) -> dict[str, Any] | None:
+    """The result row a line holds, or None if it holds none."""
+    try:
+        row = json.loads(line)
+    except (ValueError, UnicodeDecodeError):
+        return None
+    ok = isinstance(row, dict) and all(
+        isinstance(row.get(k), int) and not isinstance(row.get(k), bool) and row[k] >= 0
+        for k in ("item", "view")
+    )
+    return row if ok else None
+
+
+def _blocks(rows: list[dict[str, Any]]) -> list[list[dict[str, Any]]]:
+    """Rows cut into the sets that items were written as: one item's consecutive views."""
+    out: list[list[dict[str, Any]]] = []
+    for r in rows:
+        last = out[-1][-1] if out else None
+        if (
+            last is None
+            or r["view"] == 0
+            or r["item"] != last["item"]
+            or r["view"] != last["view"] + 1
+        ):
+            out.append([r])
+        else:
+            out[-1].append(r)
+    return out
+
+
+def _complete(block: list[dict[str, Any]]) -> bool:
+    """Views 0..n-1 of one item, n as its first row says (``item_rows``; rows written before
+    it was recorded count as complete when their views start at 0)."""
+    n = block[0].get("item_rows", len(block))
+    return block[0]["view"] == 0 and len(block) == n
+
+
+def scan_rows(path: Path, repair: bool = False) -> RowScan:
+    """Read a results file: keep each item's first complete set of rows, skip the rest and
+    say what was skipped. ``repair`` cuts a torn last line off the file (only when this
+    process holds the run's lock: the next append would be glued to it)."""
+    scan = RowScan()
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return scan
     end = data.rfind(b"\n") + 1
-    if repair and end < len(data):
-        with open(path, "r+b") as f:
-            f.truncate(end)
+    if end < len(data):
+        scan.torn_tail = True
+        if repair:
+            with open(path, "r+b") as f:
+                f.truncate(end)
     rows = []
-    for line in data[:end].splitlines():
-        if line.strip():
-            rows.append(json.loads(line))
-    return rows
+    for n, line in enumerate(data[:end].split(b"\n")[:-1], start=1):
+        if not line.strip():
+            continue
+        row = _row(line)
+        if row is None:
+            scan.damaged.append(n)
+        else:
+            rows.append(row)
+    kept: set[int] = set()
+    for block in _blocks(rows):
+        item = block[0]["item"]
+        if not _complete(block):
+            if item not in scan.incomplete:
+                scan.incomplete.append(item)
+        elif item in kept:
+            if item not in scan.duplicates:
+                scan.duplicates.append(item)
+        else:
+            kept.add(item)
+            scan.rows.extend(block)
+    return scan
+
+
+def read_rows(path: Path, repair: bool = False, report: bool = True) -> list[dict[str, Any]]:
+    """The rows of a results file: each item's first complete set (see :func:`scan_rows`).
+    Whatever was skipped is reported as a :class:`ResultsWarning` when ``report``."""
+    scan = scan_rows(Path(path), repair)
+    message = scan.report(Path(path))
+    if report and message:
+        warnings.warn(message, ResultsWarning, stacklevel=2)
+    return scan.rows
+
+
+def _write_all(fd: int, data: bytes) -> None:
+    """``os.write`` until every byte is written (a write may take fewer bytes than asked)."""
+    view = memoryview(data)
+    while view:
+        n = os.write(fd, view)
+        if n <= 0:  # no progress and no error: treat as a failed write
+            raise OSError(errno.EIO, "write made no progress")
+        view = view[n:]
 
 
 class ResultsWriter:
-    """Appends each item's rows as whole lines in one ``write`` to a file opened with
-    ``O_APPEND``. Once written, the lines survive the process being killed (they are in the
-    kernel's page cache); ``fsync`` (against power loss) runs at most every
-    ``sync_every_s`` and on close, because one fsync per item (~20 ms here) capped the
-    runner at ~50 items/s."""
+    """Appends each item's rows as whole lines to a file opened with ``O_APPEND`` (this run
+    holds the directory's lock, so it is the only writer). Once written, the lines survive
+    the process being killed (they are in the kernel's page cache); ``fsync`` (against power
+    loss) runs at most every ``sync_every_s`` and on close, because one fsync per item
+    (~20 ms here) capped the runner at ~50 items/s. A write that fails part-way (a full
+    disk) is cut back off, so the file never holds a torn line before complete ones."""
 
     def __init__(self, path: Path, sync_every_s: float = 1.0) -> None:
-        self.fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+        self.path = path
+        flags = os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC
+        try:
+            self.fd = os.open(path, flags, 0o644)
+            self._size = os.fstat(self.fd).st_size
+        except OSError as e:
+            raise io_error(e, path, "opening the results file") from e
         self.sync_every_s = sync_every_s
         self._last_sync = time.monotonic()
 
     def append(self, rows: list[dict[str, Any]]) -> None:
         payload = "".join(json.dumps(r, sort_keys=True) + "\n" for r in rows).encode()
-        os.write(self.fd, payload)
+        try:
+            _write_all(self.fd, payload)
+        except OSError as e:
+            self._cut_back()
+            raise io_error(e, self.path, "writing results") from e
+        self._size += len(payload)
         if time.monotonic() - self._last_sync > self.sync_every_s:
-            os.fsync(self.fd)
+            self._sync()
             self._last_sync = time.monotonic()
+
+    def _cut_back(self) -> None:
+        """Remove the part of an item that a failed write left (best effort: a reader skips
+        a damaged line anyway)."""
+        with contextlib.suppress(OSError):
+            os.ftruncate(self.fd, self._size)
+
+    def _sync(self) -> None:
+        try:
+            os.fsync(self.fd)
+        except OSError as e:  # a full disk can surface here, on delayed allocation
+            raise io_error(e, self.path, "flushing results to disk") from e
 
     def close(self) -> None:
         if self.fd >= 0:
-            os.fsync(self.fd)
-            os.close(self.fd)
-            self.fd = -1
+            fd, self.fd = self.fd, -1
+            try:
+                os.fsync(fd)
+            except OSError as e:
+                raise io_error(e, self.path, "flushing results to disk") from e
+            finally:
+                os.close(fd)
 
     def __enter__(self) -> ResultsWriter:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, exc_type: object, *exc: object) -> None:
+        if exc_type is None:
+            self.close()
+        else:  # do not hide the error that stopped the run behind one of closing
+            with contextlib.suppress(RunError):
+                self.close()
 
 
 def write_atomic(path: Path, data: str | bytes) -> None:
     """Write a whole file through a temporary one and a rename: readers (and a resumed
-    run) see the old file or the new one, never half of one."""
+    run) see the old file or the new one, never half of one. A failed write removes its
+    temporary file (its own) and raises the ``OSError``."""
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_bytes(data if isinstance(data, bytes) else data.encode())
-    os.replace(tmp, path)
+    try:
+        tmp.write_bytes(data if isinstance(data, bytes) else data.encode())
+        os.replace(tmp, path)
+    except OSError:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
 
 
 def write_json_atomic(path: Path, obj: Any) -> None:
-    write_atomic(path, json.dumps(obj, indent=2, sort_keys=True, default=_jsonable) + "\n")
+    write_atomic(path, json.dumps(obj, indent=2, sort_keys=True, default=jsonable) + "\n")
 
 
-def _jsonable(o: Any) -> Any:
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, tuple):
-        return list(o)
-    raise TypeError(f"not JSON-serialisable: {type(o).__name__}")
+# -- the run directory -----------------------------------------------------------------------
+def _run_dir(out: Path) -> Path:
+    """``out``, created if needed; a clear error when it cannot be a run directory."""
+    try:
+        blocker = next((p for p in (out, *out.parents) if p.exists() and not p.is_dir()), None)
+    except OSError as e:
+        raise io_error(e, out, "looking up the run directory") from e
+    if blocker is not None:
+        raise RunUsageError(
+            f"--out {out}: {blocker} is a file, not a directory: give a directory (a run "
+            f"writes {RESULTS_NAME}, {RECORD_NAME}, summary.json and {LOCK_NAME} into it)"
+        )
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise io_error(e, out, "creating the run directory") from e
+    return out
 
 
-def _clean(row: dict[str, Any]) -> dict[str, Any]:
-    return {
-        k: _jsonable(v) if isinstance(v, np.generic | np.ndarray) else v for k, v in row.items()
-    }
+@contextlib.contextmanager
+def lock_run_dir(out: Path) -> Iterator[None]:
+    """Hold the run directory's exclusive lock (``OUT/run.lock``, with this PID in it) for
+    the ``with`` block; a :class:`RunError` naming the holder when another process has it.
+    The kernel releases it when the holder exits, however it exits."""
+    path = Path(out) / LOCK_NAME
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
+    except OSError as e:
+        raise io_error(e, path, "opening the run's lock file") from e
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = (os.pread(fd, 64, 0).decode(errors="replace").split() or ["unknown"])[0]
+            raise RunError(
+                f"{out} is in use by another run (PID {holder}, holding {path}): wait for it "
+                "to finish or stop it, or choose another --out (two runs into one directory "
+                "would score every item twice)"
+            ) from None
+        try:  # write, then cut: a reader never finds the file empty
+            pid = f"{os.getpid()}\n".encode()
+            os.pwrite(fd, pid, 0)
+            os.ftruncate(fd, len(pid))
+        except OSError as e:
+            raise io_error(e, path, "writing the run's lock file") from e
+        yield
+    finally:
+        os.close(fd)  # releases the lock
+
+
+def _identity(cfg: RunConfig) -> dict[str, Any]:
+    """What fixes the items and their scores. The size is left out because item i depends
+    only on (seed, i): a run can be extended, or summarised over its first items; the item
+    timeout and the description change no score either."""
+    drop = ("size", "description", "item_timeout_s")
+    suite = {k: v for k, v in asdict(cfg.suite).items() if k not in drop}
+    record = {"suite": suite, "backend": cfg.backend, "backend_kwargs": cfg.backend_kwargs}
+    return json.loads(json.dumps(record, default=jsonable))
+
+
+def _read_record(path: Path) -> dict[str, Any] | None:
+    """The run record (``run.json``), None when there is none; an error when it is not one
+    this package wrote (damaged, or another program's file): nothing is overwritten."""
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        return None
+    except OSError as e:
+        raise io_error(e, path, "reading the run record") from e
+    try:
+        record = json.loads(text)
+    except ValueError:
+        record = None
+    if not isinstance(record, dict) or not {"suite", "backend", "backend_kwargs"} <= set(record):
+        raise CorruptRunError(
+            f"{path} is damaged or not a beo-bench run record, so the results beside it "
+            "cannot be checked or continued, and it is not overwritten: choose another --out "
+            "(or move this directory away)"
+        )
+    return record
+
+
+def _model_name(digest: str | None) -> str:
+    return f"model {digest}" if digest else "no learned model"
+
+
+def _check_same_run(old: dict[str, Any] | None, meta: dict[str, Any], out: Path) -> None:
+    """Refuse to add items to results of another suite, backend, options or library."""
+    if old is None:
+        raise CorruptRunError(
+            f"{out} has results but no {RECORD_NAME}, so they cannot be checked against this "
+            "run: choose another --out (or move this directory away)"
+        )
+    if {k: old[k] for k in meta} != meta:
+        raise RunUsageError(
+            f"{out} holds a different run ({ {k: old[k] for k in meta} }); resuming needs the "
+            "same suite (version, seed, protocol), backend and options: choose another --out"
+        )
+    from beo_bench.objects import LIBRARY_VERSION
+
+    if old.get("library_version", LIBRARY_VERSION) != LIBRARY_VERSION:
+        raise RunUsageError(
+            f"{out} was scored on object library v{old['library_version']}; this package "
+            f"generates v{LIBRARY_VERSION}, so its items differ: choose another --out"
+        )
+
+
+def _check_same_model(old: dict[str, Any], digest: str | None, out: Path) -> None:
+    """Refuse to add items scored by another model than the run's first ones."""
+    if "model_digest" not in old or "library_version" not in old:
+        raise RunUsageError(
+            f"{out / RECORD_NAME} was written by an older beo-bench that did not record the "
+            "model digest or the object library version, so resuming could mix two models "
+            "in one score: choose another --out to run it again (this one is left as it is)"
+        )
+    if old["model_digest"] != digest:
+        raise RunUsageError(
+            f"{out} holds results of backend {old['backend']!r} with "
+            f"{_model_name(old['model_digest'])}, but it now loads {_model_name(digest)} "
+            "(retrained or replaced): resuming would mix two models in one score. Choose "
+            "another --out for this model, or restore the one the run used"
+        )
 
 
 # -- workers ---------------------------------------------------------------------------------
-WORKER_THREADS = 1
-"""BLAS / OpenMP / torch threads per worker. Workers run one per core, and pinning every
-path (in-process, local processes, Ray actors, which Ray already pins to 1) to the same count
-makes reductions identical, so results do not depend on how a run was spread out."""
+def _results(
+    cfg: RunConfig, todo: list[int], workers: int, timeout: float, pool: WorkerPool | None
+) -> Iterator[tuple[int, list[dict[str, Any]]]]:
+    from beo_bench.backend import buildable_in_fresh_process
 
-_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-_WORKER: Any = None
-_WORKER_CFG: Any = None
-_INIT_ERROR = ""
-
-
-def default_workers() -> int:
-    """One worker per available core."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # not on Linux
-        return max(1, os.cpu_count() or 1)
-
-
-def _pin_threads() -> Any:
-    """Limit this process's thread pools to ``WORKER_THREADS``: the already loaded ones
-    through threadpoolctl, the ones loaded later (torch in a backend) through the
-    environment. Returns the limiter (keep it alive; ``restore_original_limits`` undoes)."""
-    from threadpoolctl import threadpool_limits
-
-    for var in _THREAD_VARS:
-        os.environ[var] = str(WORKER_THREADS)
-    if "torch" in sys.modules:
-        sys.modules["torch"].set_num_threads(WORKER_THREADS)
-    return threadpool_limits(limits=WORKER_THREADS)
-
-
-def _init_worker(cfg: RunConfig, pin: bool = True) -> None:
-    """Set up this process's evaluator for ``cfg`` (closing one set up for another run).
-    An error is kept and raised by the first item: a pool whose initializer raises would
-    only start new workers, forever."""
-    global _WORKER, _WORKER_CFG, _INIT_ERROR
-    from beo_bench.backend import load_plugins
-    from beo_bench.bench.evaluate import Evaluator
-
-    if pin:
-        _pin_threads()
-    if _WORKER is not None:
-        _WORKER.close()
-    _WORKER, _WORKER_CFG = None, cfg
-    try:
-        load_plugins()
-        _WORKER = Evaluator(cfg.suite, cfg.backend, cfg.backend_kwargs)
-    except Exception as e:
-        _INIT_ERROR = f"{type(e).__name__}: {e}"
-        return
-    if "torch" in sys.modules:  # loaded by the backend: the environment came too late
-        sys.modules["torch"].set_num_threads(WORKER_THREADS)
-
-
-def _work(index: int) -> tuple[int, list[dict[str, Any]]]:
-    if _WORKER is None:
-        raise RunError(
-            f"a worker could not set up the backend: {_INIT_ERROR} (a backend registered at "
-            "run time, not by an import or an entry point, exists only in its own process: "
-            "use workers=1)"
-        )
-    return index, [_clean(r) for r in _WORKER.run_item(index)]
-
-
-def _work_for(cfg: RunConfig, index: int) -> tuple[int, list[dict[str, Any]]]:
-    """One item of ``cfg`` in a :class:`WorkerPool` process, which sets ``cfg`` up the first
-    time it sees it (the items of one run arrive together, so that is once per run)."""
-    if _WORKER_CFG != cfg:
-        _init_worker(cfg, pin=False)
-    return _work(index)
-
-
-class WorkerPool:
-    """Worker processes kept across runs (``with WorkerPool(2) as pool: run(..., pool=pool)``).
-
-    A campaign's runs are often short (``make demo``: 35 runs of 6-44 items), and a fresh
-    pool per run pays process start-up, imports (mujoco, torch) and model loading each time:
-    about 3 s a run, more than the 44 oracle items cost. Here a worker rebuilds only its
-    evaluator when the run changes. Results do not depend on which process scores an item
-    (tested), so they equal a fresh pool's.
-    """
-
-    def __init__(self, workers: int | None = None) -> None:
-        self.workers = default_workers() if workers is None else max(1, int(workers))
-        self._pool: Any = None
-
-    def results(self, cfg: RunConfig, todo: list[int]) -> Iterator[tuple[int, list]]:
-        if not todo:  # a finished run (resumed) starts no processes
-            return
-        if self._pool is None:
-            # spawn: workers start clean (no inherited GL state or torch threads)
-            ctx = mp.get_context("spawn")
-            self._pool = ctx.Pool(self.workers, initializer=_pin_threads)
-        yield from self._pool.imap_unordered(partial(_work_for, cfg), todo, chunksize=1)
-
-    def close(self) -> None:
-        if self._pool is not None:
-            self._pool.terminate()
-            self._pool.join()
-            self._pool = None
-
-    def __enter__(self) -> WorkerPool:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-
-def _results(cfg: RunConfig, todo: list[int], workers: int) -> Iterator[tuple[int, list]]:
-    global _WORKER, _WORKER_CFG
-    if workers <= 1:
-        # in this process: pin its threads for the run, as a worker's, then restore them
-        saved = {v: os.environ.get(v) for v in _THREAD_VARS}
-        had_torch = "torch" in sys.modules
-        torch_threads = sys.modules["torch"].get_num_threads() if had_torch else None
-        limiter = _pin_threads()
-        _init_worker(cfg, pin=False)
-        if _WORKER is None:
-            limiter.restore_original_limits()
-            raise RunError(f"could not set up backend {cfg.backend!r}: {_INIT_ERROR}")
-        try:
-            for i in todo:
-                yield _work(i)
-        finally:
-            _WORKER.close()
-            _WORKER = _WORKER_CFG = None
-            limiter.restore_original_limits()
-            for var, value in saved.items():
-                if value is None:
-                    os.environ.pop(var, None)
-                else:
-                    os.environ[var] = value
-            if "torch" in sys.modules:
-                sys.modules["torch"].set_num_threads(torch_threads or default_workers())
-        return
-    with WorkerPool(workers) as pool:
-        yield from pool.results(cfg, todo)
-
-
-def _ray_results(cfg: RunConfig, todo: list[int], workers: int) -> Iterator[tuple[int, list]]:
-    try:
-        import ray
-    except ImportError as e:
-        raise RunError("--ray needs the ray extra: pip install 'beo-bench[ray]'") from e
-    if not ray.is_initialized():
-        ray.init(
-            address=os.environ.get("RAY_ADDRESS"),
-            num_cpus=None if os.environ.get("RAY_ADDRESS") else workers,
-            include_dashboard=False,
-            log_to_driver=False,
-        )
-
-    @ray.remote(num_cpus=1)
-    class Actor:
-        def __init__(self, c: RunConfig) -> None:
-            _init_worker(c)
-
-        def work(self, i: int) -> tuple[int, list]:
-            return _work(i)
-
-    actors = [Actor.remote(cfg) for _ in range(max(1, workers))]
-    pool = ray.util.ActorPool(actors)
-    yield from pool.map_unordered(lambda a, i: a.work.remote(i), todo)
+    imports = pool.imports if pool is not None else ()
+    if workers <= 1 and not buildable_in_fresh_process(cfg.backend, imports):
+        yield from in_process_results(cfg, todo)
+    elif pool is not None:
+        yield from pool.results(cfg, todo, timeout)
+    else:
+        with WorkerPool(workers) as fresh:
+            yield from fresh.results(cfg, todo, timeout)
 
 
 # -- the run ---------------------------------------------------------------------------------
@@ -343,12 +532,42 @@ def suite_categories(suite: Suite) -> tuple[str, ...]:
     return default_categories()
 
 
-def _prepare(cfg: RunConfig) -> None:
-    """The backend's one-time set-up, here, before workers start (they then load it)."""
+@dataclass(frozen=True)
+class Prepared:
+    """What the driver learnt from building and preparing the backend."""
+
+    model_digest: str | None
+    """The backend's ``model_digest()`` (None: no learned model, or the backend has none)."""
+    class_given: bool
+    """Whether its views get the true class (the suite allows it, the backend asks)."""
+
+
+def _prepare(cfg: RunConfig) -> Prepared:
+    """The backend's one-time set-up, here, before workers start (they then load it), and
+    the digest of the model it loaded."""
     from beo_bench.backend import get_backend, load_plugins, prepare_backend
 
     load_plugins()
-    prepare_backend(get_backend(cfg.backend, **cfg.backend_kwargs), suite_categories(cfg.suite))
+    backend = get_backend(cfg.backend, **cfg.backend_kwargs)
+    prepare_backend(backend, suite_categories(cfg.suite))
+    digest = getattr(backend, "model_digest", None)
+    wants = bool(getattr(backend, "wants_class_hint", False))
+    return Prepared(digest() if callable(digest) else None, cfg.suite.class_hint and wants)
+
+
+def item_timeout_s(suite: Suite, item_timeout: float | None) -> float:
+    """The seconds an item may take: ``item_timeout``, else the suite's default."""
+    t = suite.item_timeout_s if item_timeout is None else item_timeout
+    try:
+        t = float(t)
+    except (TypeError, ValueError):
+        t = math.nan
+    if not math.isfinite(t) or t <= 0:
+        raise UsageError(
+            f"item timeout {item_timeout!r}: give a positive number of seconds (--item-timeout "
+            f"S; suite {suite.name}'s default is {suite.item_timeout_s:g} s)"
+        )
+    return t
 
 
 def run(
@@ -359,53 +578,42 @@ def run(
     use_ray: bool = False,
     progress: bool = True,
     pool: WorkerPool | None = None,
+    item_timeout: float | None = None,
 ) -> dict[str, Any]:
     """Run (or resume) ``cfg`` into ``out`` with ``workers`` processes (default: one per
     core), Ray actors, or the processes of ``pool`` (kept across runs; it sets the number
-    of workers); returns the summary."""
-    from tqdm import tqdm
-
-    from beo_bench.bench.summary import summarise
-
+    of workers; with ``use_ray`` only its ``imports`` are used); returns the summary.
+    ``item_timeout``: seconds an item may take before it is recorded as failed (default:
+    the suite's ``item_timeout_s``). The directory is locked for the whole run."""
     if pool is not None:
         workers = pool.workers
     workers = default_workers() if workers is None else max(1, int(workers))
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    results, meta_path = out / "results.jsonl", out / "run.json"
-    # what fixes the items and their scores; the size is left out because item i depends
-    # only on (seed, i): a run can be extended, or summarised over its first items
-    suite = {k: v for k, v in asdict(cfg.suite).items() if k not in ("size", "description")}
-    meta = json.loads(
-        json.dumps(
-            {"suite": suite, "backend": cfg.backend, "backend_kwargs": cfg.backend_kwargs},
-            default=_jsonable,
-        )
-    )
-    if results.exists() and results.stat().st_size > 0:
-        if not resume:
-            raise RunError(
-                f"{results} already has results: pass --resume to continue that "
-                "run, or choose another --out"
-            )
-        old = json.loads(meta_path.read_text()) if meta_path.exists() else None
-        if old != meta:
-            raise RunError(
-                f"{out} holds a different run ({old}); resuming needs the same suite "
-                "(version, seed, protocol), backend and options: choose another --out"
-            )
-    write_json_atomic(meta_path, meta)
-    done = {r["item"] for r in read_rows(results, repair=True) if r["item"] < cfg.suite.size}
-    todo = [i for i in range(cfg.suite.size) if i not in done]
-    if todo:
-        _prepare(cfg)
+    timeout = item_timeout_s(cfg.suite, item_timeout)
+    out = _run_dir(Path(out))
+    with lock_run_dir(out):
+        return _run_locked(cfg, out, workers, resume, use_ray, progress, pool, timeout)
+
+
+def _run_locked(
+    cfg: RunConfig,
+    out: Path,
+    workers: int,
+    resume: bool,
+    use_ray: bool,
+    progress: bool,
+    pool: WorkerPool | None,
+    timeout: float,
+) -> dict[str, Any]:
+    from tqdm import tqdm
+
+    record, done, todo, prepared = _open_run(cfg, out, resume)
     t0 = time.perf_counter()
     if use_ray:
-        source = _ray_results(cfg, todo, workers)
-    elif pool is not None and workers > 1:
-        source = pool.results(cfg, todo)
+        imports = pool.imports if pool is not None else ()
+        class_given = prepared.class_given if prepared is not None else False
+        source = ray_results(cfg, todo, workers, timeout, imports, class_given)
     else:
-        source = _results(cfg, todo, workers)
+        source = _results(cfg, todo, workers, timeout, pool)
     bar = tqdm(
         total=cfg.suite.size,
         initial=len(done),
@@ -413,17 +621,99 @@ def run(
         desc=f"{cfg.suite.name} / {cfg.backend}",
         unit="item",
     )
-    with bar, ResultsWriter(results) as writer:
+    with bar, ResultsWriter(out / RESULTS_NAME) as writer:
         for _, rows in source:
             writer.append(rows)
             bar.update(1)
     wall = time.perf_counter() - t0
-    rows = [r for r in read_rows(results) if r["item"] < cfg.suite.size]
+    return _summarise(cfg, out, record, wall, workers, use_ray, timeout)
+
+
+def _open_run(
+    cfg: RunConfig, out: Path, resume: bool
+) -> tuple[dict[str, Any] | None, set[int], list[int], Prepared | None]:
+    """Check that ``out`` may take this run (or its resume), prepare the backend if there
+    is work left and record a new run: (the run record, the items done, the items to do,
+    what preparing learnt)."""
+    from beo_bench.objects import LIBRARY_VERSION
+
+    results, record_path = out / RESULTS_NAME, out / RECORD_NAME
+    meta = _identity(cfg)
+    old = _read_record(record_path)
+    try:
+        has_results = results.exists() and results.stat().st_size > 0
+    except OSError as e:
+        raise io_error(e, results, "reading the results") from e
+    if has_results:
+        if not resume:
+            raise RunUsageError(
+                f"{results} already has results: pass --resume to continue that "
+                "run, or choose another --out"
+            )
+        _check_same_run(old, meta, out)
+    scan = _scan(results, repair=has_results)
+    done = {r["item"] for r in scan.rows if r["item"] < cfg.suite.size}
+    todo = [i for i in range(cfg.suite.size) if i not in done]
+    if not todo:
+        return old, done, todo, None
+    prepared = _prepare(cfg)
+    if has_results:
+        assert old is not None
+        _check_same_model(old, prepared.model_digest, out)
+    else:  # a new run: record it before its first result
+        old = {**meta, "model_digest": prepared.model_digest, "library_version": LIBRARY_VERSION}
+        _write(record_path, old, "writing the run record")
+    return old, done, todo, prepared
+
+
+def _scan(results: Path, repair: bool, report: bool = True) -> RowScan:
+    """The results file's rows; what was skipped is reported (once per run: ``report``)."""
+    try:
+        scan = scan_rows(results, repair)
+    except OSError as e:
+        raise io_error(e, results, "reading the results") from e
+    if scan.damaged and not scan.rows:
+        raise CorruptRunError(
+            f"{results} holds no result rows ({len(scan.damaged)} damaged lines): it is not "
+            "a beo-bench results file or it is destroyed, and it is not appended to: choose "
+            "another --out (or move this directory away)"
+        )
+    message = scan.report(results)
+    if report and message:
+        warnings.warn(message, ResultsWarning, stacklevel=5)  # run()'s caller
+    return scan
+
+
+def _write(path: Path, obj: Any, doing: str) -> None:
+    try:
+        write_json_atomic(path, obj)
+    except OSError as e:
+        raise io_error(e, path, doing) from e
+
+
+def _summarise(
+    cfg: RunConfig,
+    out: Path,
+    record: dict[str, Any] | None,
+    wall: float,
+    workers: int,
+    use_ray: bool,
+    timeout: float,
+) -> dict[str, Any]:
+    from beo_bench.bench.summary import summarise
+
+    # the rows as this run left them (what was skipped was reported when it started)
+    rows = [r for r in _scan(out / RESULTS_NAME, False, False).rows if r["item"] < cfg.suite.size]
     rows.sort(key=lambda r: (r["item"], r["view"]))
     summary = summarise(cfg.suite, cfg.backend, rows)
     summary["provenance"] = provenance(cfg)
-    summary["provenance"]["wall_s_last_session"] = wall
-    summary["provenance"]["workers"] = workers
-    summary["provenance"]["ray"] = use_ray
-    write_json_atomic(out / "summary.json", summary)
+    summary["provenance"].update(
+        wall_s_last_session=wall,
+        workers=workers,
+        ray=use_ray,
+        item_timeout_s=timeout,
+        model_digest=(record or {}).get("model_digest"),
+        library_version=(record or {}).get("library_version"),
+    )
+    _write(out / "summary.json", summary, "writing the summary")
     return summary

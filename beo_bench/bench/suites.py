@@ -40,6 +40,12 @@ class Suite:
     for the true class (``wants_class_hint``, the dissertation's ICP protocol) is given it;
     such rows are marked and left out of the class accuracy. Suites that score
     classification (``known-pose``, ``tabletop``, ``pick``) never give it.
+    ``item_timeout_s``: how long one item may take in a worker before it is recorded as a
+    failure (``timeout after S s``) and the worker replaced (``--item-timeout`` changes it
+    for a run). The defaults are 20-30 times the slowest in-tree backend's item, measured
+    with ``beo`` on a loaded 2-core machine: about 2 s an isolated item, 9 s a tabletop scene
+    (3 views), 6 s a pick episode. Like ``size`` and ``description``, it changes no score,
+    so it is not part of what identifies a run.
     """
 
     name: str
@@ -56,6 +62,7 @@ class Suite:
     class_hint: bool = False
     min_pixels: int = 50
     description: str = ""
+    item_timeout_s: float = 60.0
 
     def with_overrides(self, size: int | None = None, seed: int | None = None) -> Suite:
         """The same protocol with another item count or base seed (``--episodes``,
@@ -122,6 +129,7 @@ SUITES: dict[str, Suite] = {
             seed=4000,
             image_size=(640, 480),
             noise=True,
+            item_timeout_s=180.0,
             description="BEOPick-v0 scenes with 1-4 objects, clutter, occlusion and sensor "
             "noise; every visible object is scored",
         ),
@@ -133,6 +141,7 @@ SUITES: dict[str, Suite] = {
             size=100,
             seed=5000,
             image_size=(640, 480),
+            item_timeout_s=180.0,
             description="BEOPick-v0 episodes: the estimate of the target-class object becomes a "
             "mesh (marching cubes, placed by pose and size), the planner's best grasp is "
             "executed",

@@ -3,13 +3,18 @@
 Failed views (the backend raised or broke the ``Estimate`` contract) count as wrong: class
 wrong, rotation error 180 degrees (so they are gross errors), viewpoint bins wrong, IoU and
 F-score 0. Their EDT error, Chamfer distance, translation and size errors are undefined and
-left out; the ``failures`` count says how many. Rows scored with the true class given (the
-dissertation's ICP protocol, ``Suite.class_hint``) are left out of the class metrics, and
-``metrics["class_given"]`` says so. Every mean carries a bootstrap 95% interval (seeded).
+left out; the ``failures`` count says how many, and ``failure_kinds`` how they failed
+(``backend error``: it raised or broke the contract; ``timeout``: it overran the item
+timeout; ``worker died``: it crashed or exited its worker process). Such items have no
+time, so the timing metrics cover the answered views only. Rows scored with the true class
+given (the dissertation's ICP protocol, ``Suite.class_hint``) are left out of the class
+metrics, and ``metrics["class_given"]`` says so. Every mean carries a bootstrap 95%
+interval (seeded).
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from typing import Any
 
 import numpy as np
@@ -140,6 +145,21 @@ def _per_category(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, dict[st
     return out
 
 
+def failure_kind(failure: str) -> str:
+    """``timeout``, ``worker died`` or ``backend error`` (see the module docstring)."""
+    if failure.startswith("timeout after"):
+        return "timeout"
+    if failure.startswith(("worker died", "worker exited")):
+        return "worker died"
+    return "backend error"
+
+
+def failure_kinds(rows: list[dict[str, Any]]) -> dict[str, int]:
+    """How many rows failed, by :func:`failure_kind`."""
+    kinds = Counter(failure_kind(str(r["failure"])) for r in rows if r.get("failure"))
+    return dict(sorted(kinds.items()))
+
+
 def summarise(suite: Suite, backend: str, rows: list[dict[str, Any]]) -> dict[str, Any]:
     """The summary of a run's rows (sorted by item and view, so it does not depend on the
     order in which workers finished)."""
@@ -160,6 +180,7 @@ def summarise(suite: Suite, backend: str, rows: list[dict[str, Any]]) -> dict[st
         "backend": backend,
         "n": len(rows),
         "failures": sum(1 for r in rows if r.get("failure")),
+        "failure_kinds": failure_kinds(rows),
         "metrics": M.m,
         "ci95": M.ci,
         "per_category": _per_category(suite, rows),

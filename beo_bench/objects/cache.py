@@ -1,32 +1,78 @@
-"""The on-disk asset cache: content-addressed, written atomically.
+"""The on-disk asset cache: content-addressed, checksummed, written atomically.
 
 Entries live under ``$BEO_BENCH_CACHE`` (default ``~/.cache/beo_bench``), one ``.npz`` file
-per (mesh content hash, processing settings). Writers go through a temporary file in the
-same directory and ``os.replace``, so a reader in another process sees either nothing or the
-whole file, and a killed writer leaves only a ``.tmp`` file that :func:`clear` and the next
-writer ignore.
+per (mesh content hash, processing settings), in one directory per kind (:data:`KINDS`).
+Writers go through a temporary file in the same directory and ``os.replace``, so a reader in
+another process sees either nothing or the whole file, and a killed writer leaves only a
+``.tmp`` file that the next writer ignores.
+
+Every entry carries a checksum of its arrays (``__checksum__``); an entry that does not
+match it, has none (written by an older version) or cannot be read is recomputed and
+rewritten, never trusted.
+
+The cache only deletes what it made: when it creates its root it writes a
+``CACHEDIR.TAG`` (https://bford.info/cachedir/, which also keeps backup tools out), and
+:func:`clear` removes only the known kind directories of a root that carries that tag, so a
+``$BEO_BENCH_CACHE`` pointing at ``$HOME`` by mistake loses nothing.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import os
 import shutil
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import trimesh
 
+from beo_bench.errors import InvalidNameError, UsageError
+from beo_bench.names import check_name
+
 CACHE_ENV = "BEO_BENCH_CACHE"
+
+TAG_NAME = "CACHEDIR.TAG"
+TAG_SIGNATURE = "Signature: 8a477f597d28d172789f06886806bc55"
+"""The Cache Directory Tagging signature: the tag's first line."""
+TAG_TEXT = (
+    f"{TAG_SIGNATURE}\n"
+    "# This directory is the asset cache of beo-bench (object meshes, voxels, models, ...).\n"
+    "# `beo-bench cache clear` removes only the kinds of entry it lists below it.\n"
+    "# For information about cache directory tags see https://bford.info/cachedir/\n"
+)
+CHECKSUM_KEY = "__checksum__"
+"""The array of an entry holding the checksum of the others (see :func:`array_checksum`)."""
+
+_log = logging.getLogger(__name__)
+
+KINDS: dict[str, str] = {
+    "generated": "procedural meshes of the built-in categories",
+    "voxels": "solid occupancy grids of each instance",
+    "surface": "surface samples of each instance",
+    "coacd": "convex collision parts (CoACD) of each instance",
+    "symmetry": "estimated rotational symmetry of loaded meshes",
+    "rest": "each instance's stable resting pose on the table",
+    "classmeans": "per-class mean shapes (icp, random)",
+    "models": "trained BEO / HBEO / HBEO-MDN models",
+    "datasets": "rendered HBEO training crops",
+}
+"""Every kind of entry the cache holds, with a line each (``beo-bench cache clear --kind``
+accepts exactly these: a kind is a name, never a path)."""
+
+
+def default_root() -> Path:
+    """Where the cache lives without ``$BEO_BENCH_CACHE``: ``~/.cache/beo_bench``."""
+    return Path.home() / ".cache" / "beo_bench"
 
 
 def cache_root() -> Path:
     """The cache directory (``$BEO_BENCH_CACHE`` or ``~/.cache/beo_bench``)."""
-    return Path(os.environ.get(CACHE_ENV) or Path.home() / ".cache" / "beo_bench")
+    return Path(os.environ.get(CACHE_ENV) or default_root())
 
 
 def mesh_hash(mesh: trimesh.Trimesh) -> str:
@@ -37,10 +83,109 @@ def mesh_hash(mesh: trimesh.Trimesh) -> str:
     return h.hexdigest()[:32]
 
 
+def check_kind(kind: str) -> str:
+    """``kind`` if it is one of :data:`KINDS`; else :class:`UsageError` listing them."""
+    if kind not in KINDS:
+        kinds = ", ".join(KINDS)
+        try:
+            check_name(kind, "cache kind")
+        except InvalidNameError as e:  # a path: say so, and what a kind is
+            raise InvalidNameError(f"{e}; a cache kind is one of {kinds}") from None
+        raise UsageError(
+            f"unknown cache kind {kind!r}: use one of {kinds} (`beo-bench cache info` lists "
+            "what the cache holds)"
+        )
+    return kind
+
+
 def entry_path(kind: str, content: str, settings: dict[str, Any]) -> Path:
     """Where the ``kind`` entry of ``content`` processed with ``settings`` lives."""
+    check_name(content, "cache content key")
     s = hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
-    return cache_root() / kind / content[:2] / f"{content}-{s}.npz"
+    return cache_root() / check_kind(kind) / content[:2] / f"{content}-{s}.npz"
+
+
+# -- the root's tag: what the cache may delete ------------------------------------------------
+_claimed: set[str] = set()
+"""Roots found or made tagged in this process (so the tag is looked at once per root)."""
+
+
+def is_tagged(root: Path) -> bool:
+    """Whether ``root`` carries the tag this package writes (another program's
+    ``CACHEDIR.TAG`` does not count: its directory is not ours to clear)."""
+    try:
+        text = (root / TAG_NAME).read_text(errors="replace")
+    except OSError:
+        return False
+    return text.startswith(TAG_SIGNATURE) and "beo-bench" in text
+
+
+def claim_root(root: Path | None = None) -> bool:
+    """Tag the cache root as this package's, when this package creates it: it does not
+    exist yet, is empty, or is the default ``~/.cache/beo_bench`` (which only this package
+    uses; so a cache made by an older version without a tag is adopted). A non-empty
+    directory that ``$BEO_BENCH_CACHE`` points at is left untagged: entries are still
+    written there on request, but :func:`clear` will not delete anything in it. Returns
+    whether the root is tagged."""
+    root = cache_root() if root is None else Path(root)
+    if str(root) in _claimed:
+        return True
+    if not is_tagged(root):
+        try:
+            if root.exists() and any(root.iterdir()) and root != default_root():
+                return False
+            root.mkdir(parents=True, exist_ok=True)
+            with open(root / TAG_NAME, "x") as f:  # "x": never overwrite someone's file
+                f.write(TAG_TEXT)
+        except FileExistsError:  # another process tagged it first (or a foreign tag)
+            return is_tagged(root)
+        except OSError:  # not a directory, or not writable: then nothing is ours here
+            return False
+    _claimed.add(str(root))
+    return True
+
+
+def claim_for(path: Path) -> None:
+    """Call before writing ``path``: tags the cache root first when ``path`` lies in it (a
+    model saved elsewhere, e.g. a test's temporary directory, claims nothing)."""
+    root = cache_root().absolute()
+    if Path(path).absolute().is_relative_to(root):
+        claim_root(root)
+
+
+# -- entries ------------------------------------------------------------------------------------
+def array_checksum(arrays: Mapping[str, np.ndarray]) -> str:
+    """32 hex digits of SHA-256 over the arrays' names, dtypes, shapes and bytes (in name
+    order, :data:`CHECKSUM_KEY` left out): the bytes a reader gets, whatever the file's
+    compression or zip headers."""
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        if name == CHECKSUM_KEY:
+            continue
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}:{a.dtype.str}:{a.shape};".encode())
+        try:
+            h.update(a)  # the array's own buffer, not a tobytes() copy
+        except (TypeError, ValueError, BufferError):  # dtypes without a buffer (datetime)
+            h.update(a.tobytes())
+    return h.hexdigest()[:32]
+
+
+def with_checksum(arrays: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``arrays`` and their :func:`array_checksum` under :data:`CHECKSUM_KEY`."""
+    if CHECKSUM_KEY in arrays:
+        raise ValueError(f"{CHECKSUM_KEY!r} is reserved for the entry's checksum")
+    return {**arrays, CHECKSUM_KEY: np.array(array_checksum(arrays))}
+
+
+def checksum_problem(arrays: Mapping[str, np.ndarray]) -> str | None:
+    """Why ``arrays`` (read back from a file written with :func:`with_checksum`) cannot be
+    trusted, or None when their checksum matches."""
+    if CHECKSUM_KEY not in arrays:
+        return "it has no checksum (written by an older version)"
+    if str(arrays[CHECKSUM_KEY]) != array_checksum(arrays):
+        return "its arrays do not match their checksum"
+    return None
 
 
 def atomic_save_npz(path: Path, **arrays: np.ndarray) -> None:
@@ -58,40 +203,97 @@ def atomic_save_npz(path: Path, **arrays: np.ndarray) -> None:
         raise
 
 
-def cached(
-    kind: str, content: str, settings: dict[str, Any], compute: Callable[[], dict[str, np.ndarray]]
-) -> dict[str, np.ndarray]:
-    """Load an entry, or compute and store it. A corrupt entry (e.g. from a disk error) is
-    recomputed rather than trusted."""
-    path = entry_path(kind, content, settings)
-    if path.exists():
-        try:
-            with np.load(path) as z:
-                return {k: z[k] for k in z.files}
-        except Exception:
-            path.unlink(missing_ok=True)
-    arrays = compute()
-    atomic_save_npz(path, **arrays)
+def _read_entry(path: Path) -> dict[str, np.ndarray] | None:
+    """The verified arrays of the entry at ``path``, or None when it is missing or cannot be
+    trusted (unreadable, truncated, no or wrong checksum): then it is recomputed."""
+    if not path.exists():
+        return None
+    try:
+        with np.load(path) as z:  # allow_pickle stays False: an entry is arrays, never code
+            arrays = {k: z[k] for k in z.files}
+    except Exception as e:  # zip, zlib, format and OS errors alike: a torn or damaged file
+        _log.warning("cache entry %s is unreadable (%s); recomputing it", path, e)
+        return None
+    problem = checksum_problem(arrays)
+    if problem is not None:
+        # an old entry is expected after an upgrade; a wrong checksum means damage
+        log = _log.debug if CHECKSUM_KEY not in arrays else _log.warning
+        log("cache entry %s: %s; recomputing it", path, problem)
+        return None
+    del arrays[CHECKSUM_KEY]
     return arrays
 
 
+def cached(
+    kind: str, content: str, settings: dict[str, Any], compute: Callable[[], dict[str, np.ndarray]]
+) -> dict[str, np.ndarray]:
+    """Load an entry, or compute and store it. An entry that cannot be read or does not
+    match its checksum (a disk error, a tampered or an older file) is recomputed and
+    atomically replaced rather than trusted."""
+    path = entry_path(kind, content, settings)
+    found = _read_entry(path)
+    if found is not None:
+        return found
+    arrays = {k: np.asarray(v) for k, v in compute().items()}
+    claim_for(path)
+    atomic_save_npz(path, **with_checksum(arrays))
+    return arrays
+
+
+# -- info and clear -------------------------------------------------------------------------------
+def _kind_dirs(root: Path, kinds: list[str]) -> list[Path]:
+    """The directories of ``kinds`` under ``root``: real directories only. A symbolic link
+    in their place was not made by the cache and is never followed out of the root."""
+    out = []
+    for kind in kinds:
+        d = root / kind
+        if d.is_symlink():
+            _log.warning("%s is a symbolic link, not a cache directory: left alone", d)
+        elif d.is_dir():
+            out.append(d)
+    return out
+
+
+def _tree_bytes(top: Path) -> tuple[int, int]:
+    """(``.npz`` files, bytes of all files) under ``top``; links are counted as links, never
+    followed."""
+    entries, size = 0, 0
+    for dirpath, _, files in os.walk(top):  # os.walk does not follow directory links
+        for f in files:
+            st = os.lstat(os.path.join(dirpath, f))
+            size += st.st_size
+            entries += f.endswith(".npz")
+    return entries, size
+
+
 def info() -> dict[str, Any]:
-    """Per-kind entry counts and sizes."""
+    """Per-kind entry counts and sizes (known kinds only)."""
     root = cache_root()
     kinds: dict[str, dict[str, int]] = {}
-    if root.exists():
-        for d in sorted(p for p in root.iterdir() if p.is_dir()):
-            files = [f for f in d.rglob("*.npz")]
-            kinds[d.name] = {"entries": len(files), "bytes": sum(f.stat().st_size for f in files)}
+    for d in _kind_dirs(root, sorted(KINDS)):
+        entries, size = _tree_bytes(d)
+        kinds[d.name] = {"entries": entries, "bytes": size}
     return {"root": str(root), "kinds": kinds, "bytes": sum(k["bytes"] for k in kinds.values())}
 
 
 def clear(kind: str | None = None) -> int:
-    """Remove every entry (or every entry of ``kind``); returns bytes freed."""
+    """Remove every entry (or every entry of ``kind``, one of :data:`KINDS`); returns bytes
+    freed. Only the known kind directories of a root this package tagged are removed:
+    anything else in the root, and any root without the tag, is left alone
+    (:class:`UsageError` for an unknown kind or an untagged root holding kind directories)."""
+    kinds = list(KINDS) if kind is None else [check_kind(kind)]
     root = cache_root()
-    target = root / kind if kind else root
-    if not target.exists():
+    targets = _kind_dirs(root, kinds)
+    if not targets:
         return 0
-    freed = sum(f.stat().st_size for f in target.rglob("*") if f.is_file())
-    shutil.rmtree(target)
+    if not claim_root(root):
+        raise UsageError(
+            f"{root} does not carry beo-bench's {TAG_NAME}, so it may not be a beo-bench cache "
+            f"and nothing was deleted: check ${CACHE_ENV}; if it is an old beo-bench cache, "
+            f"delete what you want yourself (e.g. `rm -r {targets[0]}`)"
+        )
+    freed = 0
+    for d in targets:
+        freed += _tree_bytes(d)[1]
+        shutil.rmtree(d)  # fd-based on Linux: links inside are removed, never followed
     return freed

@@ -1,0 +1,131 @@
+"""BEOPick-v0 refuses bad settings, bad actions and out-of-order calls with one
+``beo_bench.errors`` exception that says what to change (never a bare numpy, GL or
+gymnasium traceback, and never a silent reinterpretation of the input)."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from beo_bench.envs.pick import EnvStateError, parse_action
+from beo_bench.scenes.camera import MAX_IMAGE_SIDE
+from beo_bench.scenes.gripper import MAX_OPENING
+from gymnasium.error import ResetNeeded
+
+import beo_bench  # noqa: F401  (registers the ids)
+from beo_bench.errors import ActionError, BeoBenchError, EnvConfigError
+
+SMALL = {"image_size": (64, 48), "num_objects": 1}
+DOWN = [0.0, 1.0, 0.0, 0.0]  # wxyz: gripper +z = world -z
+AIR = [0.4, 0.3, 0.9]  # above a table corner: a grasp there lifts nothing, quickly
+
+
+@pytest.fixture(scope="module")
+def env():
+    e = gym.make("BEOPick-v0", **SMALL)
+    yield e
+    e.close()
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        # the GL renderbuffer limit: must fail at make, not as a GL FatalError at reset
+        ({"image_size": (20000, 100)}, f"at most {MAX_IMAGE_SIDE}"),
+        ({"image_size": (64, MAX_IMAGE_SIDE + 1)}, f"at most {MAX_IMAGE_SIDE}"),
+        # strings: "64" used to unpack to a 6x4 image, ("640", "480") to be parsed
+        ({"image_size": "64"}, r"\(width, height\)"),
+        ({"image_size": ("640", "480")}, "whole number"),
+        ({"image_size": (64.5, 48)}, "whole number"),
+        ({"image_size": 640}, r"\(width, height\)"),
+        ({"image_size": np.array(640)}, r"\(width, height\)"),
+        ({"image_size": np.ones((2, 2), int)}, "whole number"),
+        ({"num_objects": "three"}, "num_objects"),
+        ({"num_objects": "2"}, "num_objects"),
+        ({"num_objects": (1, "x")}, "num_objects"),
+        ({"num_objects": {"min": 1}}, "num_objects"),
+        ({"num_objects": 1.5}, "whole number"),
+        ({"max_attempts": "x"}, "max_attempts"),
+        ({"categories": ["mug", "bowl", "mug"]}, r"\['mug'\] more than once"),
+        ({"categories": "mug"}, "list of category names"),
+        ({"categories": ["mug", 3]}, "category name"),
+    ],
+)
+def test_bad_settings_are_env_config_errors_at_make(kwargs, match) -> None:
+    with pytest.raises(EnvConfigError, match=match):
+        gym.make("BEOPick-v0", **kwargs)
+
+
+def test_whole_numbers_of_any_numeric_type_are_accepted() -> None:
+    e = gym.make(
+        "BEOPick-v0", image_size=np.array([64, 48]), num_objects=np.int64(1), max_attempts=2.0
+    )
+    u = e.unwrapped
+    assert (u.intrinsics.width, u.intrinsics.height) == (64, 48)
+    assert u.num_objects == (1, 1) and u.max_attempts == 2
+    e.close()
+
+
+@pytest.mark.parametrize(
+    "action, match",
+    [
+        ("abc", "not numeric"),
+        ("0 0 1 0 1 0 0 0.05", "not numeric"),
+        ({"position": [0, 0, 1]}, "not numeric"),
+        (["0", "0", "1", "0", "1", "0", "0", "0.05"], "not numeric"),  # was parsed silently
+        ([[0, 0, 1], [0, 1, 0, 0], [0.05]], "not an array of 8 numbers"),
+        (np.ones(8, dtype=bool), "not numeric"),
+        (None, "not numeric"),
+        ([*AIR, *DOWN, MAX_OPENING + 0.01], r"outside the gripper's range \[0, 0.08\]"),
+        ([*AIR, *DOWN, -0.01], r"outside the gripper's range \[0, 0.08\]"),
+        ([*AIR, *DOWN, 5.0], "opening"),
+    ],
+)
+def test_bad_actions_are_action_errors(env, action, match) -> None:
+    env.reset(seed=0)
+    with pytest.raises(ActionError, match=match):
+        env.step(action)
+
+
+def test_opening_bounds_are_accepted_including_float32_rounding() -> None:
+    for opening in (0.0, MAX_OPENING, np.float32(MAX_OPENING), MAX_OPENING + 1e-7, -1e-7):
+        _, o = parse_action(np.r_[AIR, DOWN, opening].astype(np.float32))
+        assert 0.0 <= o <= MAX_OPENING
+
+
+def test_step_after_termination_raises_until_reset(env) -> None:
+    env.reset(seed=1)
+    _, reward, terminated, _, _ = env.step([*AIR, *DOWN, MAX_OPENING])
+    assert terminated and reward == 0.0  # max_attempts=1: one grasp ends the episode
+    with pytest.raises(EnvStateError, match=r"terminated.*call reset\(\)"):
+        env.step([*AIR, *DOWN, MAX_OPENING])
+    with pytest.raises(BeoBenchError):  # one family for every user error, and a RuntimeError
+        env.step([*AIR, *DOWN, MAX_OPENING])
+    env.reset(seed=1)
+    _, _, terminated, _, info = env.step([*AIR, *DOWN, MAX_OPENING])  # a new episode acts
+    assert terminated and info["attempt"] == 1
+
+
+def test_step_after_termination_with_several_attempts() -> None:
+    e = gym.make("BEOPick-v0", max_attempts=2, **SMALL)
+    try:
+        e.reset(seed=2)
+        assert not e.step([*AIR, *DOWN, MAX_OPENING])[2]  # first miss: one attempt left
+        assert e.step([*AIR, *DOWN, MAX_OPENING])[2]  # second miss: terminated
+        with pytest.raises(EnvStateError, match="reset"):
+            e.step([*AIR, *DOWN, MAX_OPENING])
+    finally:
+        e.close()
+
+
+def test_step_before_reset() -> None:
+    e = gym.make("BEOPick-v0", **SMALL)
+    try:
+        with pytest.raises(ResetNeeded):  # gymnasium's order check, through gym.make
+            e.step([*AIR, *DOWN, MAX_OPENING])
+        with pytest.raises(EnvStateError, match=r"call reset\(\) before step\(\)"):
+            e.unwrapped.step([*AIR, *DOWN, MAX_OPENING])  # the env's own check, unwrapped
+        with pytest.raises(EnvStateError, match="reset"):
+            e.unwrapped.ground_truth()
+    finally:
+        e.close()

@@ -1,0 +1,70 @@
+"""A backend that misbehaves on purpose, for the runner's fault tests (test-only).
+
+Importing this module registers ``test-fault``. Spawned workers know only in-tree and
+entry-point backends, so the tests hand it to them explicitly:
+``WorkerPool(n, imports=["tests.runner_faults"])`` (spawned children inherit ``sys.path``,
+which holds the repository root under pytest). Nothing in the package imports it.
+
+On the views whose class (``View.class_hint``, given by ``pose-1dof``; item ``i`` shows
+class ``i % 11``) is in ``classes`` it does ``mode``: ``sleep`` (an hour), ``abort``
+(``os.abort``: signal 6), ``segfault`` (signal 11), ``exit`` (``sys.exit(3)``), ``raise``;
+before that it writes its PID to ``marker`` when given. Other views get a cheap valid
+estimate (the true class, an identity pose, a half-full grid).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from beo_bench.backend import register_backend
+from beo_bench.types import Estimate, View
+
+NAME = "test-fault"
+
+
+def _misbehave(mode: str) -> None:
+    if mode == "sleep":
+        time.sleep(3600)
+    elif mode == "abort":
+        os.abort()
+    elif mode == "segfault":
+        ctypes.string_at(0)
+    elif mode == "exit":
+        sys.exit(3)
+    elif mode == "raise":
+        raise RuntimeError("asked to fail")
+    else:
+        raise ValueError(f"unknown mode {mode!r}")
+
+
+@register_backend(NAME)
+class FaultBackend:
+    """See the module docstring."""
+
+    name = NAME
+    wants_class_hint = True
+    diagnostic = True  # never among the default backends of `beo-bench all` or `demo`
+
+    def __init__(self, mode: str = "sleep", classes: list[Any] | None = None, marker: str = ""):
+        self.mode, self.marker = mode, marker
+        self.classes = None if classes is None else {int(c) for c in classes}
+
+    def predict(self, view: View) -> Estimate:
+        if self.classes is None or view.class_hint in self.classes:
+            if self.marker:
+                Path(self.marker).write_text(f"{os.getpid()}\n")
+            _misbehave(self.mode)
+        C = len(view.categories)
+        probs = np.full(C, 0.0)
+        probs[view.class_hint if view.class_hint is not None else 0] = 1.0
+        pts = view.points()
+        shape = np.zeros((16, 16, 16), dtype=np.float32)
+        shape[4:12, 4:12, 4:12] = 1.0
+        return Estimate(probs, np.eye(3), pts.mean(axis=0), np.full(3, 0.1), shape)
