@@ -43,8 +43,8 @@ class PerceptionBackend(Protocol):
 
     - ``privileged`` (default False): the runner gives the view's ``ground_truth`` only to
       backends that set it (the ``oracle`` bound);
-    - ``wants_class_hint`` (default False): ask for ``View.class_hint`` (given only by suites
-      that allow it, see ``Suite.class_hint``);
+    - ``wants_class_hint`` (default False): the backend can use ``View.class_hint``, which
+      views carry only in a suite's ``class-given`` track (``Suite.track``);
     - ``prepare(categories)``: build or load what is slow (trained models, class means) for
       that class list, caching it on disk; the runner calls it once in its own process before
       workers start, so they do not all build it at once.

@@ -19,7 +19,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from beo_bench.errors import BeoBenchError, CorruptDataError, UsageError
+from beo_bench.bench.columns import brief_columns
+from beo_bench.errors import BeoBenchError, UsageError
 
 if TYPE_CHECKING:
     from beo_bench.perception.hbeo_train import HBEOConfig, Kind
@@ -255,12 +256,16 @@ def cmd_run(args: argparse.Namespace) -> int:
     from beo_bench.backend import get_backend, load_plugins
     from beo_bench.bench.campaign import parse_options, run_name
     from beo_bench.bench.runner import RunConfig, run
+    from beo_bench.bench.suites import check_track
 
     load_plugins()
-    suite = _suite(args.suite).with_overrides(size=args.episodes, seed=args.seed)
+    suite = _suite(args.suite).with_overrides(
+        size=args.episodes, seed=args.seed, track=args.track
+    )  # --track on a suite without tracks is a usage error here
     kwargs = parse_options(args.opt)
-    get_backend(args.backend, **kwargs)  # fail here, with its message, not in a worker
-    name = run_name(suite.name, args.backend, kwargs, args.seed)
+    backend = get_backend(args.backend, **kwargs)  # fail here, not in a worker
+    check_track(suite, args.backend, bool(getattr(backend, "wants_class_hint", False)))
+    name = run_name(suite.name, args.backend, kwargs, args.seed, suite.track)
     out = Path(args.out) if args.out else Path("runs") / name
     summary = run(
         RunConfig(suite, args.backend, kwargs),
@@ -296,55 +301,57 @@ def _timeout(args: argparse.Namespace) -> dict[str, float]:
     return {} if args.item_timeout is None else {"item_timeout": args.item_timeout}
 
 
-COLUMNS = (
-    ("class_acc", "class acc", 100, "{:.1f}%"),
-    ("rot_err_deg_mean", "rot mean", 1, "{:.1f}"),
-    ("rot_err_deg_median", "rot med", 1, "{:.1f}"),
-    ("gross_err_rate", ">15deg", 100, "{:.1f}%"),
-    ("trans_err_cm_mean", "trans cm", 1, "{:.2f}"),
-    ("iou_mean", "IoU", 1, "{:.3f}"),
-    ("edt_err_mean", "EDT", 1, "{:.1f}"),
-    ("fscore_mean", "F@1%", 1, "{:.3f}"),
-    ("pick_success", "pick", 100, "{:.1f}%"),
-    ("ms_per_view_median", "ms/view", 1, "{:.1f}"),
-)
+COLUMNS = brief_columns()
+"""The plain-text table's metric columns (``bench.columns``: one list for every table)."""
 
 
 def format_runs(summaries: list[dict]) -> str:
-    """A plain table of runs: one row per run, the columns that any of them measured."""
-    cols = [c for c in COLUMNS if any(c[0] in s["metrics"] for s in summaries)]
-    head = f"{'suite':<12} {'backend':<22} {'n':>5} {'fail':>4} " + " ".join(
-        f"{c[1]:>9}" for c in cols
+    """A plain table of runs: one row per run (its suite and track, backend and options),
+    the columns that any of them measured."""
+    from beo_bench.bench.campaign import backend_label
+    from beo_bench.bench.compare import track_of
+
+    def where(s: dict) -> str:
+        track = track_of(s)
+        return f"{s['suite']}@{track}" if track else str(s["suite"])
+
+    def who(s: dict) -> str:
+        return backend_label(s["backend"], s.get("provenance", {}).get("backend_kwargs") or {})
+
+    cols = [c for c in COLUMNS if any(c.key in s["metrics"] for s in summaries)]
+    w_suite = max([len("suite"), *(len(where(s)) for s in summaries)])
+    w_backend = max([len("backend"), *(len(who(s)) for s in summaries)])
+    head = f"{'suite':<{w_suite}} {'backend':<{w_backend}} {'n':>5} {'fail':>4} " + " ".join(
+        f"{c.short:>9}" for c in cols
     )
     lines = [head, "-" * len(head)]
     for s in summaries:
-        cells = []
-        for key, _, scale, fmt in cols:
-            v = s["metrics"].get(key)
-            cells.append(f"{fmt.format(v * scale) if v is not None else '-':>9}")
+        cells = [f"{c.format(s['metrics'].get(c.key)):>9}" for c in cols]
         lines.append(
-            f"{s['suite']:<12} {s['backend']:<22} {s['n']:>5} {s['failures']:>4} " + " ".join(cells)
+            f"{where(s):<{w_suite}} {who(s):<{w_backend}} {s['n']:>5} {s['failures']:>4} "
+            + " ".join(cells)
         )
     return "\n".join(lines)
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    import json
+    """The runs' table; then, unless ``--table``, each run paired with the first on the
+    items both scored (B - A with a bootstrap interval over items, and a verdict)."""
+    from beo_bench.bench import compare
 
-    summaries = []
-    for p in args.runs:
-        p = Path(p)
-        f = p / "summary.json" if p.is_dir() else p
-        if not f.exists():
-            raise UsageError(f"{f} does not exist: give run directories or summary.json files")
-        try:
-            summaries.append(json.loads(f.read_text()))
-        except (json.JSONDecodeError, UnicodeDecodeError) as e:
-            raise CorruptDataError(
-                f"{f} is not a readable summary ({e}); rerun that run with `beo-bench run "
-                "--resume` to rewrite it"
-            ) from e
-    print(format_runs(summaries))
+    loaded = [compare.load_summary(p) for p in args.runs]
+    if args.table or len(loaded) < 2:
+        print(format_runs([s for _, s in loaded]))
+        return 0
+    (a_dir, a_sum), rest = loaded[0], loaded[1:]
+    for b_dir, b_sum in rest:  # refuse before printing anything
+        compare.check_comparable(a_sum, b_sum, f"{a_dir} and {b_dir}")
+    first = compare.run_from(a_dir, a_sum)
+    others = [compare.run_from(d, s) for d, s in rest]
+    print(format_runs([s for _, s in loaded]))
+    for b in others:
+        print()
+        print(compare.format_paired(first, b, compare.paired_runs(first, b)))
     return 0
 
 
@@ -564,6 +571,8 @@ def _item_timeout_arg(g: Any) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from beo_bench.bench.suites import TRACKS
+
     p = argparse.ArgumentParser(prog="beo-bench", description=__doc__)
     sub = p.add_subparsers(dest="command", required=True)
 
@@ -624,12 +633,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--seed", type=seed_int, default=None, help="replace the suite's base seed")
     r.add_argument(
+        "--track",
+        choices=list(TRACKS),
+        default=None,
+        help="pose suites: whether backends that can use the true class are given it "
+        "(default: class-free; suites without tracks refuse it)",
+    )
+    r.add_argument(
         "--workers",
         type=positive_int,
         default=None,
         help="worker processes (default: one per core)",
     )
-    r.add_argument("--out", default=None, help="default: runs/SUITE__BACKEND")
+    r.add_argument("--out", default=None, help="default: runs/SUITE[@TRACK]__BACKEND")
     r.add_argument("--resume", action="store_true", help="continue a killed run in --out")
     r.add_argument("--ray", action="store_true", help="run the items as Ray tasks")
     r.add_argument("--rerun", default=None, help="also write a rerun .rrd of the first views")
@@ -667,8 +683,20 @@ def build_parser() -> argparse.ArgumentParser:
     al.add_argument("--out", default="leaderboards")
     al.set_defaults(func=cmd_all)
 
-    cp = sub.add_parser("compare", help="a table of several runs")
+    cp = sub.add_parser(
+        "compare",
+        help="runs side by side; each run paired with the first on their common items",
+        description="A table of the runs; then, for two or more runs of one suite, version, "
+        "track and seed, each run B against the first run A: per headline metric, B - A on "
+        "the items both scored, a 95% bootstrap interval that resamples items, and a "
+        "verdict (better / worse / no difference for B).",
+    )
     cp.add_argument("runs", nargs="+", help="run directories or summary.json files")
+    cp.add_argument(
+        "--table",
+        action="store_true",
+        help="only the table (runs of any suites; no pairing, no results.jsonl needed)",
+    )
     cp.set_defaults(func=cmd_compare)
 
     lb = sub.add_parser("leaderboard", help="regenerate leaderboards/ from run summaries")

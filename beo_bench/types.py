@@ -106,6 +106,83 @@ class GroundTruth:
 
 
 @dataclass(frozen=True)
+class ViewpointPrior:
+    """The distribution a suite draws its viewpoints from, published as part of the protocol
+    so that any backend may use it as its pose prior P(R) (eq. 3.22). The learned backends
+    absorb it from their training views (rendered from the same rig); a search-based one
+    (``beo``) is told it here.
+
+    The isolated suites' rig (``scenes.camera.OBJECT_RIG``) looks at the object's centre
+    from an azimuth uniform over the full circle, an elevation uniform in ``elevation_deg``
+    above the object's horizontal plane, with a roll about the optical axis drawn from
+    N(0, ``roll_sigma_deg``). So P(R) depends only on where the object's up (canonical +z,
+    ``R[:, 2]``) points in the camera frame (OpenCV axes): ``u = (-sin(roll) cos(el),
+    -cos(roll) cos(el), -sin(el))``, uniform in the rotation about it. :meth:`log_prob` is
+    log P(R) relative to the uniform distribution over SO(3) (0 everywhere would be no
+    prior): ``log 4 pi + log p(el) + log p(roll) - log cos(el)``, the last term the area
+    element of the (el, roll) chart of the sphere."""
+
+    elevation_deg: tuple[float, float]
+    roll_sigma_deg: float
+
+    def __post_init__(self) -> None:
+        from beo_bench.errors import ViewError
+
+        lo, hi = self.elevation_deg
+        if not -90.0 <= lo <= hi <= 90.0 or not 0.0 <= self.roll_sigma_deg < 180.0:
+            raise ViewError(
+                f"ViewpointPrior(elevation_deg={self.elevation_deg}, roll_sigma_deg="
+                f"{self.roll_sigma_deg}): give an elevation range low <= high within [-90, 90] "
+                "degrees and a roll standard deviation in [0, 180) degrees"
+            )
+
+    @classmethod
+    def of_rig(cls, rig: Any) -> ViewpointPrior:
+        """The prior of a ``scenes.camera.CameraRig`` whose target is the object's centre."""
+        lo, hi = rig.elevation_deg
+        return cls((float(lo), float(hi)), float(rig.roll_sigma_deg))
+
+    def angles(self, R: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """(elevation, roll) in degrees of rotations ``R`` (..., 3, 3) canonical -> camera:
+        the rig's angles that would give the object's up ``R[..., :, 2]``."""
+        u = np.asarray(R, dtype=np.float64)[..., :, 2]
+        el = np.degrees(np.arcsin(np.clip(-u[..., 2], -1.0, 1.0)))
+        roll = np.degrees(np.arctan2(-u[..., 0], -u[..., 1]))
+        return el, roll
+
+    def log_prob(self, R: FloatArray, soft_deg: float = 0.0) -> FloatArray:
+        """log P(R) (..., ) relative to uniform over SO(3) (see the class docstring).
+        ``soft_deg`` > 0 replaces the elevation range's hard edges (-inf outside) by a
+        Gaussian fall-off of that width, for a search whose hypotheses may lie a little
+        outside it."""
+        el, roll = self.angles(R)
+        lo, hi = self.elevation_deg
+        width = np.radians(max(hi - lo, 1e-6))
+        out_by = np.maximum(lo - el, 0.0) + np.maximum(el - hi, 0.0)
+        if soft_deg > 0:
+            log_el = -np.log(width) - 0.5 * (out_by / soft_deg) ** 2
+        else:
+            log_el = np.where(out_by > 0, -np.inf, -np.log(width))
+        sigma = np.radians(max(self.roll_sigma_deg, 1e-6))
+        log_roll = -0.5 * (np.radians(roll) / sigma) ** 2 - np.log(sigma * np.sqrt(2 * np.pi))
+        # the area element of the (el, roll) chart; clipped where the chart is singular
+        cos_el = np.maximum(np.cos(np.radians(el)), 1e-3)
+        return np.log(4 * np.pi) + log_el + log_roll - np.log(cos_el)
+
+    def support(
+        self, R: FloatArray, margin_deg: float = 0.0, roll_sigmas: float = 3.0
+    ) -> NDArray[np.bool_]:
+        """(...,) bool: rotations whose elevation lies in the range widened by
+        ``margin_deg`` and whose roll is within ``roll_sigmas`` standard deviations (plus
+        the margin): where a search need look (3 sigma hold 99.7% of the rolls)."""
+        el, roll = self.angles(R)
+        lo, hi = self.elevation_deg
+        in_el = (el >= lo - margin_deg) & (el <= hi + margin_deg)
+        in_roll = np.abs(roll) <= roll_sigmas * self.roll_sigma_deg + margin_deg
+        return np.asarray(in_el & in_roll, dtype=bool)
+
+
+@dataclass(frozen=True)
 class View:
     """One segmented depth observation of one object: what a perception backend sees.
 
@@ -116,13 +193,19 @@ class View:
     - ``categories``: the class list that ``Estimate.class_probs`` indexes;
     - ``segmentation``: optional (H, W) int32 instance labels of the whole image (0 =
       background), for backends that use context;
-    - ``class_hint``: optional index of the true class, for protocols where the class is
-      given (the dissertation's ICP baseline);
+    - ``class_hint``: optional index of the true class, given in the ``class-given`` track
+      of a pose suite (``Suite.track``) to backends that declare ``wants_class_hint``; a
+      backend that can use it uses it whenever a view carries it (the dissertation's pose
+      comparisons gave every method the class);
     - ``up_hint``: optional (3,) unit vector, the object's canonical +z in the camera frame,
       given when only the rotation about the vertical is unknown (the ``pose-1dof`` protocol,
       section 3.3.2; on a table it is the world's up);
     - ``pose_hint``: optional (R_cam, t_cam, size) truth, given by the ``known-pose``
       protocol (class and completion with the pose known, Table 3.1);
+    - ``viewpoint_prior``: optional :class:`ViewpointPrior`, the distribution the suite
+      drew this view's camera pose from (the isolated suites' rig), for backends that use
+      a pose prior; None where no such distribution is published (tabletop scenes, views
+      a user makes);
     - ``ground_truth``: filled only for privileged backends (see ``GroundTruth``).
     """
 
@@ -136,6 +219,7 @@ class View:
     up_hint: Vec3 | None = None
     pose_hint: tuple[Mat3, Vec3, Vec3] | None = None
     ground_truth: GroundTruth | None = None
+    viewpoint_prior: ViewpointPrior | None = None
 
     def __post_init__(self) -> None:
         from beo_bench.errors import ViewError

@@ -8,7 +8,8 @@ Per view (DESIGN.md "Perception backends"):
    every rotation: e = the largest extent of the points along their principal axes, t =
    their centroid pushed a quarter of e back along the viewing ray (a view sees the front).
 2. *Coarse step* (eq. 3.20-3.21): every candidate rotation (1-DOF: every ``yaw_step_deg``
-   about the known up; 3-DOF: ``so3_samples`` super-Fibonacci rotations) voxelises the
+   about the known up; 3-DOF: ``so3_samples`` super-Fibonacci rotations, spread over the
+   support of the pose prior P(R) when there is one, see 6.) voxelises the
    observation (:mod:`.beo_observe`: filled / known empty by free-space carving / unknown),
    projects it (:mod:`.beo_project`, eq. 3.14-3.19) and back-projects it (eq. 3.7), on a
    grid ``coarse_factor`` times coarser with the ``coarse_components`` leading directions,
@@ -21,21 +22,36 @@ Per view (DESIGN.md "Perception backends"):
    hypothesis's canonical axes, of the completion's occupied voxels together with the
    observed points, and its edge becomes that box's largest extent. The points fix the
    extents the camera sees across; the completion supplies the hidden depth.
-4. *Fine step* (eq. 3.22): around each survivor, a local search to ``fine_deg`` resolution
-   (1-DOF: yaw steps of 3^j ``fine_deg`` down to ``fine_deg``; 3-DOF: ``refine_rounds``
-   rounds of a pattern search, +-step about each axis from half the coarse spacing, halving
-   the step), each hypothesis scored at full resolution by the joint pose-class density
-   max_c log p(o'_R | c) + log p(c) (eq. 3.10, 3.22). The best (rotation, class) wins.
+4. *Fine step* (eq. 3.22): each survivor, or, when the class is given, its twin turned 180
+   degrees about its up if that scores higher (``twins``: a partial view often fits its
+   front-back twin as well, and the coarse step keeps only one of them); around each, a
+   local search to ``fine_deg`` resolution (1-DOF: yaw steps of 3^j ``fine_deg`` down to
+   ``fine_deg``; 3-DOF: ``refine_rounds`` rounds of a pattern search, +-step about each
+   axis from half the coarse spacing, halving the step), each hypothesis scored at full
+   resolution by the joint pose-class density max_c log p(o'_R | c) + log p(c) + log P(R)
+   (eq. 3.10, 3.22). The best (rotation, class) wins.
 5. The winner's translation and size are refined once more; its completion W o' + mu (eq.
    3.7), clipped to [0, 1], is resampled into the unit cube of its estimated bounding box;
    ``class_probs`` is the posterior over classes at that pose (eq. 3.11).
+6. *Pose prior* P(R) (eq. 3.22, ``pose_prior``): the suite's published viewpoint
+   distribution (``View.viewpoint_prior``: the isolated suites' rig, elevation 0-60 deg,
+   roll within 25 deg; the same distribution the learned backends' training views come
+   from). In 3-DOF the coarse candidates cover only its support (elevation within
+   ``PRIOR_MARGIN_DEG`` of the range, roll within 3 sigma plus that margin: 7% of SO(3), so
+   the same ``so3_samples`` are 2.4x denser per axis) and the fine step adds log P(R), its
+   elevation edges softened by ``PRIOR_SOFT_DEG``. Without a published prior (tabletop,
+   a user's views), or with ``pose_prior=False``, P(R) is uniform over SO(3). With
+   ``View.up_hint`` (1-DOF) P(R) is constant over the yaw and changes nothing.
 
-With ``View.pose_hint`` (``known-pose``, Table 3.1) the pose search is skipped: one
-voxelisation at the given pose, one projection, classification and completion.
+The class: ``View.class_hint`` when the view carries one (the ``class-given`` track), else
+estimated jointly with the pose. With ``View.pose_hint`` (``known-pose``, Table 3.1) the
+pose search is skipped: one voxelisation at the given pose, one projection,
+classification and completion.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -55,7 +71,14 @@ from beo_bench.perception.digest import model_digest
 from beo_bench.backend import as_bool, register_backend
 from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
 from beo_bench.names import check_name
-from beo_bench.types import Estimate, View
+from beo_bench.types import Estimate, View, ViewpointPrior
+
+PRIOR_MARGIN_DEG = 5.0
+"""How far beyond the prior's elevation range (and its 3-sigma roll) the coarse 3-DOF
+candidates reach: about half their spacing, so a pose at the edge has a candidate near."""
+PRIOR_SOFT_DEG = 5.0
+"""Width of the Gaussian fall-off that replaces the elevation range's hard edges in the
+fine step (a hypothesis a few degrees outside is unlikely, not impossible)."""
 
 
 @dataclass
@@ -100,8 +123,12 @@ class BEOBackend:
       cache's models, never a path); None uses the default model for the view's
       categories, trained on first use;
     - ``resolution`` (32): D of the voxel grids (must match the model);
-    - ``class_given`` (False): use ``View.class_hint`` where a suite gives it; BEO's own
-      protocol estimates the class jointly with the pose, so off by default;
+    - ``pose_prior`` (True): use the suite's viewpoint distribution
+      (``View.viewpoint_prior``) as P(R) in the 3-DOF coarse and fine steps (module
+      docstring, 6.); False: uniform over SO(3);
+    - ``twins`` (True): when the class is given, the fine step also scores each coarse
+      survivor's twin turned 180 degrees about its up and keeps the better of the two
+      (module docstring, 4.; :meth:`_better_twins`);
     - ``lasso`` (0.02): weight of the L1 term of the partial projection (eq. 3.19);
     - ``coarse_factor`` (2): the coarse step's grid is D / coarse_factor per edge;
     - ``yaw_step_deg`` (10): 1-DOF coarse resolution; ``fine_deg`` (1): fine resolution;
@@ -116,16 +143,13 @@ class BEOBackend:
     """
 
     name = "beo"
-
-    @property
-    def wants_class_hint(self) -> bool:
-        return self.class_given
+    wants_class_hint = True
+    """It uses ``View.class_hint`` (given in the ``class-given`` track) to fix the class."""
 
     def __init__(
         self,
         model: str | None = None,
         resolution: int = 32,
-        class_given: bool = False,
         lasso: float = 0.02,
         coarse_factor: int = 2,
         yaw_step_deg: float = 10.0,
@@ -139,12 +163,15 @@ class BEOBackend:
         fine: str = "density",
         coarse_components: int = 48,
         instances: int | None = None,
+        pose_prior: bool = True,
+        twins: bool = True,
     ) -> None:
         self.model_name = (
             None if model in (None, "", "None", "default") else check_name(str(model), "model")
         )
         self.resolution = int(resolution)
-        self.class_given = as_bool(class_given)
+        self.pose_prior = as_bool(pose_prior)
+        self.twins = as_bool(twins)
         self.lasso = float(lasso)
         self.coarse_factor = int(coarse_factor)
         self.yaw_step_deg = float(yaw_step_deg)
@@ -251,12 +278,34 @@ class BEOBackend:
         sub: Subspace,
         hyp: Hypotheses,
         classes: list[int],
+        prior: ViewpointPrior | None = None,
     ) -> torch.Tensor:
-        """(B,) the fine step's score of each hypothesis (higher is better)."""
+        """(B,) the fine step's score of each hypothesis (higher is better): the joint
+        pose-class log density plus log P(R) under ``prior`` (eq. 3.22; None: uniform)."""
         if self.fine == "edt":
             return -self.coarse_errors(obs, sub, hyp)
+        return self.class_scores(obs, model, sub, hyp, classes, prior).amax(dim=1)
+
+    def class_scores(
+        self,
+        obs: Observation,
+        model: BEOModel,
+        sub: Subspace,
+        hyp: Hypotheses,
+        classes: list[int],
+        prior: ViewpointPrior | None = None,
+    ) -> torch.Tensor:
+        """(B, C) log p(o'_R | c) + log p(c) + log P(R) per class (-inf for the classes
+        not in ``classes``): the terms of eq. 3.22 before the max over classes."""
         comp = self.complete(obs, sub, hyp)
-        return self.joint_scores(model, comp.codes, classes)[0]
+        logp = self.joint_scores(model, comp.codes, classes)[1]
+        allowed = torch.full((logp.shape[1],), -math.inf, dtype=logp.dtype)
+        allowed[classes] = 0.0
+        score = logp + allowed
+        if prior is not None:
+            log_p = prior.log_prob(hyp.R.double().numpy(), soft_deg=PRIOR_SOFT_DEG)
+            score = score + torch.from_numpy(log_p).to(score.dtype)[:, None]
+        return score
 
     # -- translation and size -------------------------------------------------------------
     def refine_box(
@@ -324,26 +373,38 @@ class BEOBackend:
         return torch.tensor(chosen)
 
     def search(
-        self, obs: Observation, cats: tuple[str, ...], classes: list[int], up: np.ndarray | None
+        self,
+        obs: Observation,
+        cats: tuple[str, ...],
+        classes: list[int],
+        up: np.ndarray | None,
+        prior: ViewpointPrior | None = None,
     ) -> tuple[Hypotheses, dict]:
-        """The best hypothesis (B = 1) by the coarse and fine steps, and search statistics."""
+        """The best hypothesis (B = 1) by the coarse and fine steps, and search statistics.
+        ``prior``: the pose prior P(R) of the 3-DOF search (None: uniform over SO(3))."""
         model, full, coarse = self._model(cats)
         t0, e0 = self.start_box(obs)
         if up is not None:
             n = max(1, round(360.0 / self.yaw_step_deg))
             R0 = yaw_starts(up, n)
             spacing = 2 * math.pi / n
+            prior = None  # constant over the yaw about a known up
+        elif prior is not None:
+            R0, spacing = prior_rotations(prior, self.so3_samples)
+            R0 = R0.copy()  # the cached set stays read-only; torch wants its own
         else:
             R0 = super_fibonacci(self.so3_samples)
-            # the mean spacing of N rotations spread over SO(3) (volume pi^2 in angle units)
-            spacing = (math.pi**2 / self.so3_samples) ** (1 / 3) * 2
+            spacing = so3_spacing(self.so3_samples)
         hyp = Hypotheses.of(R0, t0, e0)
         hyp = self.fit_box(obs, coarse, hyp, self.coarse_box_rounds)
         errors = self.coarse_errors(obs, coarse, hyp)
         keep = self._top(errors, hyp.R, 1.5 * spacing)
         seeds = self.fit_box(obs, full, hyp.take(keep), self.size_rounds)
-        score = self.fine_scores(obs, model, full, seeds, classes)
+        score = self.fine_scores(obs, model, full, seeds, classes, prior)
         n_fine = len(seeds)
+        if self.twins and len(classes) == 1:
+            seeds, score = self._better_twins(obs, model, full, seeds, score, classes, prior)
+            n_fine += len(seeds)
         if up is not None:
             # yaw steps of 3^j * fine_deg within half a coarse step, then fine_deg: a
             # ternary hill climb that reaches fine_deg resolution in a few rounds
@@ -370,7 +431,7 @@ class BEOBackend:
                 cand_R = (dR[None] @ seeds.R[:, None]).reshape(-1, 3, 3)
             parent = torch.arange(len(seeds)).repeat_interleave(len(mv))
             cand = Hypotheses(cand_R, seeds.t[parent], seeds.e[parent])
-            cand_score = self.fine_scores(obs, model, full, cand, classes)
+            cand_score = self.fine_scores(obs, model, full, cand, classes, prior)
             n_fine += len(cand)
             # each seed moves to its best neighbour if that beats it (eq. 3.22)
             per = torch.cat([score[:, None], cand_score.reshape(len(seeds), len(mv))], 1)
@@ -392,12 +453,52 @@ class BEOBackend:
         }
         return best, stats
 
+    def _better_twins(
+        self,
+        obs: Observation,
+        model: BEOModel,
+        sub: Subspace,
+        seeds: Hypotheses,
+        score: torch.Tensor,
+        classes: list[int],
+        prior: ViewpointPrior | None,
+    ) -> tuple[Hypotheses, torch.Tensor]:
+        """Each seed, or its twin turned 180 degrees about its own up (canonical +z) when
+        the twin scores higher under the seed's best class. A partial view of a car or an
+        airplane fits its front-back twin nearly as well, so the coarse EDT error often
+        keeps one of the two and drops the other; the fine score is what tells them apart
+        (on 110 ``pose-3dof`` views a third of the 180-degree errors were twins the fine
+        step never saw). The search calls it only when the class is known (given): with
+        the class estimated, a misclassified view's density cannot tell front from back,
+        and twins made the class-free estimates worse (110 views, mean rotation error 44 ->
+        55 degrees in 3-DOF, 33 -> 40 in 1-DOF, nearly all of it on misclassified chairs
+        and sofas), while given the class they made them better (44 -> 33, 23 -> 21)."""
+        flip = torch.diag(torch.tensor([-1.0, -1.0, 1.0]))
+        turned = Hypotheses(seeds.R @ flip, seeds.t, seeds.e)
+        twins = self.fit_box(obs, sub, turned, self.size_rounds)
+        if self.fine == "edt":
+            twin_score = self.fine_scores(obs, model, sub, twins, classes, prior)
+            better = twin_score > score
+        else:
+            mine = self.class_scores(obs, model, sub, seeds, classes, prior)
+            theirs = self.class_scores(obs, model, sub, twins, classes, prior)
+            rows = torch.arange(len(seeds))
+            c = mine.argmax(dim=1)
+            better = theirs[rows, c] > mine[rows, c]
+            twin_score = theirs.amax(dim=1)
+        out = Hypotheses(
+            torch.where(better[:, None, None], twins.R, seeds.R),
+            torch.where(better[:, None], twins.t, seeds.t),
+            torch.where(better, twins.e, seeds.e),
+        )
+        return out, torch.where(better, twin_score, score)
+
     # -- predict --------------------------------------------------------------------------
     def predict(self, view: View) -> Estimate:
         cats = tuple(view.categories)
         model, full, _ = self._model(cats)
         obs = Observation.from_view(view)
-        classes = view.candidate_classes(self.class_given)
+        classes = view.candidate_classes(use_hint=True)
         info: dict = {}
         if view.pose_hint is not None:
             R, t, size = (np.asarray(a, dtype=np.float64) for a in view.pose_hint)
@@ -413,7 +514,8 @@ class BEOBackend:
             protocol = "known-pose"
         else:
             up = view.unit_up()
-            best, info = self.search(obs, cats, classes, up)
+            prior = view.viewpoint_prior if self.pose_prior else None
+            best, info = self.search(obs, cats, classes, up, prior)
             best = self.fit_box(obs, full, best, 1)
             comp = self.complete(obs, full, best)
             flo, fhi = _occupied_box(comp.grids, model.D)
@@ -437,6 +539,31 @@ class BEOBackend:
             shape=np.asarray(grid, dtype=np.float32),
             info=info,
         )
+
+
+def so3_spacing(n: int) -> float:
+    """The mean spacing (rad) of ``n`` rotations spread evenly over SO(3) (volume pi^2 in
+    angle units)."""
+    return (math.pi**2 / n) ** (1 / 3) * 2
+
+
+@functools.lru_cache(maxsize=16)
+def prior_rotations(prior: ViewpointPrior, n: int) -> tuple[np.ndarray, float]:
+    """About ``n`` rotations spread evenly over the support of ``prior`` (see
+    :meth:`ViewpointPrior.support`, widened by ``PRIOR_MARGIN_DEG``), and their spacing
+    (rad): the super-Fibonacci set whose members in the support number at least ``n``.
+    Deterministic, cached (do not modify the array)."""
+    m = n
+    for _ in range(20):  # the support's share is found in two or three rounds
+        R = super_fibonacci(m)
+        inside = prior.support(R, margin_deg=PRIOR_MARGIN_DEG)
+        k = int(inside.sum())
+        if k >= n:
+            break
+        m = int(m * n / max(k, 1) * 1.02) + 1
+    R = R[inside]
+    R.setflags(write=False)
+    return R, so3_spacing(m)
 
 
 def _occupied_box(grids: torch.Tensor, D: int) -> tuple[torch.Tensor, torch.Tensor]:

@@ -34,11 +34,11 @@ the **class-mean shape** (the 0.5 iso-surface of the mean training occupancy, se
   winner with a relative scale of the class-mean size as one more unknown, shrunk towards 1
   and clipped to the range. Partial views constrain size weakly; on our library it made
   the size error worse (20% vs 17%), hence off.
-- *Class*: given (``class_given`` and ``View.class_hint``: one-hot probabilities; the backend
-  asks the runner for the hint through ``wants_class_hint``, and suites that score
-  classification never give it), or the class whose mean shape fits best: every class is
-  aligned and ``class_probs`` = softmax(-score_mm / ``temperature_mm``); the default
-  temperature of 1 mm makes a fit 1 mm worse e times less likely.
+- *Class*: given whenever the view carries ``View.class_hint`` (one-hot probabilities; the
+  backend declares ``wants_class_hint``, and the runner gives the hint in the
+  ``class-given`` track of a pose suite only), or else the class whose mean shape fits best:
+  every class is aligned and ``class_probs`` = softmax(-score_mm / ``temperature_mm``); the
+  default temperature of 1 mm makes a fit 1 mm worse e times less likely.
 - *Known pose* (``View.pose_hint``, the ``known-pose`` protocol of Table 3.1): nothing is
   aligned; each class-mean surface, scaled to the given size, is scored at the given pose
   with the same residual and free-space terms, which makes ``icp`` the mean-shape
@@ -47,11 +47,19 @@ the **class-mean shape** (the 0.5 iso-surface of the mean training occupancy, se
 The estimate: rotation (canonical -> camera), the canonical origin (bounding-box centre) in
 the camera frame, size = class-mean size x scale, shape = the class-mean occupancy.
 Deterministic: nothing is random (observed points are thinned by even striding).
+
+``icp-plain`` is the dissertation's baseline (the ICP of Figures 3.6 and 4.3, which "got
+stuck in local minima"): the same code with one start (the identity, or with
+``View.up_hint`` the up-aligned start at yaw 0), every correspondence kept (no trimming),
+point-to-point (Kabsch) steps and no free-space term, so the lowest plain ICP residual
+chooses the class when it is not given.
 """
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from beo_bench.perception.means import ClassMeans, class_means
@@ -71,6 +79,12 @@ FREE_SPACE_TOL = 0.005
 """Depth slack (m) before a model point in front of the observed surface counts."""
 FREE_SPACE_CAP = 0.03
 """Largest contribution (m) of one model point to the free-space term."""
+UPRIGHT = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [-1.0, 0.0, 0.0]])
+"""The one start of a 3-DOF alignment from a single start (``starts=1``, ``icp-plain``):
+the object upright and facing the camera (canonical +z up in the image, +x towards the
+camera), the identity pose as a level camera sees it. (The camera frame's own identity
+would point the object's up along the optical axis, a start no view of the suites is near:
+136 deg mean error on 110 ``pose-3dof`` views, worse than chance.)"""
 SCALE_PRIOR = 0.5
 """Weight of the prior that keeps the fitted scale near the class-mean size, relative to the
 data's curvature in log-scale (partial views constrain the size weakly)."""
@@ -364,13 +378,16 @@ class _Aligner:
 class ICPBackend:
     """Multi-start trimmed ICP of the observed partial cloud to the class-mean surface.
 
+    The class is taken from ``View.class_hint`` whenever a view carries one (the runner
+    gives it in the ``class-given`` track); otherwise every class is fitted and the best fit
+    chosen.
+
     Keyword arguments (``beo-bench run --opt KEY=VALUE``):
 
-    - ``class_given`` (True): use ``View.class_hint`` (the dissertation's protocol); without
-      a hint, or when False, fit every class and choose the best fit;
     - ``resolution`` (32): D of the class-mean occupancy (and of ``Estimate.shape``);
     - ``mean_instances`` (None = all): training instances per class in the means;
-    - ``starts`` (24): starting rotations (yaw angles with ``View.up_hint``);
+    - ``starts`` (24): starting rotations (yaw angles with ``View.up_hint``; one start is
+      the identity, or yaw 0 about the up);
     - ``iterations`` (30): ICP iterations in all (coarse + fine);
     - ``trim`` (0.8): fraction of closest correspondences kept per iteration;
     - ``point_to_plane`` (True): point-to-plane steps, else point-to-point (Kabsch);
@@ -386,15 +403,11 @@ class ICPBackend:
     """
 
     name = "icp"
-
-    @property
-    def wants_class_hint(self) -> bool:
-        """Ask the runner for ``View.class_hint`` (given only where a suite allows it)."""
-        return self.class_given
+    wants_class_hint = True
+    """It can use ``View.class_hint`` (the runner gives it in the ``class-given`` track)."""
 
     def __init__(
         self,
-        class_given: bool = True,
         resolution: int = 32,
         mean_instances: int | None = None,
         starts: int = 24,
@@ -409,7 +422,6 @@ class ICPBackend:
         model_points: int = 800,
         free_space: float = 1.0,
     ) -> None:
-        self.class_given = as_bool(class_given)
         self.resolution = int(resolution)
         self.mean_instances = None if mean_instances is None else int(mean_instances)
         self.starts = int(starts)
@@ -457,6 +469,8 @@ class ICPBackend:
     def _start_rotations(self, up: np.ndarray | None) -> np.ndarray:
         if up is not None:
             return yaw_starts(up, self.starts)
+        if self.starts == 1:
+            return UPRIGHT[None]
         return super_fibonacci(self.starts)
 
     def fit(self, obs: Observation, surf: MeanSurface, up: np.ndarray | None) -> Fit:
@@ -536,7 +550,7 @@ class ICPBackend:
         cats = tuple(view.categories)
         means = self._class_means(cats)
         up = view.unit_up()
-        classes = view.candidate_classes(self.class_given)
+        classes = view.candidate_classes(use_hint=True)
         if view.pose_hint is not None:
             R, t, size = (np.asarray(a, dtype=np.float64) for a in view.pose_hint)
             fits = [self.fit_known_pose(obs, cats, c, R, t, size) for c in classes]
@@ -569,6 +583,38 @@ class ICPBackend:
             shape=np.clip(means.shape[c], 0.0, 1.0).astype(np.float32),
             info=info,
         )
+
+
+PLAIN_DEFAULTS: dict[str, object] = {
+    "starts": 1,
+    "trim": 1.0,
+    "point_to_plane": False,
+    "refine_starts": 1,
+    "free_space": 0.0,
+}
+"""What makes ``icp`` the dissertation's plain ICP: one start, every pair kept,
+point-to-point steps, the plain residual alone."""
+
+
+@register_backend("icp-plain")
+class PlainICPBackend(ICPBackend):
+    """``icp`` with :data:`PLAIN_DEFAULTS` (the dissertation's ICP baseline, see the module
+    docstring); every ``icp`` option can still be given."""
+
+    name = "icp-plain"
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(**{**PLAIN_DEFAULTS, **kwargs})
+
+
+# its options are icp's with the plain defaults: what `get_backend` checks options against
+# and lists in its messages (a bare **kwargs would let any misspelt option through)
+PlainICPBackend.__signature__ = inspect.signature(ICPBackend).replace(  # type: ignore[attr-defined]
+    parameters=[
+        p.replace(default=PLAIN_DEFAULTS.get(p.name, p.default))
+        for p in inspect.signature(ICPBackend).parameters.values()
+    ]
+)
 
 
 def _protocol(view: View) -> str:

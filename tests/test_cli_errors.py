@@ -117,7 +117,7 @@ def test_bad_backend_options_exit_2_listing_the_options(capsys, opts, match) -> 
 
 
 def test_a_non_boolean_option_says_the_accepted_values(capsys) -> None:
-    argv = ["run", "--suite", "pose-1dof", "--backend", "icp", "--opt", "class_given=maybe"]
+    argv = ["run", "--suite", "pose-1dof", "--backend", "icp", "--opt", "point_to_plane=maybe"]
     assert main(argv) == 2
     assert "expected a boolean (true/false, yes/no, on/off, 1/0)" in _one_error_line(capsys)
 

@@ -17,7 +17,6 @@ from pathlib import Path
 import pytest
 
 from beo_bench import backend as B
-from beo_bench.bench import runner as R
 from beo_bench.bench.runner import (
     CorruptRunError,
     ResultsWarning,
@@ -37,8 +36,14 @@ ROOT = Path(__file__).resolve().parents[1]
 FAULTS = "tests.runner_faults"
 
 
-def _cfg(suite: str, backend: str, n: int, **opts) -> RunConfig:
-    return RunConfig(get_suite(suite).with_overrides(size=n), backend, opts)
+def _cfg(suite: str, backend: str, n: int, track: str | None = None, **opts) -> RunConfig:
+    return RunConfig(get_suite(suite).with_overrides(size=n, track=track), backend, opts)
+
+
+HINT = "class-given"
+"""The track whose views carry ``View.class_hint``, by which ``test-fault`` picks its views."""
+FAST = {"mean_instances": 4}
+"""The ``random`` backend's option that keeps its class means quick to build."""
 
 
 def _metrics(s: dict) -> dict:
@@ -98,12 +103,15 @@ def test_a_second_run_into_a_locked_directory_is_refused_naming_the_holder(tmp_p
 
 
 def test_a_resume_keeps_one_set_of_rows_per_item(tmp_path) -> None:
+    # random: its scores differ item by item, so counting an item twice would show
     out = tmp_path / "out"
-    ref = run(_cfg("pose-3dof", "oracle", 4), out, progress=False, workers=1)
+    ref = run(_cfg("pose-3dof", "random", 4, **FAST), out, progress=False, workers=1)
     results = out / "results.jsonl"
-    results.write_bytes(results.read_bytes() * 2)  # what two runs into one --out left
-    with pytest.warns(ResultsWarning, match=r"second set of rows of 4 item\(s\) \[0, 1, 2, 3\]"):
-        s = run(_cfg("pose-3dof", "oracle", 4), out, resume=True, progress=False, workers=1)
+    lines = _lines(results)
+    again = [line for line in lines if json.loads(line)["item"] in (0, 2)]
+    results.write_bytes(b"".join(lines + again))  # what two runs into one --out left
+    with pytest.warns(ResultsWarning, match=r"second set of rows of 2 item\(s\) \[0, 2\]"):
+        s = run(_cfg("pose-3dof", "random", 4, **FAST), out, resume=True, progress=False, workers=1)
     assert s["n"] == 4 and _metrics(s) == _metrics(ref)
 
 
@@ -162,7 +170,7 @@ def test_short_writes_are_completed(tmp_path, monkeypatch) -> None:
 def test_a_full_disk_stops_the_run_with_only_complete_items_and_resume_finishes(
     tmp_path, monkeypatch
 ) -> None:
-    ref = run(_cfg("pose-3dof", "oracle", 6), tmp_path / "ref", progress=False, workers=1)
+    ref = run(_cfg("pose-3dof", "random", 6, **FAST), tmp_path / "ref", progress=False, workers=1)
     real, appends = os.write, []
 
     def full(fd, data):  # the third item: half written, then the disk is full
@@ -178,24 +186,24 @@ def test_a_full_disk_stops_the_run_with_only_complete_items_and_resume_finishes(
     out = tmp_path / "out"
     monkeypatch.setattr(os, "write", full)
     with pytest.raises(RunError, match=r"no space left .* free some space, then run again with"):
-        run(_cfg("pose-3dof", "oracle", 6), out, progress=False, workers=1)
+        run(_cfg("pose-3dof", "random", 6, **FAST), out, progress=False, workers=1)
     monkeypatch.undo()
     data = (out / "results.jsonl").read_bytes()
     assert data.endswith(b"\n") and len(data.splitlines()) == 2  # no torn third item
-    s = run(_cfg("pose-3dof", "oracle", 6), out, resume=True, progress=False, workers=1)
+    s = run(_cfg("pose-3dof", "random", 6, **FAST), out, resume=True, progress=False, workers=1)
     assert s["n"] == 6 and _metrics(s) == _metrics(ref)
 
 
 def test_damaged_lines_anywhere_are_skipped_reported_and_their_items_run_again(tmp_path) -> None:
     out = tmp_path / "out"
-    ref = run(_cfg("pose-3dof", "oracle", 6), out, progress=False, workers=1)
+    ref = run(_cfg("pose-3dof", "random", 6, **FAST), out, progress=False, workers=1)
     results = out / "results.jsonl"
     lines = _lines(results)
     lines[1] = lines[1][:25] + b"\n"  # a torn line mid-file
     lines.insert(3, b"\x00\x00 garbage\n")
     results.write_bytes(b"".join(lines))
     with pytest.warns(ResultsWarning, match=r"skipped 2 damaged line\(s\) \(lines \[2, 4\]\)"):
-        s = run(_cfg("pose-3dof", "oracle", 6), out, resume=True, progress=False, workers=1)
+        s = run(_cfg("pose-3dof", "random", 6, **FAST), out, resume=True, progress=False, workers=1)
     assert s["n"] == 6 and _metrics(s) == _metrics(ref)
     assert len(read_rows(results, report=False)) == 6
 
@@ -217,7 +225,7 @@ def test_a_backend_that_kills_its_worker_is_recorded_and_the_run_finishes(
     tmp_path, one_worker, mode, reason
 ) -> None:
     # one worker: before, the crash took the whole run with it
-    cfg = _cfg("pose-1dof", "test-fault", 4, mode=mode, classes=[1])
+    cfg = _cfg("pose-1dof", "test-fault", 4, HINT, mode=mode, classes=[1])
     s = run(cfg, tmp_path / "out", pool=one_worker, progress=False)
     assert s["n"] == 4 and s["failures"] == 1
     [row] = _failed(tmp_path / "out")
@@ -237,7 +245,7 @@ def test_a_backend_that_kills_its_worker_is_recorded_and_the_run_finishes(
 
 def test_a_hung_backend_times_out_and_the_run_finishes(tmp_path, faults) -> None:
     # two workers: before, the pool waited for the hung one forever
-    cfg = _cfg("pose-1dof", "test-fault", 5, mode="sleep", classes=[2])
+    cfg = _cfg("pose-1dof", "test-fault", 5, HINT, mode="sleep", classes=[2])
     t0 = time.monotonic()
     with WorkerPool(2, imports=[FAULTS]) as pool:
         s = run(cfg, tmp_path / "out", pool=pool, progress=False, item_timeout=5)
@@ -271,7 +279,7 @@ def test_ray_actors_that_hang_or_die_are_recorded_and_the_run_finishes(
     pool = WorkerPool(2, imports=[FAULTS])  # with use_ray, only its imports are used
     try:
         for mode, reason in [("sleep", "timeout after 5 s"), ("abort", "worker died")]:
-            cfg = _cfg("pose-1dof", "test-fault", 4, mode=mode, classes=[2])
+            cfg = _cfg("pose-1dof", "test-fault", 4, HINT, mode=mode, classes=[2])
             out = tmp_path / mode
             s = run(cfg, out, use_ray=True, workers=2, pool=pool, progress=False, item_timeout=5)
             assert s["n"] == 4 and s["failures"] == 1 and s["provenance"]["ray"] is True
@@ -453,6 +461,8 @@ def test_the_item_timeout_does_not_identify_a_run_and_must_be_positive(tmp_path)
 
 
 def test_the_in_process_path_is_only_for_backends_workers_cannot_build(faults) -> None:
-    assert R._workers_can_build("oracle", ())
-    assert not R._workers_can_build(faults.NAME, ())
-    assert R._workers_can_build(faults.NAME, (FAULTS,))
+    from beo_bench.backend import buildable_in_fresh_process  # what the runner asks
+
+    assert buildable_in_fresh_process("oracle", ())
+    assert not buildable_in_fresh_process(faults.NAME, ())
+    assert buildable_in_fresh_process(faults.NAME, (FAULTS,))

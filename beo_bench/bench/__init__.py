@@ -4,8 +4,12 @@ leaderboards").
 
 - :mod:`.suites`: the suite registry (``get_suite``, ``list_suites``);
 - :mod:`.evaluate`: turns item ``i`` of a suite into scored result rows;
-- :mod:`.runner`: ``beo-bench run`` (local processes or Ray, ``--resume``);
+- :mod:`.runner`: ``beo-bench run`` (local processes or Ray, ``--resume``, one writer);
+- :mod:`.pool`: the worker processes, with a deadline per item;
+- :mod:`.campaign`: ``beo-bench all`` (every suite, track and backend);
 - :mod:`.summary`: a run's metrics with bootstrap intervals;
+- :mod:`.columns`: the metric specs every table reads (label, scale, direction);
+- :mod:`.compare`: ``beo-bench compare`` (paired differences and verdicts);
 - :mod:`.leaderboard`: ``beo-bench leaderboard`` (Markdown, JSON, plots);
 - :mod:`.recording`: ``beo-bench run --rerun`` recordings.
 """

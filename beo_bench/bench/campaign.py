@@ -1,9 +1,12 @@
 """Many runs at once: every (suite, backend) pair, then the leaderboard (``beo-bench all``,
 and ``make demo`` on short suites).
 
-Each pair runs into ``RUNS/<suite>__<backend>[__<options>]`` and resumes what is already
-there, so a killed campaign continues where it stopped and a finished one costs nothing to
-re-run; the leaderboard is then regenerated from every summary under ``RUNS``.
+Each pair runs into ``RUNS/<suite>[@<track>]__<backend>[__<options>]`` and resumes what is
+already there, so a killed campaign continues where it stopped and a finished one costs
+nothing to re-run; the leaderboard is then regenerated from every summary under ``RUNS``.
+On a suite with tracks (``Suite.class_hint``) a backend that can use the class hint is run
+in both tracks, ``class-given`` and ``class-free``, and any other backend in ``class-free``
+only (see :func:`~beo_bench.bench.suites.backend_tracks`).
 """
 
 from __future__ import annotations
@@ -27,20 +30,29 @@ def backend_label(backend: str, kwargs: dict[str, Any]) -> str:
     return f"{backend} ({opts})" if opts else backend
 
 
-def run_name(suite: str, backend: str, kwargs: dict[str, Any], seed: int | None = None) -> str:
-    """The run directory's name: ``pose-3dof__icp``, ``pose-3dof__icp__starts=48``, or with
-    a replaced base seed ``pose-3dof__icp__suite_seed=7``."""
+def run_name(
+    suite: str,
+    backend: str,
+    kwargs: dict[str, Any],
+    seed: int | None = None,
+    track: str | None = None,
+) -> str:
+    """The run directory's name: ``known-pose__icp``, ``pose-3dof@class-given__icp``,
+    ``pose-3dof@class-free__icp__starts=48``, or with a replaced base seed
+    ``pose-3dof@class-free__icp__suite_seed=7`` (the track is part of what identifies a
+    run, so two tracks never share a directory)."""
     opts = dict(sorted(kwargs.items()))
     if seed is not None:
         opts["suite_seed"] = seed
     slug = "_".join(f"{k}={v}" for k, v in opts.items())
     safe = "".join(ch if ch.isalnum() or ch in "=.-_" else "-" for ch in slug)
-    return f"{suite}__{backend}" + (f"__{safe}" if safe else "")
+    where = f"{suite}@{track}" if track else suite
+    return f"{where}__{backend}" + (f"__{safe}" if safe else "")
 
 
 def parse_options(pairs: list[str]) -> dict[str, Any]:
-    """``["samples=25", "class_given=false"]`` -> ``{"samples": 25, "class_given": False}``
-    (values are JSON when they parse, else strings)."""
+    """``["samples=25", "point_to_plane=false"]`` -> ``{"samples": 25, "point_to_plane":
+    False}`` (values are JSON when they parse, else strings)."""
     out: dict[str, Any] = {}
     for pair in pairs:
         if "=" not in pair:
@@ -77,31 +89,34 @@ class Campaign:
 
 
 def run_campaign(c: Campaign) -> list[Path]:
-    """Run every pair (resuming), then regenerate the leaderboard; returns its Markdown
-    files. A backend whose construction fails stops the campaign before anything runs."""
+    """Run every pair (resuming) in each of its tracks, then regenerate the leaderboard;
+    returns its Markdown files. A backend whose construction fails stops the campaign before
+    anything runs."""
     from beo_bench.backend import get_backend, load_plugins
     from beo_bench.bench.leaderboard import regenerate
     from beo_bench.bench.runner import RunConfig, WorkerPool, item_timeout_s, run
-    from beo_bench.bench.suites import get_suite
+    from beo_bench.bench.suites import backend_tracks, get_suite
 
     load_plugins()
     suites = [get_suite(s).with_overrides(size=n, seed=c.seed) for s, n in c.suites.items()]
     for suite in suites:
         item_timeout_s(suite, c.item_timeout)  # a bad value fails here, before any run
-    for name, kwargs in c.backends:
-        get_backend(name, **kwargs)  # fail here, with its message, not in a worker
+    # build each backend here: a bad option fails with its message, not in a worker
+    hints = [bool(getattr(get_backend(n, **kw), "wants_class_hint", False)) for n, kw in c.backends]
     # one set of worker processes for every run (see WorkerPool: start-up once, not per run)
     with WorkerPool(c.workers) as pool:
         for suite in suites:
-            for name, kwargs in c.backends:
-                out = c.runs / run_name(suite.name, name, kwargs, c.seed)
-                run(
-                    RunConfig(suite, name, kwargs),
-                    out,
-                    resume=True,
-                    use_ray=c.use_ray,
-                    progress=c.progress,
-                    pool=pool,
-                    item_timeout=c.item_timeout,
-                )
+            for (name, kwargs), hint in zip(c.backends, hints, strict=True):
+                for track in backend_tracks(suite, hint):
+                    tracked = suite.with_overrides(track=track)
+                    out = c.runs / run_name(suite.name, name, kwargs, c.seed, track)
+                    run(
+                        RunConfig(tracked, name, kwargs),
+                        out,
+                        resume=True,
+                        use_ray=c.use_ray,
+                        progress=c.progress,
+                        pool=pool,
+                        item_timeout=c.item_timeout,
+                    )
     return regenerate(c.runs, c.leaderboards)

@@ -1,135 +1,219 @@
 """``beo-bench leaderboard``: regenerate ``leaderboards/`` from run summaries.
 
-Per suite: ``<suite>.md`` (rows are backends, methods first and the bounds last; means with
-bootstrap 95% intervals; then a per-category table and the plots), ``<suite>.json`` (the
-summaries behind the table, with their provenance), ``<suite>_rot_cdf.png`` (rotation-error
-CDF per backend) and ``<suite>_confusion_<backend>.png``; ``README.md`` indexes them. A row
-is a backend with its options (``icp (starts=48)``); when one appears in several runs, the
-largest run is shown. Only the newest suite version present is tabulated.
+Per suite: ``<suite>.md``, ``<suite>.json`` (the summaries behind the tables, with their
+provenance), ``<suite>_paired.json`` (the paired verdicts), and the plots
+(``<suite>[_<track>]_rot_cdf.png``, ``..._confusion_<backend>.png``,
+``..._error_vs_samples.png``); ``README.md`` indexes them.
+
+Only runs scored under the same rules share a table (issue 17, item 8):
+
+- a suite with tracks (``Suite.class_hint``: the pose suites) gets a part per track,
+  ``class-given`` then ``class-free``; a backend that cannot use the class hint is run in
+  ``class-free`` only and listed in the ``class-given`` table too, marked *(hint not
+  used)*: it would score the same there;
+- within a track, one section per (seed, items): the suite's own seed and the largest run
+  first. A section of fewer items than the suite's size says *partial*, and a row with
+  fewer views than its section's others says so too;
+- only the newest suite version is tabulated (older versions' scores are not comparable;
+  the page says how many runs were left out);
+- a row is a backend with its options (``icp (starts=48)``) and its model's digest (8 hex
+  digits; ``-`` for none); one row per backend and options in a section.
+
+The first section of each track also gets the per-category tables, the plots, and the
+paired verdicts: each method against the baselines (:data:`BASELINES`), B - A on mean
+rotation error and the > 15 deg rate over the items both runs scored, with a bootstrap
+interval over items and a verdict (:mod:`beo_bench.bench.compare`).
 """
 
 from __future__ import annotations
 
 import json
+import warnings
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from beo_bench.bench import compare
 from beo_bench.bench.campaign import backend_label
+from beo_bench.bench.columns import MetricSpec, board_columns, spec
 from beo_bench.bench.runner import write_atomic
+from beo_bench.errors import UsageError
 
 BOUNDS = {"oracle": "upper bound", "random": "lower bound"}
-Column = tuple[str, str, float, str]
-COLUMNS: tuple[Column, ...] = (
-    ("rot_err_deg_mean", "rot. error mean (deg)", 1.0, "{:.1f}"),
-    ("rot_err_deg_median", "median (deg)", 1.0, "{:.1f}"),
-    ("gross_err_rate", "> 15 deg", 100.0, "{:.1f}%"),
-    ("acc_10deg5cm", "10deg5cm", 100.0, "{:.1f}%"),
-    ("trans_err_cm_mean", "transl. (cm)", 1.0, "{:.2f}"),
-    ("class_acc", "class acc.", 100.0, "{:.1f}%"),
-    ("iou_mean", "IoU", 1.0, "{:.3f}"),
-    ("iou_cam_mean", "posed IoU", 1.0, "{:.3f}"),
-    ("edt_err_mean", "EDT error", 1.0, "{:.1f}"),
-    ("fscore_mean", "F-score@1%", 1.0, "{:.3f}"),
-    ("pick_success", "pick success", 100.0, "{:.1f}%"),
-    ("target_found_rate", "target found", 100.0, "{:.1f}%"),
-    ("ms_per_view_median", "ms/view", 1.0, "{:.1f}"),
-)
-PER_CATEGORY: dict[str, tuple[Column, ...]] = {
-    "pick": (("pick_success", "pick success", 100.0, "{:.0f}%"),),
-    "known-pose": (("class_acc", "class accuracy", 100.0, "{:.0f}%"),),
+BASELINES: tuple[str, ...] = ("icp-plain", "icp")
+"""The baselines every method is paired against (default options only): the
+dissertation's plain ICP and this benchmark's multi-start ICP."""
+DIAGNOSTIC = ("swap",)
+"""Backends that are analysis tools, not methods (never paired)."""
+VERDICT_KEYS: tuple[str, ...] = ("rot_err_deg_mean", "gross_err_rate")
+"""The metrics of the paired-verdicts tables."""
+TRACK_ORDER: tuple[str | None, ...] = ("class-given", "class-free", None)
+TRACK_NOTES = {
+    "class-given": "The true class is given to every backend that can use it (the "
+    "dissertation's pose comparisons, Figures 3.6 and 4.3); rows marked *(hint not used)* "
+    "are the class-free runs of backends that cannot use it (they would score the same).",
+    "class-free": "No backend is told the class.",
+}
+HINT_UNUSED = "hint not used"
+
+PER_CATEGORY: dict[str, tuple[str, ...]] = {
+    "pick": ("pick_success",),
+    "known-pose": ("class_acc",),
 }
 """The per-category tables' metrics per suite (default: mean rotation error and the gross
 error rate, as the dissertation's Tables 5.1 and 5.2)."""
-PER_CATEGORY_DEFAULT: tuple[Column, ...] = (
-    ("rot_err_deg_mean", "mean rotation error (deg)", 1.0, "{:.1f}"),
-    ("gross_err_rate", "rotation errors > 15 deg", 100.0, "{:.1f}%"),
-)
+PER_CATEGORY_DEFAULT: tuple[str, ...] = ("rot_err_deg_mean", "gross_err_rate")
+DEGRADATION: tuple[str, ...] = ("rot_err_deg_mean", "gross_err_rate", "class_acc", "iou_mean")
+"""The metrics of an ``-ood`` suite's in -> out of distribution table."""
+OOD_SUFFIX = "-ood"
+DIGEST_CHARS = 8
+
+
+# -- what a table row is -------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Row:
+    """A run as a leaderboard row: its summary, its directory (for paired comparisons) and
+    whether it stands in a track it was not run in (a backend that cannot use the hint)."""
+
+    summary: dict[str, Any]
+    path: Path | None = None
+    borrowed: bool = False
 
 
 def load_summaries(runs: Path) -> list[dict[str, Any]]:
     """Every ``summary.json`` under ``runs``."""
-    return [json.loads(p.read_text()) for p in sorted(Path(runs).rglob("summary.json"))]
+    return [r.summary for r in load_rows(runs)]
+
+
+def load_rows(runs: Path) -> list[Row]:
+    """Every ``summary.json`` under ``runs``, with its run directory (an unreadable one is
+    a :class:`~beo_bench.errors.CorruptDataError` naming it and how to rewrite it)."""
+    return [
+        Row(summary, where)
+        for where, summary in (
+            compare.load_summary(p) for p in sorted(Path(runs).rglob(compare.SUMMARY_NAME))
+        )
+    ]
 
 
 def label(s: dict[str, Any]) -> str:
     """A summary's row name: the backend and its options."""
-    return backend_label(s["backend"], s.get("provenance", {}).get("backend_kwargs") or {})
+    return backend_label(s["backend"], _kwargs(s))
 
 
-def _fmt(v: float | None, scale: float, fmt: str) -> str:
-    return "-" if v is None or not np.isfinite(v) else fmt.format(v * scale)
+def _kwargs(s: dict[str, Any]) -> dict[str, Any]:
+    return s.get("provenance", {}).get("backend_kwargs") or {}
 
 
-def _cell(s: dict[str, Any], key: str, scale: float, fmt: str) -> str:
-    if key == "class_acc" and s["metrics"].get("class_given"):
+def model_digest(s: dict[str, Any]) -> str:
+    """The run's model digest, shortened; ``-`` when the backend has no learned model."""
+    digest = s.get("model_digest") or s.get("provenance", {}).get("model_digest")
+    return str(digest)[:DIGEST_CHARS] if digest else "-"
+
+
+def items(s: dict[str, Any]) -> int:
+    """How many items the run covers (its suite's size; its row count when not recorded)."""
+    size = compare._size(s)
+    return size if size is not None else int(s["n"])
+
+
+def suite_size(name: str) -> int | None:
+    """The registered suite's own size (None for a suite this package does not know)."""
+    from beo_bench.bench.suites import SUITES
+
+    return SUITES[name].size if name in SUITES else None
+
+
+def suite_seed(name: str) -> int | None:
+    from beo_bench.bench.suites import SUITES
+
+    return SUITES[name].seed if name in SUITES else None
+
+
+# -- cells ---------------------------------------------------------------------------------------
+def _cell(s: dict[str, Any], m: MetricSpec) -> str:
+    if m.key == "class_acc" and s["metrics"].get("class_given"):
         return "given"
-    v = s["metrics"].get(key)
+    v = s["metrics"].get(m.key)
     if v is None:
         return "-"
-    text = _fmt(v, scale, fmt)
-    ci = s.get("ci95", {}).get(key)
+    text = m.format(v)
+    ci = s.get("ci95", {}).get(m.key)
     if ci and all(c is not None and np.isfinite(c) for c in ci):
-        lo, hi = (fmt.format(c * scale).rstrip("%") for c in ci)
+        lo, hi = (m.format(c).rstrip("%") for c in ci)
         text += f" [{lo}, {hi}]"
     return text
 
 
-def _ordered(summaries: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    return sorted(summaries, key=lambda s: (s["backend"] in BOUNDS, label(s)))
+def _ordered(rows: list[Row]) -> list[Row]:
+    return sorted(rows, key=lambda r: (r.summary["backend"] in BOUNDS, label(r.summary)))
 
 
-def _name(s: dict[str, Any]) -> str:
-    bound = BOUNDS.get(s["backend"])
-    return f"{label(s)} *({bound})*" if bound else label(s)
+def _name(r: Row, views: int | None = None) -> str:
+    """The row's name: backend and options, then its marks (bound, hint not used, partial)."""
+    s = r.summary
+    marks = [BOUNDS[s["backend"]]] if s["backend"] in BOUNDS else []
+    if r.borrowed:
+        marks.append(HINT_UNUSED)
+    if views is not None and s["n"] < views:
+        marks.append(f"partial: {s['n']} of {views} views")
+    return " ".join([label(s), *(f"*({m})*" for m in marks)])
 
 
-def suite_table(summaries: list[dict[str, Any]]) -> str:
-    """The Markdown table of one suite: a row per backend, the columns any of them has."""
+def suite_table(rows: list[Row] | list[dict[str, Any]]) -> str:
+    """The Markdown table of one section: a row per backend, the columns any of them has,
+    and its model digest last."""
+    rows = [r if isinstance(r, Row) else Row(r) for r in rows]
+    summaries = [r.summary for r in rows]
     has = {k for s in summaries for k in s["metrics"]}
     if any(s["metrics"].get("class_given") for s in summaries):
         has.add("class_acc")
-    cols = [c for c in COLUMNS if c[0] in has]
+    cols = [m for m in board_columns() if m.key in has]
+    views = max((s["n"] for s in summaries), default=0)
     lines = [
-        "| backend | n | failures | " + " | ".join(c[1] for c in cols) + " |",
-        "|---|---:|---:|" + "---:|" * len(cols),
+        "| backend | n | failures | " + " | ".join(m.label for m in cols) + " | model |",
+        "|---|---:|---:|" + "---:|" * len(cols) + "---|",
     ]
-    for s in _ordered(summaries):
-        cells = [_cell(s, k, sc, f) for k, _, sc, f in cols]
-        lines.append(f"| {_name(s)} | {s['n']} | {s['failures']} | " + " | ".join(cells) + " |")
+    for r in _ordered(rows):
+        s = r.summary
+        cells = [_cell(s, m) for m in cols] + [f"`{model_digest(s)}`"]
+        lines.append(
+            f"| {_name(r, views)} | {s['n']} | {s['failures']} | " + " | ".join(cells) + " |"
+        )
     return "\n".join(lines)
 
 
-def category_table(suite: str, summaries: list[dict[str, Any]]) -> str:
+def category_table(suite: str, rows: list[Row] | list[dict[str, Any]]) -> str:
     """Per metric of ``PER_CATEGORY``: categories as rows, backends as columns."""
-    rows = _ordered(summaries)
+    ordered = _ordered([r if isinstance(r, Row) else Row(r) for r in rows])
+    summaries = [r.summary for r in ordered]
     tables = []
-    for key, title, scale, fmt in PER_CATEGORY.get(suite, PER_CATEGORY_DEFAULT):
-        if any(key in d for s in rows for d in s.get("per_category", {}).values()):
-            tables.append(_category_table(rows, key, title, scale, fmt))
+    for key in PER_CATEGORY.get(suite, PER_CATEGORY_DEFAULT):
+        if any(key in d for s in summaries for d in s.get("per_category", {}).values()):
+            tables.append(_category_table(summaries, spec(key)))
     if not tables:
-        tables.append(_category_table(rows, "iou_mean", "mean IoU", 1.0, "{:.3f}"))
+        tables.append(_category_table(summaries, spec("iou_mean")))
     return "\n\n".join(tables)
 
 
-def _category_table(
-    rows: list[dict[str, Any]], key: str, title: str, scale: float, fmt: str
-) -> str:
+def _category_table(rows: list[dict[str, Any]], m: MetricSpec) -> str:
     cats = sorted({c for s in rows for c in s.get("per_category", {})})
     lines = [
-        f"{title} per category:",
+        f"{m.label} per category:",
         "",
         "| category | n | " + " | ".join(label(s) for s in rows) + " |",
         "|---|---:|" + "---:|" * len(rows),
     ]
     for c in cats:
         n = max(s.get("per_category", {}).get(c, {}).get("n", 0) for s in rows)
-        cells = [_fmt(s.get("per_category", {}).get(c, {}).get(key), scale, fmt) for s in rows]
+        cells = [m.format(s.get("per_category", {}).get(c, {}).get(m.key)) for s in rows]
         lines.append(f"| {c} | {n} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
+# -- plots ---------------------------------------------------------------------------------------
 def _savefig(fig: Any, path: Path) -> None:
     import io
 
@@ -142,14 +226,17 @@ def _slug(text: str) -> str:
     return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in text).strip("_")
 
 
-def _plots(out: Path, suite: str, summaries: list[dict[str, Any]]) -> list[str]:
+def _plots(out: Path, prefix: str, title: str, rows: list[Row]) -> list[str]:
+    """The rotation-error CDF, error against samples and confusion plots of one section;
+    file names start with ``prefix`` (the suite, and its track)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     written = []
-    with_rot = [s for s in _ordered(summaries) if s["metrics"].get("rot_err_deg")]
+    ordered = [r.summary for r in _ordered(rows)]
+    with_rot = [s for s in ordered if s["metrics"].get("rot_err_deg")]
     if with_rot:
         fig, ax = plt.subplots(figsize=(6, 4), constrained_layout=True)
         for s in with_rot:
@@ -162,43 +249,48 @@ def _plots(out: Path, suite: str, summaries: list[dict[str, Any]]) -> list[str]:
         ax.set_ylim(0, 1)
         ax.axvline(15, color="grey", lw=0.8, ls="--")
         ax.legend(fontsize="small")
-        ax.set_title(f"{suite}: rotation-error CDF")
-        name = f"{suite}_rot_cdf.png"
+        ax.set_title(f"{title}: rotation-error CDF")
+        name = f"{prefix}_rot_cdf.png"
         _savefig(fig, out / name)
         plt.close(fig)
         written.append(name)
     sampled = [s for s in with_rot if "samples" in _kwargs(s)]
     if sampled:
-        written.append(_error_vs_samples(out, suite, with_rot, sampled))
-    for s in _ordered(summaries):
-        conf = s["metrics"].get("confusion")
-        if not conf:
-            continue
-        c = np.asarray(conf, dtype=float)
-        fig, ax = plt.subplots(figsize=(5, 4.5), constrained_layout=True)
-        norm = c / np.maximum(c.sum(axis=1, keepdims=True), 1)
-        im = ax.imshow(norm, vmin=0, vmax=1, cmap="Blues")
-        ax.set_xlabel("predicted class")
-        ax.set_ylabel("true class")
-        cats = s.get("categories")
-        if cats and len(cats) == len(c):
-            ax.set_xticks(range(len(cats)), cats, rotation=90)
-            ax.set_yticks(range(len(cats)), cats)
-        fig.colorbar(im, ax=ax, shrink=0.8)
-        ax.set_title(f"{suite} / {label(s)}", fontsize="small")
-        name = f"{suite}_confusion_{_slug(label(s))}.png"
-        _savefig(fig, out / name)
-        plt.close(fig)
-        written.append(name)
+        written.append(_error_vs_samples(out, prefix, title, with_rot, sampled))
+    for r in _ordered(rows):
+        conf = r.summary["metrics"].get("confusion")
+        if conf and not r.borrowed:  # a borrowed run's plot is its own track's
+            written.append(_confusion(out, prefix, title, r.summary, conf))
     return written
 
 
-def _kwargs(s: dict[str, Any]) -> dict[str, Any]:
-    return s.get("provenance", {}).get("backend_kwargs") or {}
+def _confusion(out: Path, prefix: str, title: str, s: dict[str, Any], conf: Any) -> str:
+    import matplotlib.pyplot as plt
+
+    c = np.asarray(conf, dtype=float)
+    fig, ax = plt.subplots(figsize=(5, 4.5), constrained_layout=True)
+    norm = c / np.maximum(c.sum(axis=1, keepdims=True), 1)
+    im = ax.imshow(norm, vmin=0, vmax=1, cmap="Blues")
+    ax.set_xlabel("predicted class")
+    ax.set_ylabel("true class")
+    cats = s.get("categories")
+    if cats and len(cats) == len(c):
+        ax.set_xticks(range(len(cats)), cats, rotation=90)
+        ax.set_yticks(range(len(cats)), cats)
+    fig.colorbar(im, ax=ax, shrink=0.8)
+    ax.set_title(f"{title} / {label(s)}", fontsize="small")
+    name = f"{prefix}_confusion_{_slug(label(s))}.png"
+    _savefig(fig, out / name)
+    plt.close(fig)
+    return name
 
 
 def _error_vs_samples(
-    out: Path, suite: str, with_rot: list[dict[str, Any]], sampled: list[dict[str, Any]]
+    out: Path,
+    prefix: str,
+    title: str,
+    with_rot: list[dict[str, Any]],
+    sampled: list[dict[str, Any]],
 ) -> str:
     """Mean rotation error against N, the samples drawn (dissertation Figure 5.3): a line
     per sampling backend; the other backends as horizontal references."""
@@ -236,57 +328,207 @@ def _error_vs_samples(
     ax.set_xlabel("N, rotation samples drawn")
     ax.set_ylabel("mean rotation error (deg)")
     ax.legend(fontsize="small")
-    ax.set_title(f"{suite}: error against N (cf. Figure 5.3)")
-    name = f"{suite}_error_vs_samples.png"
+    ax.set_title(f"{title}: error against N (cf. Figure 5.3)")
+    name = f"{prefix}_error_vs_samples.png"
     _savefig(fig, out / name)
     plt.close(fig)
     return name
 
 
-def _newest_rows(ss: list[dict[str, Any]]) -> tuple[int, list[dict[str, Any]]]:
-    """The newest suite version present and its rows: one per backend and options (the
-    largest run)."""
-    newest = max(s["suite_version"] for s in ss)
-    best: dict[str, dict[str, Any]] = {}
-    for s in ss:
-        if s["suite_version"] == newest and s["n"] > best.get(label(s), {}).get("n", -1):
-            best[label(s)] = s
-    return newest, _ordered(list(best.values()))
+# -- grouping: tracks and sections ---------------------------------------------------------------
+@dataclass(frozen=True)
+class Section:
+    """Runs of one suite version, track, seed and item count: the rows of one table."""
+
+    suite: str
+    version: int
+    track: str | None
+    seed: int | None
+    items: int
+    rows: list[Row]
+
+    @property
+    def title(self) -> str:
+        """``seed 2000, 500 items``, with ``(partial: ...)`` below the suite's size."""
+        size = suite_size(self.suite)
+        text = f"seed {self.seed}, {self.items} items"
+        if size is not None and self.items < size:
+            text += f" (partial: {self.items} of the suite's {size} items)"
+        return text
 
 
-OOD_SUFFIX = "-ood"
-DEGRADATION: tuple[Column, ...] = (
-    ("rot_err_deg_mean", "rot. error mean (deg)", 1.0, "{:.1f}"),
-    ("gross_err_rate", "> 15 deg", 100.0, "{:.1f}%"),
-    ("class_acc", "class acc.", 100.0, "{:.1f}%"),
-    ("iou_mean", "IoU", 1.0, "{:.3f}"),
-)
+def _track_key(track: str | None) -> int:
+    return TRACK_ORDER.index(track) if track in TRACK_ORDER else len(TRACK_ORDER)
 
 
-def degradation_table(
-    base: str, base_rows: list[dict[str, Any]], suite: str, rows: list[dict[str, Any]]
-) -> str:
+def _one_per_label(rows: list[Row]) -> list[Row]:
+    """One row per backend and options: the run with the most views (then the first)."""
+    best: dict[str, Row] = {}
+    for r in rows:
+        key = label(r.summary)
+        if key not in best or r.summary["n"] > best[key].summary["n"]:
+            best[key] = r
+    return _ordered(list(best.values()))
+
+
+def track_rows(rows: list[Row]) -> dict[str | None, list[Row]]:
+    """Each track's rows (tracks in :data:`TRACK_ORDER`): its own runs, and in
+    ``class-given`` the class-free runs of backends that cannot use the hint (borrowed,
+    unless the backend has a class-given run with the same options, seed and items)."""
+    by_track: dict[str | None, list[Row]] = {}
+    for r in rows:
+        by_track.setdefault(compare.track_of(r.summary), []).append(r)
+    given = by_track.get("class-given")
+    if given is not None:
+        own = {(label(r.summary), r.summary.get("seed"), items(r.summary)) for r in given}
+        for r in by_track.get(compare.CLASS_FREE, []):
+            key = (label(r.summary), r.summary.get("seed"), items(r.summary))
+            if compare.hint_unused(r.summary) and key not in own:
+                given.append(Row(r.summary, r.path, borrowed=True))
+    return {t: by_track[t] for t in sorted(by_track, key=_track_key)}
+
+
+def sections(suite: str, version: int, track: str | None, rows: list[Row]) -> list[Section]:
+    """The track's rows cut by (seed, items): the suite's own seed first, then the most
+    items first."""
+    groups: dict[tuple[Any, int], list[Row]] = {}
+    for r in rows:
+        groups.setdefault((r.summary.get("seed"), items(r.summary)), []).append(r)
+    own = suite_seed(suite)
+    order = sorted(groups, key=lambda k: (k[0] != own, -k[1], str(k[0])))
+    return [Section(suite, version, track, k[0], k[1], _one_per_label(groups[k])) for k in order]
+
+
+# -- paired verdicts -----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Verdict:
+    """One method against one baseline on one metric (B = method, A = baseline)."""
+
+    track: str | None
+    method: str
+    baseline: str
+    result: compare.PairedResult
+
+
+def _is_method(s: dict[str, Any]) -> bool:
+    return s["backend"] not in (*BASELINES, *BOUNDS, *DIAGNOSTIC)
+
+
+def paired_verdicts(section: Section) -> list[Verdict]:
+    """Each method of the section against each baseline run with default options, on
+    :data:`VERDICT_KEYS`, when both runs' results are at hand with the same items."""
+    baselines = [
+        r for b in BASELINES for r in section.rows if label(r.summary) == b and r.path is not None
+    ]
+    methods = [r for r in section.rows if _is_method(r.summary) and r.path is not None]
+    out = []
+    loaded: dict[Path, compare.Run | None] = {}
+    for m in methods:
+        for b in baselines:
+            a_run, b_run = _run(b, loaded), _run(m, loaded)
+            if a_run is None or b_run is None or a_run.items != b_run.items:
+                continue
+            both = {p.key for p in compare.pairable(a_run.summary, b_run.summary)}
+            keys = [k for k in VERDICT_KEYS if k in both]
+            try:
+                results = compare.paired_runs(a_run, b_run, keys)
+            except UsageError:  # not the same items scored the same way: no verdict
+                continue
+            out += [Verdict(section.track, label(m.summary), label(b.summary), r) for r in results]
+    return out
+
+
+def _run(r: Row, loaded: dict[Path, compare.Run | None]) -> compare.Run | None:
+    """The row's run with its result rows (None when they cannot be read or paired)."""
+    assert r.path is not None
+    if r.path not in loaded:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # damaged lines were reported by the run
+                loaded[r.path] = compare.run_from(r.path, r.summary)
+        except UsageError:
+            loaded[r.path] = None
+    return loaded[r.path]
+
+
+def verdict_table(verdicts: list[Verdict]) -> str:
+    """The Markdown table of paired verdicts: a row per (method, baseline), per metric
+    B - A with its 95% interval and the verdict for the method; "" without verdicts."""
+    if not verdicts:
+        return ""
+    keys = [k for k in VERDICT_KEYS if any(v.result.key == k for v in verdicts)]
+    pairs: dict[tuple[str, str], dict[str, compare.PairedResult]] = {}
+    for v in verdicts:
+        pairs.setdefault((v.method, v.baseline), {})[v.result.key] = v.result
+    head = "".join(f" {spec(k).label}: method - baseline [95%] | verdict |" for k in keys)
+    lines = [
+        "Paired verdicts (each method against each baseline on the items both scored; "
+        "95% bootstrap intervals that resample items; *better* / *worse* when the interval "
+        "excludes 0):",
+        "",
+        "| method | baseline | items |" + head,
+        "|---|---|---:|" + "---:|---|" * len(keys),
+    ]
+    for (method, base), res in pairs.items():
+        n = max(r.n_items for r in res.values())
+        cells = []
+        for k in keys:
+            r = res.get(k)
+            if r is None:
+                cells += ["-", "-"]
+                continue
+            m = r.spec
+            cells += [
+                f"{m.format_diff(r.diff)} [{m.format_diff(r.lo)}, {m.format_diff(r.hi)}]",
+                f"**{r.verdict}**" if r.verdict != "no difference" else r.verdict,
+            ]
+        lines.append(f"| {method} | {base} | {n} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _verdict_json(v: Verdict) -> dict[str, Any]:
+    r = v.result
+    return {
+        "track": v.track,
+        "method": v.method,
+        "baseline": v.baseline,
+        "metric": r.key,
+        "baseline_value": r.a,
+        "method_value": r.b,
+        "diff": r.diff,
+        "ci95": [r.lo, r.hi],
+        "verdict": r.verdict,
+        "items": r.n_items,
+        "views": r.n_views,
+    }
+
+
+# -- the other tables ----------------------------------------------------------------------------
+def degradation_table(base: str, base_rows: list[Any], suite: str, rows: list[Any]) -> str:
     """Each backend on ``base`` (in-distribution) and on ``suite`` (its ``-ood`` twin),
     metric by metric: ``in -> out``."""
-    by_label = {label(s): s for s in base_rows}
-    both = [s for s in rows if label(s) in by_label]
+    base_s = [r.summary if isinstance(r, Row) else r for r in base_rows]
+    ood = [r if isinstance(r, Row) else Row(r) for r in rows]
+    by_label = {label(s): s for s in base_s}
+    both = [r for r in ood if label(r.summary) in by_label]
+    cols = [spec(k) for k in DEGRADATION]
     lines = [
         f"In distribution (`{base}`) -> out of distribution (`{suite}`):",
         "",
-        "| backend | " + " | ".join(c[1] for c in DEGRADATION) + " |",
-        "|---|" + "---:|" * len(DEGRADATION),
+        "| backend | " + " | ".join(m.label for m in cols) + " |",
+        "|---|" + "---:|" * len(cols),
     ]
-    for s in both:
+    for r in both:
         cells = []
-        for key, _, scale, fmt in DEGRADATION:
+        for m in cols:
             pair = []
-            for row in (by_label[label(s)], s):
-                if key == "class_acc" and row["metrics"].get("class_given"):
+            for row in (by_label[label(r.summary)], r.summary):
+                if m.key == "class_acc" and row["metrics"].get("class_given"):
                     pair.append("given")
                 else:
-                    pair.append(_fmt(row["metrics"].get(key), scale, fmt))
+                    pair.append(m.format(row["metrics"].get(m.key)))
             cells.append(" -> ".join(pair))
-        lines.append(f"| {_name(s)} | " + " | ".join(cells) + " |")
+        lines.append(f"| {_name(r)} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -306,6 +548,7 @@ def gap_table(rows: list[dict[str, Any]]) -> str:
     plain = {label(s): s["metrics"].get(key) for s in rows}
     oracle = plain.get("oracle")
     parts = ("class", "pose", "shape")
+    fmt = replace(spec(key), fmt="{:.0f}%")  # whole percent: a small table of 100 episodes
     lines = [
         "Where the gap to the oracle comes from (`swap`: the backend's estimate with one "
         "component replaced by the truth; shape swaps plan on the true voxels):",
@@ -315,12 +558,79 @@ def gap_table(rows: list[dict[str, Any]]) -> str:
         "|---|---:|---:|---:|---:|---:|---:|",
     ]
     for base, got in sorted(swaps.items()):
-        cells = [_fmt(plain.get(base), 100.0, "{:.0f}%")]
-        cells += [_fmt(got.get(p), 100.0, "{:.0f}%") for p in parts]
-        cells += [_fmt(plain.get("oracle (mesh=false)"), 100.0, "{:.0f}%")]
-        cells += [_fmt(oracle, 100.0, "{:.0f}%")]
+        cells = [fmt.format(plain.get(base))]
+        cells += [fmt.format(got.get(p)) for p in parts]
+        cells += [fmt.format(plain.get("oracle (mesh=false)"))]
+        cells += [fmt.format(oracle)]
         lines.append(f"| {base} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+# -- the pages -----------------------------------------------------------------------------------
+def _newest(rows: list[Row]) -> tuple[int, list[Row], dict[int, int]]:
+    """The newest suite version, its runs, and how many runs each older version has."""
+    newest = max(int(r.summary["suite_version"]) for r in rows)
+    older: dict[int, int] = {}
+    for r in rows:
+        v = int(r.summary["suite_version"])
+        if v != newest:
+            older[v] = older.get(v, 0) + 1
+    return newest, [r for r in rows if r.summary["suite_version"] == newest], older
+
+
+def _prefix(suite: str, track: str | None) -> str:
+    return f"{suite}_{track}" if track else suite
+
+
+def _heading(suite: str, track: str | None) -> str:
+    return f"{suite}, {track} track" if track else suite
+
+
+@dataclass
+class _Page:
+    """What a suite's page collects while it is built."""
+
+    md: list[str]
+    index: list[str]
+    plots: list[str]
+    verdicts: list[Verdict]
+    shown: dict[int, dict[str, Any]]
+
+
+def _track_part(
+    page: _Page,
+    out: Path,
+    suite: str,
+    track: str | None,
+    secs: list[Section],
+    firsts: dict[tuple[str, str | None], Section],
+) -> None:
+    """A track's part of the suite page: its sections, the first with the extra tables."""
+    level = "###" if track else "##"
+    if track:
+        page.md += [f"## {track} track", "", TRACK_NOTES.get(track, ""), ""]
+    for i, sec in enumerate(secs):
+        table = suite_table(sec.rows)
+        page.md += [f"{level} {sec.title}", "", table, ""]
+        for r in sec.rows:
+            page.shown.setdefault(id(r.summary), r.summary)
+        if i:
+            continue
+        verdicts = paired_verdicts(sec)
+        page.verdicts += verdicts
+        vt = verdict_table(verdicts)
+        page.index += [f"### {_heading(suite, track)}: {sec.title}", "", table, ""]
+        page.index += [vt, ""] if vt else []
+        summaries = [r.summary for r in sec.rows]
+        gap = gap_table(summaries)
+        base = suite.removesuffix(OOD_SUFFIX)
+        twin = firsts.get((base, track)) if base != suite else None
+        extra = [vt, gap] + ([degradation_table(base, twin.rows, suite, sec.rows)] if twin else [])
+        page.md += [t + "\n" for t in extra if t]
+        page.md += [category_table(suite, sec.rows), ""]
+        plots = _plots(out, _prefix(suite, track), _heading(suite, track), sec.rows)
+        page.plots += plots
+        page.md += [*[f"![{p}]({p})" for p in plots], ""]
 
 
 def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> list[Path]:
@@ -328,9 +638,17 @@ def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> l
     Its own files (named after a suite) that no run produces any more are removed."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    by_suite: dict[str, list[dict[str, Any]]] = {}
-    for s in load_summaries(Path(runs)):
-        by_suite.setdefault(s["suite"], []).append(s)
+    by_suite: dict[str, list[Row]] = {}
+    for r in load_rows(Path(runs)):
+        by_suite.setdefault(r.summary["suite"], []).append(r)
+    # every suite's sections first: an -ood suite's page compares with its base's first one
+    plan: dict[str, tuple[int, dict[int, int], dict[str | None, list[Section]]]] = {}
+    firsts: dict[tuple[str, str | None], Section] = {}
+    for suite, rows in sorted(by_suite.items()):
+        version, newest, older = _newest(rows)
+        tracks = {t: sections(suite, version, t, trs) for t, trs in track_rows(newest).items()}
+        plan[suite] = (version, older, tracks)
+        firsts.update({(suite, t): secs[0] for t, secs in tracks.items()})
     keep: set[str] = {"README.md"}
     written = []
     index = [
@@ -338,30 +656,37 @@ def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> l
         "",
         f"Generated by `beo-bench leaderboard --runs {runs}` from the run summaries (each "
         "suite's JSON holds them, with provenance: git commit, package versions, machine, "
-        "seeds). Means with bootstrap 95% intervals in brackets. *Bounds* are not methods: "
+        "seeds). Means over every view, a failed view counted at its worst case, with "
+        "bootstrap 95% intervals (items resampled) in brackets. Pose suites have two "
+        "tracks: *class-given* (every backend that can use the true class is told it; those "
+        "that cannot are listed from their class-free run, marked *(hint not used)*) and "
+        "*class-free*. Runs of other seeds or item counts are in separate sections of each "
+        "page; *partial* marks fewer items than the suite's size. `model` is the first "
+        f"{DIGEST_CHARS} hex digits of the backend's model digest. *Bounds* are not methods: "
         "`oracle` returns the truth, `random` guesses. `class acc.` reads *given* where the "
-        "backend was told the class (the dissertation's ICP protocol).",
+        "backend was told the class. F-score@1%: tau = 1% of the canonical cube's side.",
         "",
     ]
-    chosen = {suite: _newest_rows(ss) for suite, ss in by_suite.items()}
-    for suite, (newest, rows) in sorted(chosen.items()):
-        plots = _plots(out, suite, rows)
-        desc = rows[0].get("provenance", {}).get("suite", {}).get("description", "")
-        md = [f"# {suite} (suite version {newest})", "", desc, "", suite_table(rows), ""]
-        gap = gap_table(rows)
-        if gap:
-            md += [gap, ""]
-        base = suite.removesuffix(OOD_SUFFIX)
-        if base != suite and base in chosen:
-            md += [degradation_table(base, chosen[base][1], suite, rows), ""]
-        md += [category_table(suite, rows), ""]
-        md += [*[f"![{p}]({p})" for p in plots], ""]
+    for suite, (version, older, tracks) in plan.items():
+        page = _Page([], [], [], [], {})
+        desc = _description(tracks)
+        page.md = [f"# {suite} (suite version {version})", "", desc, ""]
+        if older:
+            left = ", ".join(f"v{v}: {n} run(s)" for v, n in sorted(older.items()))
+            page.md += [f"Runs of older suite versions are left out ({left}): not comparable.", ""]
+        for track, secs in tracks.items():
+            _track_part(page, out, suite, track, secs, firsts)
         path = out / f"{suite}.md"
-        write_atomic(path, "\n".join(md))
-        write_atomic(out / f"{suite}.json", json.dumps(rows, indent=2, sort_keys=True) + "\n")
-        keep |= {path.name, f"{suite}.json", *plots}
+        write_atomic(path, "\n".join(page.md))
+        shown = list(page.shown.values())
+        write_atomic(out / f"{suite}.json", json.dumps(shown, indent=2, sort_keys=True) + "\n")
+        paired_json = [_verdict_json(v) for v in page.verdicts]
+        write_atomic(
+            out / f"{suite}_paired.json", json.dumps(paired_json, indent=2, sort_keys=True) + "\n"
+        )
+        keep |= {path.name, f"{suite}.json", f"{suite}_paired.json", *page.plots}
         written.append(path)
-        index += [f"## [{suite}]({suite}.md)", "", desc, "", suite_table(rows), ""]
+        index += [f"## [{suite}]({suite}.md)", "", desc, "", *page.index]
     write_atomic(out / "README.md", "\n".join(index))
     from beo_bench.bench.suites import list_suites
 
@@ -370,3 +695,13 @@ def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> l
         if stale.is_file() and stale.name.startswith(ours) and stale.name not in keep:
             stale.unlink()
     return written
+
+
+def _description(tracks: dict[str | None, list[Section]]) -> str:
+    for secs in tracks.values():
+        for sec in secs:
+            for r in sec.rows:
+                d = r.summary.get("provenance", {}).get("suite", {}).get("description")
+                if d:
+                    return str(d)
+    return ""

@@ -1,8 +1,11 @@
 """``beo-bench run``: score a backend on a suite, in parallel, resumable.
 
 Results go to ``OUT/results.jsonl`` (one line per scored view or episode) and
-``OUT/summary.json``; ``OUT/run.json`` records what the run is (suite, backend, options,
-the backend's model digest, the object library version), and a resume must match it.
+``OUT/summary.json``; ``OUT/run.json`` records what the run is (suite with its track,
+backend, options, the backend's model digest, the object library version, whether the
+backend can use the class hint), and a resume must match it. The summary carries the
+track (``"track"``: ``class-given``, ``class-free`` or null for a suite without tracks),
+``"uses_class_hint"`` and ``"model_digest"`` at its top level, for the leaderboard.
 
 Integrity (see the "Failure behaviour" doc):
 
@@ -539,20 +542,37 @@ class Prepared:
     model_digest: str | None
     """The backend's ``model_digest()`` (None: no learned model, or the backend has none)."""
     class_given: bool
-    """Whether its views get the true class (the suite allows it, the backend asks)."""
+    """Whether its views get the true class (the ``class-given`` track, a backend that can
+    use it)."""
+    uses_class_hint: bool = False
+    """Whether the backend can use the class hint at all (its ``wants_class_hint``)."""
 
 
 def _prepare(cfg: RunConfig) -> Prepared:
     """The backend's one-time set-up, here, before workers start (they then load it), and
-    the digest of the model it loaded."""
+    the digest of the model it loaded. A backend that cannot use the class hint is refused
+    the ``class-given`` track (its class-free run scores the same)."""
     from beo_bench.backend import get_backend, load_plugins, prepare_backend
+    from beo_bench.bench.suites import check_track
 
     load_plugins()
     backend = get_backend(cfg.backend, **cfg.backend_kwargs)
+    wants = bool(getattr(backend, "wants_class_hint", False))
+    check_track(cfg.suite, cfg.backend, wants)
     prepare_backend(backend, suite_categories(cfg.suite))
     digest = getattr(backend, "model_digest", None)
-    wants = bool(getattr(backend, "wants_class_hint", False))
-    return Prepared(digest() if callable(digest) else None, cfg.suite.class_hint and wants)
+    return Prepared(digest() if callable(digest) else None, cfg.suite.gives_class and wants, wants)
+
+
+def _uses_class_hint(cfg: RunConfig, record: dict[str, Any] | None) -> bool:
+    """Whether the run's backend can use the class hint: as its run record says, or (a
+    record written before it was recorded) as the backend built here says."""
+    if record is not None and isinstance(record.get("uses_class_hint"), bool):
+        return bool(record["uses_class_hint"])
+    from beo_bench.backend import get_backend, load_plugins
+
+    load_plugins()
+    return bool(getattr(get_backend(cfg.backend, **cfg.backend_kwargs), "wants_class_hint", False))
 
 
 def item_timeout_s(suite: Suite, item_timeout: float | None) -> float:
@@ -618,7 +638,7 @@ def _run_locked(
         total=cfg.suite.size,
         initial=len(done),
         disable=not progress,
-        desc=f"{cfg.suite.name} / {cfg.backend}",
+        desc=f"{cfg.suite.label} / {cfg.backend}",
         unit="item",
     )
     with bar, ResultsWriter(out / RESULTS_NAME) as writer:
@@ -661,7 +681,12 @@ def _open_run(
         assert old is not None
         _check_same_model(old, prepared.model_digest, out)
     else:  # a new run: record it before its first result
-        old = {**meta, "model_digest": prepared.model_digest, "library_version": LIBRARY_VERSION}
+        old = {
+            **meta,
+            "model_digest": prepared.model_digest,
+            "library_version": LIBRARY_VERSION,
+            "uses_class_hint": prepared.uses_class_hint,
+        }
         _write(record_path, old, "writing the run record")
     return old, done, todo, prepared
 
@@ -706,6 +731,11 @@ def _summarise(
     rows = [r for r in _scan(out / RESULTS_NAME, False, False).rows if r["item"] < cfg.suite.size]
     rows.sort(key=lambda r: (r["item"], r["view"]))
     summary = summarise(cfg.suite, cfg.backend, rows)
+    # what a leaderboard groups and labels rows by: the track (None: a suite without tracks),
+    # whether the backend can use the class hint at all, and the model it scored
+    summary["track"] = cfg.suite.track
+    summary["uses_class_hint"] = _uses_class_hint(cfg, record)
+    summary["model_digest"] = (record or {}).get("model_digest")
     summary["provenance"] = provenance(cfg)
     summary["provenance"].update(
         wall_s_last_session=wall,

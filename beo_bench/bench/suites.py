@@ -13,10 +13,18 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Literal
 
-from beo_bench.errors import BeoBenchError
+from beo_bench.errors import BeoBenchError, UsageError
 
 Kind = Literal["isolated", "tabletop", "pick"]
 Protocol = Literal["known-pose", "1dof", "3dof", "free"]
+TRACKS: tuple[str, ...] = ("class-given", "class-free")
+"""The two tracks of a suite that allows the class hint (``Suite.class_hint``): in
+``class-given`` every backend that can use the true class (``wants_class_hint``) is told
+it, as in the dissertation's pose comparisons (Figures 3.6 and 4.3); in ``class-free`` no
+backend is. The hint belongs to the track, never to a backend's option, so two rows of one
+table are always scored under the same rules."""
+DEFAULT_TRACK = "class-free"
+"""The track a suite with tracks is run in unless one is asked for (``--track``)."""
 
 
 class UnknownSuiteError(BeoBenchError, KeyError):
@@ -36,10 +44,13 @@ class Suite:
     rotation about the vertical is unknown), ``3dof`` (nothing; the world frame is
     randomised so ``cam_to_world`` does not reveal the object's up), ``free`` (tabletop: the
     table's up is known from ``cam_to_world``, as for a real robot). ``size``: items (views
-    for isolated suites, scenes or episodes otherwise). ``class_hint``: a backend that asks
-    for the true class (``wants_class_hint``, the dissertation's ICP protocol) is given it;
-    such rows are marked and left out of the class accuracy. Suites that score
-    classification (``known-pose``, ``tabletop``, ``pick``) never give it.
+    for isolated suites, scenes or episodes otherwise). ``class_hint``: the suite is scored
+    in two tracks (:data:`TRACKS`), and ``track`` says which one this is: in
+    ``class-given`` a backend that can use the true class (``wants_class_hint``) is given
+    it (such rows are marked and left out of the class accuracy), in ``class-free`` none
+    is; a suite with tracks defaults to :data:`DEFAULT_TRACK`. Suites that score
+    classification (``known-pose``, ``tabletop``, ``pick``) have no track (``None``) and
+    never give the class. The track is part of what identifies a run.
     ``item_timeout_s``: how long one item may take in a worker before it is recorded as a
     failure (``timeout after S s``) and the worker replaced (``--item-timeout`` changes it
     for a run). The defaults are 20-30 times the slowest in-tree backend's item, measured
@@ -63,14 +74,49 @@ class Suite:
     min_pixels: int = 50
     description: str = ""
     item_timeout_s: float = 60.0
+    track: str | None = None
 
-    def with_overrides(self, size: int | None = None, seed: int | None = None) -> Suite:
-        """The same protocol with another item count or base seed (``--episodes``,
-        ``--seed``)."""
+    def __post_init__(self) -> None:
+        if self.class_hint and self.track is None:
+            # frozen: the default track is filled in once, here
+            object.__setattr__(self, "track", DEFAULT_TRACK)
+        if self.track is None:
+            return
+        if not self.class_hint:
+            raise UsageError(
+                f"suite {self.name!r} has no tracks (it never gives the class), so track "
+                f"{self.track!r} does not apply: drop --track for this suite"
+            )
+        if self.track not in TRACKS:
+            raise UsageError(
+                f"track {self.track!r} of suite {self.name!r}: use one of {', '.join(TRACKS)}"
+            )
+
+    @property
+    def tracks(self) -> tuple[str | None, ...]:
+        """The tracks this suite is scored in (``(None,)`` for a suite without tracks)."""
+        return TRACKS if self.class_hint else (None,)
+
+    @property
+    def label(self) -> str:
+        """The suite and its track: ``pose-1dof@class-given``, or ``known-pose``."""
+        return f"{self.name}@{self.track}" if self.track else self.name
+
+    @property
+    def gives_class(self) -> bool:
+        """Whether this suite's views carry the true class (to backends that use it)."""
+        return self.track == "class-given"
+
+    def with_overrides(
+        self, size: int | None = None, seed: int | None = None, track: str | None = None
+    ) -> Suite:
+        """The same protocol with another item count, base seed or track (``--episodes``,
+        ``--seed``, ``--track``); ``None`` keeps the suite's own."""
         return replace(
             self,
             size=self.size if size is None else int(size),
             seed=self.seed if seed is None else int(seed),
+            track=self.track if track is None else str(track),
         )
 
 
@@ -79,7 +125,7 @@ SUITES: dict[str, Suite] = {
     for s in (
         Suite(
             "known-pose",
-            1,
+            2,
             "isolated",
             "known-pose",
             size=500,
@@ -88,7 +134,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pose-1dof",
-            1,
+            2,
             "isolated",
             "1dof",
             size=500,
@@ -99,7 +145,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pose-3dof",
-            1,
+            2,
             "isolated",
             "3dof",
             size=1000,
@@ -110,7 +156,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pose-3dof-ood",
-            1,
+            2,
             "isolated",
             "3dof",
             size=550,
@@ -122,7 +168,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "tabletop",
-            1,
+            2,
             "tabletop",
             "free",
             size=200,
@@ -135,7 +181,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pick",
-            1,
+            2,
             "pick",
             "free",
             size=100,
@@ -158,3 +204,24 @@ def get_suite(name: str) -> Suite:
 
 def list_suites() -> list[str]:
     return sorted(SUITES)
+
+
+def backend_tracks(suite: Suite, uses_class_hint: bool) -> tuple[str | None, ...]:
+    """The tracks a backend is run in on ``suite``: both for a backend that can use the
+    class hint, ``class-free`` only for one that cannot (its ``class-given`` run would score
+    exactly the same; the leaderboard lists its class-free run in both tracks' tables), and
+    ``(None,)`` on a suite without tracks."""
+    if suite.track is None:
+        return (None,)
+    return TRACKS if uses_class_hint else (DEFAULT_TRACK,)
+
+
+def check_track(suite: Suite, backend: str, uses_class_hint: bool) -> None:
+    """Refuse the ``class-given`` track for a backend that cannot use the hint (a
+    :class:`UsageError` saying to run it class-free)."""
+    if suite.track == "class-given" and not uses_class_hint:
+        raise UsageError(
+            f"backend {backend!r} does not use the class hint (no wants_class_hint), so its "
+            f"class-given run on {suite.name} would score exactly as its class-free one: run "
+            "it with --track class-free (the leaderboard lists that run in both tracks)"
+        )

@@ -1,0 +1,90 @@
+"""The metric columns of every results table, in one place.
+
+``beo-bench run`` and ``compare`` print a plain-text table, ``beo-bench leaderboard`` writes
+Markdown tables, and ``compare`` and the leaderboard's paired verdicts say whether a
+difference is an improvement: all of them read a metric's label, scale, format and
+direction from :data:`METRICS`, so a metric added or relabelled here changes every table.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class MetricSpec:
+    """How a ``summary["metrics"]`` entry is shown and judged."""
+
+    key: str
+    """Its key in ``summary["metrics"]`` (and ``summary["ci95"]``)."""
+    label: str
+    """The leaderboard's column header."""
+    short: str
+    """The plain-text table's header (at most 9 characters)."""
+    scale: float
+    """Shown as ``value * scale`` (100 for rates shown in percent)."""
+    fmt: str
+    """``str.format`` pattern of the scaled value."""
+    higher_is_better: bool
+    """Direction: a paired difference is ``better`` when it moves this way."""
+    board: bool = True
+    """A column of the leaderboard's suite tables."""
+    brief: bool = False
+    """A column of the plain-text table of ``run`` and ``compare`` (kept narrow)."""
+
+    def format(self, value: float | None) -> str:
+        """The value as the tables show it; ``-`` when absent or not finite."""
+        if value is None or not np.isfinite(value):
+            return "-"
+        return self.fmt.format(value * self.scale)
+
+    def format_diff(self, value: float) -> str:
+        """A difference of two values, signed (``+1.2``, ``-3.4%``)."""
+        if not np.isfinite(value):
+            return "-"
+        text = self.fmt.format(value * self.scale)
+        return text if text.startswith("-") else "+" + text
+
+
+METRICS: tuple[MetricSpec, ...] = (
+    MetricSpec("rot_err_deg_mean", "rot. error mean (deg)", "rot mean", 1, "{:.1f}", False,
+               brief=True),
+    MetricSpec("rot_err_deg_median", "median (deg)", "rot med", 1, "{:.1f}", False, brief=True),
+    MetricSpec("gross_err_rate", "> 15 deg", ">15deg", 100, "{:.1f}%", False, brief=True),
+    MetricSpec("acc_10deg5cm", "10deg5cm", "10deg5cm", 100, "{:.1f}%", True),
+    MetricSpec("trans_err_cm_mean", "transl. (cm)", "trans cm", 1, "{:.2f}", False, brief=True),
+    MetricSpec("size_err_pct_mean", "size error (%)", "size %", 1, "{:.1f}", False, board=False),
+    MetricSpec("mssd_cm_mean", "MSSD (cm)", "MSSD cm", 1, "{:.2f}", False),
+    MetricSpec("mspd_px_mean", "MSPD (px)", "MSPD px", 1, "{:.1f}", False, board=False),
+    MetricSpec("class_acc", "class acc.", "class acc", 100, "{:.1f}%", True, brief=True),
+    MetricSpec("iou_mean", "IoU", "IoU", 1, "{:.3f}", True, brief=True),
+    MetricSpec("iou_cam_mean", "posed IoU", "posed IoU", 1, "{:.3f}", True),
+    MetricSpec("edt_err_mean", "EDT error", "EDT", 1, "{:.1f}", False, brief=True),
+    MetricSpec("chamfer_l1_mean", "Chamfer-L1", "Chamfer", 1, "{:.4f}", False, board=False),
+    # tau: evaluate.FSCORE_TAU, 1% of the canonical cube's side (the label states it)
+    MetricSpec("fscore_mean", "F-score@1%", "F@1%", 1, "{:.3f}", True, brief=True),
+    MetricSpec("pick_success", "pick success", "pick", 100, "{:.1f}%", True, brief=True),
+    MetricSpec("target_found_rate", "target found", "found", 100, "{:.1f}%", True),
+    MetricSpec("failure_rate", "failed", "failed", 100, "{:.1f}%", False, board=False),
+    MetricSpec("ms_per_view_median", "ms/view", "ms/view", 1, "{:.1f}", False, brief=True),
+)  # fmt: skip
+"""Every metric a table shows, in the order of the columns."""
+
+BY_KEY: dict[str, MetricSpec] = {m.key: m for m in METRICS}
+
+
+def spec(key: str) -> MetricSpec:
+    """The spec of ``key`` (a programming error, not a user's, when it has none)."""
+    return BY_KEY[key]
+
+
+def board_columns() -> tuple[MetricSpec, ...]:
+    """The leaderboard's suite-table columns."""
+    return tuple(m for m in METRICS if m.board)
+
+
+def brief_columns() -> tuple[MetricSpec, ...]:
+    """The plain-text table's columns."""
+    return tuple(m for m in METRICS if m.brief)

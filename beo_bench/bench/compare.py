@@ -1,0 +1,366 @@
+"""Paired comparisons of two runs over the same items (``beo-bench compare A B``).
+
+Two runs of one suite (same version, track and seed) score the same items, so the fair
+question is not whether their intervals overlap but how B's score differs from A's *on the
+same items*: :func:`paired` takes, per headline metric, the difference B - A of the means
+over the views both runs scored, and a percentile bootstrap 95% interval of it that
+resamples **items** (the unit the suite draws: a tabletop item is a scene with several
+views, which are not independent), each resample keeping A's and B's views of an item
+together. The verdict is ``better`` or ``worse`` (for B, in the metric's direction, see
+:mod:`beo_bench.bench.columns`) when the interval excludes 0, else ``no difference``.
+
+The per-view values are the summary's: a failed view counts at its worst case (rotation
+180 deg, so a gross error and a NOCS miss; translation, MSSD, EDT, Chamfer at their caps;
+IoU, F-score, class and pick 0: :func:`beo_bench.bench.summary.view_values`, the one
+definition), so a backend that fails on hard views cannot look better for it.
+Medians and timings are not paired (a median of differences is not a difference of
+medians, and timings depend on the machine).
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from beo_bench.bench.columns import METRICS, MetricSpec, spec
+from beo_bench.errors import CorruptDataError, UsageError
+
+RESULTS_NAME = "results.jsonl"
+SUMMARY_NAME = "summary.json"
+CLASS_FREE = "class-free"
+VERDICTS = ("better", "worse", "no difference")
+PAIRED = frozenset(
+    {
+        "rot_err_deg_mean", "gross_err_rate", "acc_10deg5cm", "trans_err_cm_mean",
+        "size_err_pct_mean", "mssd_cm_mean", "mspd_px_mean", "class_acc", "iou_mean",
+        "iou_cam_mean", "edt_err_mean", "chamfer_l1_mean", "fscore_mean", "pick_success",
+        "target_found_rate", "failure_rate",
+    }
+)  # fmt: skip
+"""The summary means that are paired (means over views; medians and timings are not)."""
+
+
+class ComparisonWarning(UserWarning):
+    """Two compared runs that hold different items: only the common ones are paired."""
+
+
+# -- loading runs ------------------------------------------------------------------------------
+def load_summary(path: Path | str) -> tuple[Path, dict[str, Any]]:
+    """A run's directory and summary, from the directory or its ``summary.json``.
+    Missing: :class:`UsageError`; unreadable: :class:`CorruptDataError`."""
+    p = Path(path)
+    f = p / SUMMARY_NAME if p.is_dir() else p
+    if not f.exists():
+        raise UsageError(f"{f} does not exist: give run directories or summary.json files")
+    try:
+        summary = json.loads(f.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise CorruptDataError(
+            f"{f} is not a readable summary ({e}); rerun that run with `beo-bench run "
+            "--resume` to rewrite it"
+        ) from e
+    if not isinstance(summary, dict) or not {"suite", "backend", "metrics"} <= set(summary):
+        raise CorruptDataError(
+            f"{f} is not a beo-bench run summary (no suite, backend or metrics); give the "
+            "summary.json of a run, or rerun that run with `beo-bench run --resume`"
+        )
+    return f.parent, summary
+
+
+@dataclass(frozen=True)
+class Run:
+    """A finished run: its directory, summary and result rows (the items it summarised)."""
+
+    path: Path
+    summary: dict[str, Any]
+    rows: tuple[dict[str, Any], ...]
+
+    @property
+    def items(self) -> set[int]:
+        return {int(r["item"]) for r in self.rows}
+
+
+def _size(summary: dict[str, Any]) -> int | None:
+    """How many items the summary covers (its suite's size), None when it does not say."""
+    size = summary.get("provenance", {}).get("suite", {}).get("size")
+    return int(size) if isinstance(size, int) and not isinstance(size, bool) else None
+
+
+def load_run(path: Path | str) -> Run:
+    """The run at ``path`` (a run directory or its ``summary.json``), with the rows of the
+    items its summary covers (results files may hold more: a run summarised over a prefix).
+    A summary without its ``results.jsonl`` cannot be paired: :class:`UsageError`."""
+    return run_from(*load_summary(path))
+
+
+def run_from(where: Path, summary: dict[str, Any]) -> Run:
+    """A :class:`Run` from a directory and its already loaded summary."""
+    from beo_bench.bench.runner import read_rows
+
+    results = where / RESULTS_NAME
+    if not results.is_file():
+        raise UsageError(
+            f"{where} has no {RESULTS_NAME}, so its items cannot be paired with another run's: "
+            "give the run directory that holds it (or `compare --table` for the summaries alone)"
+        )
+    size = _size(summary)
+    rows = [r for r in read_rows(results) if size is None or r["item"] < size]
+    rows.sort(key=lambda r: (r["item"], r["view"]))
+    return Run(where, summary, tuple(rows))
+
+
+# -- what may be compared ------------------------------------------------------------------------
+def track_of(summary: dict[str, Any]) -> str | None:
+    """The run's track (``class-given``, ``class-free``; None for a suite without tracks),
+    from the summary or, failing that, the suite its provenance records."""
+    track = summary.get("track", summary.get("provenance", {}).get("suite", {}).get("track"))
+    return str(track) if track is not None else None
+
+
+def hint_unused(summary: dict[str, Any]) -> bool:
+    """A class-free run of a backend that cannot use the class hint: it would score the
+    same in the class-given track, so it stands in that track too."""
+    return track_of(summary) == CLASS_FREE and summary.get("uses_class_hint") is False
+
+
+def _identity(summary: dict[str, Any]) -> dict[str, Any]:
+    """What must be equal for two runs to have scored the same items the same way."""
+    return {
+        "suite": summary.get("suite"),
+        "suite version": summary.get("suite_version"),
+        "seed": summary.get("seed"),
+        "object library version": summary.get("provenance", {}).get("library_version"),
+    }
+
+
+def mismatch(a: dict[str, Any], b: dict[str, Any]) -> str:
+    """Why two runs cannot be paired ("" when they can): a different suite, suite version,
+    seed, object library or track. A run that does not use the class hint matches either
+    track (see :func:`hint_unused`)."""
+    ia, ib = _identity(a), _identity(b)
+    diffs = [
+        f"{k} {ia[k]!r} vs {ib[k]!r}"
+        for k in ia
+        if ia[k] != ib[k] and not (k == "object library version" and None in (ia[k], ib[k]))
+    ]
+    ta, tb = track_of(a), track_of(b)
+    if ta != tb and not (None not in (ta, tb) and (hint_unused(a) or hint_unused(b))):
+        diffs.append(f"track {ta!r} vs {tb!r}")
+    return "; ".join(diffs)
+
+
+def check_comparable(a: Run | dict[str, Any], b: Run | dict[str, Any], names: str = "") -> None:
+    """Raise :class:`UsageError` unless the two runs can be paired."""
+    sa = a.summary if isinstance(a, Run) else a
+    sb = b.summary if isinstance(b, Run) else b
+    why = mismatch(sa, sb)
+    if why:
+        raise UsageError(
+            f"cannot pair {names or 'these runs'}: {why}. A paired comparison needs runs of "
+            "one suite, suite version, track and seed (the same items, scored the same way); "
+            "use `beo-bench compare --table` to list runs side by side"
+        )
+
+
+# -- per-view values -------------------------------------------------------------------------
+def view_values(run: Run) -> dict[str, dict[tuple[int, int], float]]:
+    """Per summary metric that is a mean over views, each (item, view)'s value as the
+    summary counts it (:func:`beo_bench.bench.summary.view_values`: failures at their worst
+    case; NaN where a view is not scored on it)."""
+    from beo_bench.bench.suites import get_suite
+    from beo_bench.bench.summary import view_values as summary_values
+
+    rows = list(run.rows)
+    keys = [(int(r["item"]), int(r["view"])) for r in rows]
+    per_metric = summary_values(get_suite(run.summary["suite"]), rows)
+    return {m: dict(zip(keys, (float(x) for x in v), strict=True)) for m, v in per_metric.items()}
+
+
+def pairable(a: dict[str, Any], b: dict[str, Any]) -> list[MetricSpec]:
+    """The headline metrics both summaries have that can be paired, in table order."""
+    both = set(a.get("metrics", {})) & set(b.get("metrics", {}))
+    return [m for m in METRICS if m.key in both and m.key in PAIRED]
+
+
+# -- the paired bootstrap ------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PairedResult:
+    """B - A on one metric, over the items both runs scored."""
+
+    key: str
+    label: str
+    a: float
+    """A's mean over the paired views."""
+    b: float
+    """B's mean over the same views."""
+    diff: float
+    """``b - a``."""
+    lo: float
+    hi: float
+    """The bootstrap interval of ``diff`` (items resampled)."""
+    verdict: str
+    """For B against A: ``better``, ``worse`` or ``no difference`` (the interval holds 0)."""
+    n_items: int
+    """Items with a view that both runs scored on this metric."""
+    n_views: int
+    """Views that both runs scored on this metric."""
+    confidence: float = 0.95
+
+    @property
+    def spec(self) -> MetricSpec:
+        return spec(self.key)
+
+
+def verdict(lo: float, hi: float, higher_is_better: bool) -> str:
+    """``better`` / ``worse`` when the interval ``[lo, hi]`` of B - A excludes 0."""
+    if lo > 0:
+        return "better" if higher_is_better else "worse"
+    if hi < 0:
+        return "worse" if higher_is_better else "better"
+    return "no difference"
+
+
+def _per_item(
+    va: dict[tuple[int, int], float], vb: dict[tuple[int, int], float]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per common item (sorted): the sums of A's and B's values over the views both scored,
+    and how many views that is."""
+    sums: dict[int, list[float]] = {}
+    for key in sorted(va.keys() & vb.keys()):
+        x, y = va[key], vb[key]
+        if np.isfinite(x) and np.isfinite(y):
+            s = sums.setdefault(key[0], [0.0, 0.0, 0.0])
+            s[0] += x
+            s[1] += y
+            s[2] += 1
+    arr = np.array(list(sums.values()), dtype=np.float64).reshape(-1, 3)
+    return arr[:, 0], arr[:, 1], arr[:, 2]
+
+
+def paired_metric(
+    a_values: dict[tuple[int, int], float],
+    b_values: dict[tuple[int, int], float],
+    key: str,
+    n_resamples: int = 1000,
+    confidence: float = 0.95,
+    seed: int = 0,
+) -> PairedResult | None:
+    """B - A on metric ``key`` from each run's per-view values of it (:func:`view_values`),
+    None when no view has it in both. The mean is over views (as the summary's), the
+    resampling over items: each resample draws items with replacement and takes the ratio
+    of the drawn items' summed differences to their view count (the cluster bootstrap of a
+    mean over views)."""
+    sa, sb, n = _per_item(a_values, b_values)
+    if not len(n):
+        return None
+    d = sb - sa
+    diff = float(d.sum() / n.sum())
+    rng = np.random.default_rng(seed)
+    idx = rng.integers(0, len(n), size=(int(n_resamples), len(n)))
+    stats = d[idx].sum(axis=1) / n[idx].sum(axis=1)
+    q = 100 * (1 - confidence) / 2
+    lo, hi = (float(x) for x in np.percentile(stats, [q, 100 - q]))
+    m = spec(key)
+    return PairedResult(
+        key=key,
+        label=m.label,
+        a=float(sa.sum() / n.sum()),
+        b=float(sb.sum() / n.sum()),
+        diff=diff,
+        lo=lo,
+        hi=hi,
+        verdict=verdict(lo, hi, m.higher_is_better),
+        n_items=len(n),
+        n_views=int(n.sum()),
+        confidence=confidence,
+    )
+
+
+def paired_runs(
+    a: Run,
+    b: Run,
+    keys: Iterable[str] | None = None,
+    n_resamples: int = 1000,
+    confidence: float = 0.95,
+    seed: int = 0,
+) -> list[PairedResult]:
+    """B - A per metric (``keys``, default: :func:`pairable`) over the common items.
+    Runs that cannot be paired: :class:`UsageError`; runs with different items: a
+    :class:`ComparisonWarning`, then the common items are compared."""
+    check_comparable(a, b, f"{a.path} and {b.path}")
+    common = a.items & b.items
+    if not common:
+        raise UsageError(
+            f"{a.path} and {b.path} have no item in common (items {_span(a.items)} and "
+            f"{_span(b.items)}): run both over the same items (the same --episodes)"
+        )
+    if a.items != b.items:
+        warnings.warn(
+            f"{a.path} has {len(a.items)} items and {b.path} {len(b.items)}: comparing the "
+            f"{len(common)} they have in common",
+            ComparisonWarning,
+            stacklevel=2,
+        )
+    wanted = [m.key for m in pairable(a.summary, b.summary)] if keys is None else list(keys)
+    va, vb = view_values(a), view_values(b)
+    out = []
+    for key in wanted:
+        if key not in va or key not in vb:
+            continue
+        r = paired_metric(va[key], vb[key], key, n_resamples, confidence, seed)
+        if r is not None:
+            out.append(r)
+    return out
+
+
+def paired(
+    a_dir: Path | str,
+    b_dir: Path | str,
+    keys: Iterable[str] | None = None,
+    n_resamples: int = 1000,
+    confidence: float = 0.95,
+    seed: int = 0,
+) -> list[PairedResult]:
+    """B - A per headline metric for the runs in ``a_dir`` and ``b_dir`` (directories or
+    their ``summary.json``): see :func:`paired_runs`."""
+    return paired_runs(load_run(a_dir), load_run(b_dir), keys, n_resamples, confidence, seed)
+
+
+def _span(items: set[int]) -> str:
+    return f"{min(items)}..{max(items)}" if items else "none"
+
+
+# -- text --------------------------------------------------------------------------------------
+def format_paired(a: Run, b: Run, results: Sequence[PairedResult]) -> str:
+    """The plain-text report of :func:`paired_runs`."""
+    from beo_bench.bench.campaign import backend_label
+
+    def name(r: Run) -> str:
+        s = r.summary
+        kwargs = s.get("provenance", {}).get("backend_kwargs") or {}
+        return f"{backend_label(s['backend'], kwargs)} ({r.path})"
+
+    common = len(a.items & b.items)
+    lines = [
+        f"paired: B = {name(b)} against A = {name(a)}",
+        f"  {common} items in common (A has {len(a.items)}, B {len(b.items)}); B - A with a "
+        "95% bootstrap interval that resamples items (rates in percentage points)",
+    ]
+    head = f"  {'metric':<22} {'A':>9} {'B':>9} {'B - A':>9}  {'95% interval':<22} verdict"
+    lines += [head, "  " + "-" * (len(head) - 2)]
+    for r in results:
+        m = r.spec
+        ci = f"[{m.format_diff(r.lo)}, {m.format_diff(r.hi)}]"
+        lines.append(
+            f"  {m.label:<22} {m.format(r.a):>9} {m.format(r.b):>9} "
+            f"{m.format_diff(r.diff):>9}  {ci:<22} {r.verdict}"
+        )
+    if not results:
+        lines.append("  (no metric that both runs measured can be paired)")
+    return "\n".join(lines)

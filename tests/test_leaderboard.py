@@ -1,0 +1,165 @@
+"""Leaderboard hygiene (issue 17, item 8): only runs scored under the same rules share a
+table (track, seed, items), partial runs and borrowed rows are marked, each row carries its
+model digest and options, and each method gets paired verdicts against the baselines."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from beo_bench.bench.columns import METRICS, board_columns
+from beo_bench.bench.leaderboard import regenerate, suite_table
+from tests.synthetic_runs import pose_row, write_run
+
+ROT = np.random.default_rng(0).exponential(40, 22)
+DIGEST = "0123456789abcdef"
+
+
+def _rows(scale: float, n: int = len(ROT)) -> list[dict]:
+    return [pose_row(i, rot_err_deg=float(r * scale)) for i, r in enumerate(ROT[:n])]
+
+
+def _table(md: str, heading: str) -> list[str]:
+    """The table rows under ``heading`` (up to the next blank line after the table)."""
+    part = md.split(heading, 1)[1]
+    lines = [ln for ln in part.split("\n\n", 2)[1].splitlines() if ln.startswith("| ")]
+    return lines[1:]  # without the header (the rule does not start with "| ")
+
+
+@pytest.fixture(scope="module")
+def board(tmp_path_factory):
+    tmp_path = tmp_path_factory.mktemp("leaderboard")
+    runs = tmp_path / "runs"
+    write_run(runs / "given-icp-plain", "icp-plain", _rows(1.0))
+    write_run(runs / "given-icp", "icp", _rows(0.5))
+    write_run(runs / "given-beo", "beo", _rows(0.6), digest=DIGEST)
+    write_run(runs / "free-beo", "beo", _rows(0.9), track="class-free", digest=DIGEST)
+    write_run(runs / "free-hbeo", "hbeo", _rows(0.7), track="class-free", uses_hint=False)
+    write_run(runs / "given-beo-5", "beo", _rows(0.6, 5), digest=DIGEST)  # fewer items
+    write_run(runs / "given-beo-seed7", "beo", _rows(0.6), seed=7, digest=DIGEST)
+    write_run(runs / "given-beo-v0", "beo", _rows(0.1), version=0)  # an older suite version
+    write_run(runs / "given-icp-48", "icp", _rows(0.4), kwargs={"starts": 48})
+    regenerate(runs, tmp_path / "board")
+    return tmp_path / "board"
+
+
+def test_runs_of_other_seeds_or_item_counts_get_their_own_section(board) -> None:
+    md = (board / "pose-1dof.md").read_text()
+    main = _table(md, "### seed 2000, 22 items")
+    assert len([r for r in main if r.startswith("| beo |")]) == 1  # one beo row per table
+    fewer = _table(md, "### seed 2000, 5 items (partial: 5 of the suite's 500 items)")
+    other = _table(md, "### seed 7, 22 items")
+    assert [r.split(" | ")[:2] for r in fewer] == [["| beo", "5"]]
+    assert [r.split(" | ")[:2] for r in other] == [["| beo", "22"]]
+    # the suite's own seed and the most items come first
+    assert md.index("### seed 2000, 22 items") < md.index("### seed 2000, 5 items")
+    assert md.index("### seed 2000, 5 items") < md.index("### seed 7, 22 items")
+    # an older suite version is not tabulated, but said to be left out
+    assert "left out (v0: 1 run(s))" in md
+    assert f"| {0.1 * ROT.mean():.1f} [" not in md  # its mean rotation error
+
+
+def test_each_track_has_its_table_and_a_backend_without_the_hint_is_in_both(board) -> None:
+    md = (board / "pose-1dof.md").read_text()
+    given_part, free_part = md.split("## class-free track")
+    assert "## class-given track" in given_part
+    given = _table(given_part, "### seed 2000, 22 items")
+    free = _table(free_part, "### seed 2000, 22 items")
+    names = [r.split(" | ")[0][2:] for r in given]
+    assert names == ["beo", "hbeo *(hint not used)*", "icp", "icp (starts=48)", "icp-plain"]
+    assert [r.split(" | ")[0][2:] for r in free] == ["beo", "hbeo"]
+    # the class-given and class-free beo rows are different runs (0.6 vs 0.9 of ROT)
+    assert given[0].split(" | ")[3] != free[0].split(" | ")[3]
+    assert "| given |" in given[0] and "| given |" not in free[0]
+
+
+def test_rows_carry_model_digest_and_options(board) -> None:
+    md = (board / "pose-1dof.md").read_text()
+    header = next(ln for ln in md.splitlines() if ln.startswith("| backend | n |"))
+    assert header.endswith("| model |")
+    rows = _table(md, "### seed 2000, 22 items")
+    assert rows[0].endswith(f"| `{DIGEST[:8]}` |")  # beo: its model, 8 hex digits
+    assert rows[2].startswith("| icp |") and rows[2].endswith("| `-` |")  # no learned model
+    assert rows[3].startswith("| icp (starts=48) |")
+
+
+def test_a_run_with_fewer_views_than_its_section_is_marked_partial() -> None:
+    rows = [
+        {"backend": "beo", "n": 10, "failures": 0, "metrics": {"rot_err_deg_mean": 1.0}},
+        {"backend": "icp", "n": 7, "failures": 0, "metrics": {"rot_err_deg_mean": 2.0}},
+    ]
+    lines = suite_table(rows).splitlines()
+    assert lines[2].startswith("| beo | 10 |")
+    assert lines[3].startswith("| icp *(partial: 7 of 10 views)* | 7 |")
+
+
+def test_paired_verdicts_against_each_baseline(board) -> None:
+    md = (board / "pose-1dof.md").read_text()
+    given = md.split("## class-free track")[0]
+    verdicts = _table(given, "Paired verdicts")
+    pairs = {tuple(r.split(" | ")[:2]): r for r in verdicts}
+    assert set(pairs) == {("| beo", "icp-plain"), ("| beo", "icp"), ("| hbeo", "icp-plain"),
+                          ("| hbeo", "icp")}  # fmt: skip
+    # beo's errors are 0.6 of icp-plain's on every view (better), 1.2 of icp's (worse)
+    assert pairs[("| beo", "icp-plain")].split(" | ")[4] == "**better**"
+    assert pairs[("| beo", "icp")].split(" | ")[4] == "**worse**"
+    data = json.loads((board / "pose-1dof_paired.json").read_text())
+    beo = next(
+        v for v in data
+        if (v["method"], v["baseline"], v["metric"]) == ("beo", "icp-plain", "rot_err_deg_mean")
+    )  # fmt: skip
+    assert beo["track"] == "class-given" and beo["items"] == 22
+    # errors are capped at 180 deg in every mean (the worst case), so the difference is
+    # that of the capped errors
+    capped = np.minimum(0.6 * ROT, 180) - np.minimum(ROT, 180)
+    assert beo["diff"] == pytest.approx(capped.mean())
+    assert beo["ci95"][1] < 0 and beo["verdict"] == "better"
+    # the index (for the README) shows the verdicts too
+    assert "| beo | icp-plain | 22 |" in (board / "README.md").read_text()
+
+
+def test_no_verdict_between_runs_of_different_items(tmp_path) -> None:
+    runs = tmp_path / "runs"
+    write_run(runs / "icp-plain", "icp-plain", _rows(1.0))
+    write_run(runs / "beo", "beo", _rows(0.6)[:-1], size=len(ROT))  # an item missing
+    regenerate(runs, tmp_path / "board")
+    md = (tmp_path / "board" / "pose-1dof.md").read_text()
+    assert "Paired verdicts" not in md
+    assert "*(partial: 21 of 22 views)*" in md
+    assert json.loads((tmp_path / "board" / "pose-1dof_paired.json").read_text()) == []
+
+
+def test_plots_are_per_track_and_stale_files_go(board) -> None:
+    assert (board / "pose-1dof_class-given_rot_cdf.png").read_bytes()[:4] == b"\x89PNG"
+    assert (board / "pose-1dof_class-free_rot_cdf.png").exists()
+    # hbeo's confusion plot is drawn once, in its own track
+    assert (board / "pose-1dof_class-free_confusion_hbeo.png").exists()
+    assert not (board / "pose-1dof_class-given_confusion_hbeo.png").exists()
+    (board / "pose-1dof_rot_cdf.png").write_bytes(b"old")  # a file of an earlier layout
+    (board / "notes.txt").write_text("mine")  # not the leaderboard's: kept
+    regenerate(board.parent / "runs", board)
+    assert not (board / "pose-1dof_rot_cdf.png").exists()
+    assert (board / "notes.txt").read_text() == "mine"
+
+
+def test_the_leaderboard_columns_are_the_metric_specs(board) -> None:
+    md = (board / "pose-1dof.md").read_text()
+    header = next(ln for ln in md.splitlines() if ln.startswith("| backend | n |"))
+    labels = header.strip("| ").split(" | ")[3:-1]
+    assert labels == [m.label for m in board_columns() if m.label in labels]
+    assert all(m.key for m in METRICS) and len({m.key for m in METRICS}) == len(METRICS)
+
+
+def test_an_unreadable_summary_is_named_with_its_fix(tmp_path, capsys) -> None:
+    from beo_bench.cli import main
+
+    runs = tmp_path / "runs"
+    write_run(runs / "beo", "beo", _rows(0.6))
+    (runs / "torn").mkdir()
+    (runs / "torn" / "summary.json").write_text('{"suite": "pose-1')  # cut off mid-write
+    argv = ["leaderboard", "--runs", str(runs), "--out", str(tmp_path / "board")]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "torn/summary.json is not a readable summary" in err and "--resume" in err
