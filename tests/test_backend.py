@@ -19,6 +19,7 @@ from beo_bench.types import Estimate, View
 FAST = {
     "random": {"mean_instances": 4},
     "icp": {"mean_instances": 4},
+    "icp-plain": {"mean_instances": 4},
     "beo": {"instances": 4, "so3_samples": 64},
     "swap": {"base": "random", "truth": "class+shape", "mean_instances": 4},
     **{
