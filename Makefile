@@ -31,7 +31,7 @@ setup: $(STAMP) $(GL_STAMP)
 
 setup-dev: setup $(DEV_STAMP)
 
-# Mesa's EGL (llvmpipe renders on the CPU) and OSMesa as the fallback; see DESIGN.md "Scenes".
+# Mesa's EGL (llvmpipe renders on the CPU) and OSMesa as the fallback; see docs/design.md "Scenes".
 $(GL_STAMP):
 	@mkdir -p $(VENV)
 	@if ldconfig -p | grep -q 'libEGL.so.1' && ldconfig -p | grep -q 'libOpenGL.so.0' \

@@ -2,7 +2,7 @@
 
 On reset, 1-k objects of distinct categories from a split are placed on a table in their
 rest poses with random yaw, settled by physics, and seen by a depth camera sampled around
-the table. The observation (DESIGN.md "Environments"):
+the table. The observation (docs/design.md "Environments"):
 
 - ``depth``: (H, W) float32, metric z-depth in metres, 0 where nothing was hit;
 - ``segmentation``: (H, W) int32, 0 background and table, 1..k objects;

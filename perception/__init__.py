@@ -1,4 +1,4 @@
-"""Perception backends (``beo_bench.perception``; DESIGN.md "Perception backends").
+"""Perception backends (``beo_bench.perception``; docs/design.md "Perception backends").
 
 - :mod:`.bounds`: ``oracle`` (ground truth) and ``random`` (chance);
 - :mod:`.means`: per-class mean shapes and sizes from the ``train`` split;

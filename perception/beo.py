@@ -2,7 +2,7 @@
 completion from one segmented depth view, by search over pose hypotheses, all of a step's
 hypotheses evaluated as one batched torch computation.
 
-Per view (DESIGN.md "Perception backends"):
+Per view (docs/design.md "Perception backends"):
 
 1. *Start*: the cube (centre t, edge e) is first placed from the points alone, the same for
    every rotation: e = the largest extent of the points along their principal axes, t =

@@ -1,6 +1,6 @@
 """HBEO's training set: crops rendered by the scenes API, cached as compressed shards.
 
-Two kinds of shard (DESIGN.md "Perception backends"; dissertation section 4.3):
+Two kinds of shard (docs/design.md "Perception backends"; dissertation section 4.3):
 
 - *isolated*: instances of the split at the origin, cameras from ``OBJECT_RIG`` (azimuth
   over the full circle, elevation 0-60 degrees, roll zero-mean Gaussian with 99% within 25

@@ -1,4 +1,4 @@
-"""Tabletop scenes and off-screen rendering (``beo_bench.scenes``; DESIGN.md "Scenes").
+"""Tabletop scenes and off-screen rendering (``beo_bench.scenes``; docs/design.md "Scenes").
 
 - :mod:`.camera`: intrinsics (K), the camera rig, the one MuJoCo <-> OpenCV conversion;
 - :mod:`.renderer`: metric depth + instance segmentation (+ RGB) with a reused GL context;

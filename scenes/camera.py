@@ -1,6 +1,6 @@
 """Camera intrinsics, the camera rig, and the one conversion from MuJoCo's camera axes.
 
-Conventions (DESIGN.md "Scenes and rendering"): ``K`` is OpenCV's 3x3 intrinsic matrix with
+Conventions (docs/design.md "Scenes and rendering"): ``K`` is OpenCV's 3x3 intrinsic matrix with
 pixel (u, v) = (column, row) and pixel centres at integer coordinates; ``cam_to_world`` is a
 4x4 transform whose camera axes are OpenCV's (x right, y down, z forward). MuJoCo's cameras
 look down their -z axis with +y up; :func:`opencv_to_mujoco` is the only place that converts.

@@ -1,4 +1,4 @@
-"""Scripted, physical grasp execution with the simulated gripper (DESIGN.md "Environments").
+"""Scripted, physical grasp execution with the simulated gripper (docs/design.md "Environments").
 
 Phases (simulated time): check the pre-grasp and grasp poses; approach from the pre-grasp
 offset along the gripper's +z with the fingers open (0.3 s); close with force-limited
@@ -24,7 +24,7 @@ CLOSE_S = 0.3
 LIFT_S = 0.5
 HOLD_S = 1.0
 LIFT_SUCCESS = 0.10
-"""An object counts as lifted when it ends this far above its rest height (DESIGN.md)."""
+"""An object counts as lifted when it ends this far above its rest height (docs/design.md)."""
 PENETRATION_TOL = 0.001
 
 

@@ -1,6 +1,6 @@
 """Choose MuJoCo's off-screen GL platform before ``mujoco`` is imported.
 
-``MUJOCO_GL`` is read once, when ``mujoco`` is first imported (DESIGN.md "Scenes"): every
+``MUJOCO_GL`` is read once, when ``mujoco`` is first imported (docs/design.md "Scenes"): every
 module of beo-bench that renders imports ``mujoco`` through :func:`load_mujoco`, so the choice
 is made here and only here. Order: the user's own ``MUJOCO_GL`` if set, else EGL (Mesa's
 llvmpipe renders on the CPU), else OSMesa.

@@ -1,5 +1,5 @@
 """The benchmark: versioned suites, the evaluator that scores one item, the parallel and
-resumable runner, run summaries and the leaderboards (DESIGN.md "Benchmark runner and
+resumable runner, run summaries and the leaderboards (docs/design.md "Benchmark runner and
 leaderboards").
 
 - :mod:`.suites`: the suite registry (``get_suite``, ``list_suites``);

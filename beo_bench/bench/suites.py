@@ -1,4 +1,4 @@
-"""Versioned benchmark suites (DESIGN.md "Benchmark runner and leaderboards").
+"""Versioned benchmark suites (docs/design.md "Benchmark runner and leaderboards").
 
 A suite is a frozen dataclass in a registry: what is rendered (isolated instances or
 BEOPick-v0 scenes), which protocol the backend is held to (what it is told), the split,

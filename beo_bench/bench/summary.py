@@ -1,4 +1,4 @@
-"""A run's summary from its result rows (``summary.json``; DESIGN.md "Public names").
+"""A run's summary from its result rows (``summary.json``; docs/design.md "Public names").
 
 **Failures count in every mean.** A failed view (the backend raised, broke the ``Estimate``
 contract, overran the item timeout or killed its worker) has no estimate, so its row holds

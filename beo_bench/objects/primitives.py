@@ -2,7 +2,7 @@
 
 Every primitive is a convex, watertight ``trimesh.Trimesh``. An object is the union of its
 parts (manifold3d booleans), and the parts themselves are its collision geometry: exact
-and instant, with no convex decomposition needed (DESIGN.md "Object library").
+and instant, with no convex decomposition needed (docs/design.md "Object library").
 
 Builders work in any convenient frame (usually resting on z = 0); the library re-centres
 the result on its bounding-box centre.
@@ -135,7 +135,7 @@ def revolve_shell(
 ) -> list[trimesh.Trimesh]:
     """A thin wall of revolution (a mug's wall, a bowl): the outer profile (radius, z) with
     increasing z, thickened inwards by ``thickness``. Each (profile segment x angular sector)
-    is one convex piece, a ring of convex segments as DESIGN.md describes. With 32 sectors a
+    is one convex piece, a ring of convex segments as docs/design.md describes. With 32 sectors a
     whole mug or bowl (wall plus base) rotated by half a sector keeps a volume IoU of about
     0.97 with itself (the symmetry test in tests/objects/test_categories.py measures it), so
     such objects may be declared continuously symmetric; a bare thin wall alone scores

@@ -14,7 +14,7 @@ from beo_bench.errors import EmptyMeshError, NonWatertightMeshError
 from beo_bench.types import BoolGrid, Symmetry
 
 DEFAULT_RESOLUTION = 32
-"""Voxel grid size D (DESIGN.md: D^3, default 32)."""
+"""Voxel grid size D (docs/design.md: D^3, default 32)."""
 
 
 def check_solid(mesh: trimesh.Trimesh, what: str) -> None:
