@@ -499,14 +499,17 @@ def _hbeo_config(args: argparse.Namespace, kind: Kind) -> HBEOConfig:
         instances=args.per_category,
         images=args.images,
         epochs=getattr(args, "epochs", None),
+        recipe=getattr(args, "recipe", None) or "default",
     )
     return with_overrides(
         base,
         val_images=args.val_images,
         seed=args.seed,
+        crop=getattr(args, "crop", None),
         size=getattr(args, "size", None),
         rotation=getattr(args, "rotation", None),
         batch_size=getattr(args, "batch_size", None),
+        projection_weighting=getattr(args, "projection_weighting", None),
     )
 
 
@@ -517,16 +520,46 @@ def _train_hbeo(args: argparse.Namespace) -> int:
     name = args.name or default_name(cfg)
     path = model_path(name)
     t0 = time.perf_counter()
-    model = train_hbeo(cfg, path, progress=True, workers=args.workers, resume=args.resume)
-    last = model.info["history"][-1]
+    model = train_hbeo(
+        cfg, path, progress=True, workers=args.workers, resume=args.resume, device=args.device
+    )
+    last = model.info["history"][model.info["epoch_kept"] - 1]
     speed = model.info["render_images_per_s"]
     rendered = f"rendered at {speed:.0f} images/s" if speed else "rendering cached"
     print(
         f"{args.model} model {name!r}: {model.info['train_images']} crops ({rendered}), "
-        f"{len(model.info['history'])} epochs in {time.perf_counter() - t0:.1f} s; "
+        f"{len(model.info['history'])} epochs in {time.perf_counter() - t0:.1f} s "
+        f"(kept epoch {model.info['epoch_kept']}, on {model.info['device']}); "
         f"validation: class accuracy {last.get('val_class_acc', float('nan')):.1%}, "
         f"rotation median {last.get('val_rot_err_median', float('nan')):.1f} deg -> {path}"
     )
+    return 0
+
+
+def cmd_publish(args: argparse.Namespace) -> int:
+    """Write a trained model as a published one (compact, pickle-free, digests in the
+    manifest): what the backends load by default."""
+    from beo_bench.perception import published
+
+    out = Path(args.out) if args.out else published.PUBLISHED_DIR
+    if args.model == "beo":
+        from beo_bench.perception.beo_model import BEOModel, model_dir
+
+        cats = _categories(args)
+        path = model_dir(args.name, cats, 32) if args.name else model_dir(None, cats, 32)
+        sha = published.publish_beo(BEOModel.load(path), out)
+    else:
+        from beo_bench.perception.hbeo_train import HBEOModel, model_path
+
+        if args.name is None:
+            raise UsageError(f"publish {args.model} needs --name (the trained model's name)")
+        model = HBEOModel.load(model_path(args.name))
+        if model.config.kind != args.model:
+            raise UsageError(f"{args.name!r} is a {model.config.kind} model, not {args.model}")
+        sha = published.publish_hbeo(model, out, half=not args.float32)
+    print(f"published {args.model} -> {out} (SHA-256 {sha})")
+    for name, size, digest in published.files_table(out):
+        print(f"  {name:<16} {size / 1e6:6.2f} MB  {digest}")
     return 0
 
 
@@ -729,12 +762,44 @@ def build_parser() -> argparse.ArgumentParser:
     th.add_argument("--size", choices=["small", "dissertation"], default=None)
     th.add_argument("--rotation", choices=["axis-angle", "6d"], default=None, help="hbeo only")
     th.add_argument(
+        "--recipe",
+        choices=["default", "reference"],
+        default="default",
+        help="default: 16k crops x 15 epochs (minutes on CPU); reference: 100k x 20, best "
+        "validation epoch (the published models)",
+    )
+    th.add_argument(
+        "--device",
+        choices=["auto", "cpu", "cuda"],
+        default="cpu",
+        help="where to train (auto: CUDA when available); cpu is bitwise reproducible",
+    )
+    th.add_argument(
+        "--projection-weighting",
+        choices=["uniform", "variance"],
+        default=None,
+        help="eq. 4.3's projection term: uniform (dissertation) or variance-weighted",
+    )
+    th.add_argument("--crop", type=positive_int, default=None, help="crop side in pixels (64)")
+    th.add_argument(
         "--resume",
         action=argparse.BooleanOptionalAction,
         default=True,
         help="continue from the last finished epoch of a killed run (default)",
     )
     tr.set_defaults(func=cmd_train)
+
+    pb = sub.add_parser(
+        "publish", help="write a trained model into the published models the backends load"
+    )
+    pb.add_argument("model", choices=["beo", "hbeo", "hbeo-mdn"])
+    pb.add_argument(
+        "--name", type=model_name, default=None, help="the trained model (beo: default model)"
+    )
+    pb.add_argument("--categories", nargs="+", default=None, help="beo: default the 11 built-in")
+    pb.add_argument("--out", default=None, help="default: the package's perception/published")
+    pb.add_argument("--float32", action="store_true", help="keep float32 weights (default fp16)")
+    pb.set_defaults(func=cmd_publish)
 
     rd = sub.add_parser("render-dataset", help="render HBEO's training crops (cached shards)")
     rd.add_argument("--categories", nargs="+", default=None, help="default: the 11 built-in")

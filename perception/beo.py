@@ -54,11 +54,10 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import torch
-from beo_bench.perception.beo_model import BEOModel, load_model, model_dir
+from beo_bench.perception.beo_model import BEOModel, load_model
 from beo_bench.perception.beo_observe import (
     Observation,
     distance_transform,
@@ -66,7 +65,7 @@ from beo_bench.perception.beo_observe import (
     voxelise,
 )
 from beo_bench.perception.beo_project import Subspace, project
-from beo_bench.perception.digest import model_digest
+from beo_bench.perception.digest import state_digest
 
 from beo_bench.backend import as_bool, register_backend
 from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
@@ -194,24 +193,22 @@ class BEOBackend:
         if not 0 < self.fine_deg <= self.yaw_step_deg:
             raise ValueError(f"fine_deg={fine_deg} must be in (0, yaw_step_deg]")
         self._models: dict[tuple[str, ...], tuple[BEOModel, Subspace, Subspace]] = {}
-        self._dir: Path | None = None
-        self._digests: dict[Path, str] = {}
+        self._digest: str | None = None
+        self._digests: dict[int, str] = {}
 
     # -- model ----------------------------------------------------------------------------
     def prepare(self, categories: tuple[str, ...]) -> None:
         """Load (or train, on first use, with progress) the model for ``categories``."""
         cats = tuple(categories)
-        self._model(cats, progress=True)
-        self._dir = model_dir(self.model_name, cats, self.resolution, self.instances)
+        m = self._model(cats, progress=True)[0]
+        if id(m) not in self._digests:  # the weights as loaded (published or cached)
+            self._digests[id(m)] = state_digest(m.arrays())
+        self._digest = self._digests[id(m)]
 
     def model_digest(self) -> str | None:
-        """The content digest (:func:`~beo_bench.perception.digest.model_digest`) of the
+        """The content digest (:func:`~beo_bench.perception.digest.state_digest`) of the
         model the last :meth:`prepare` loaded; None before any."""
-        if self._dir is None:
-            return None
-        if self._dir not in self._digests:
-            self._digests[self._dir] = model_digest(self._dir)
-        return self._digests[self._dir]
+        return self._digest
 
     def _model(
         self, cats: tuple[str, ...], progress: bool = False

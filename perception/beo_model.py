@@ -146,14 +146,7 @@ class BEOModel:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"))
         try:
-            meta = {
-                "kind": "beo",
-                "format": FORMAT_VERSION,
-                "config": {**asdict(self.config), "categories": list(self.categories)},
-                "k": self.k,
-                "digest": state_digest(self.arrays()),
-                "info": self.info,
-            }
+            meta = self.stored_meta()
             (tmp / "config.json").write_text(json.dumps(meta, indent=2) + "\n")
             with open(tmp / "arrays.npz", "wb") as f:
                 np.savez(f, **self.arrays())
@@ -187,20 +180,29 @@ class BEOModel:
             raise CheckpointError(
                 f"the BEO model at {path} is unreadable ({type(e).__name__}: {e}); {retrain}"
             ) from e
+        return cls.from_stored(meta, arrays, str(path), retrain)
+
+    @classmethod
+    def from_stored(
+        cls, meta: Any, arrays: dict[str, np.ndarray], where: str, retrain: str
+    ) -> BEOModel:
+        """The model from its ``config.json`` contents and arrays, checked (kind, format,
+        names, shapes, values, digest); :class:`CheckpointError` naming ``where`` and what to
+        do (``retrain``) otherwise."""
         if not isinstance(meta, dict) or meta.get("kind") != "beo":
             kind = meta.get("kind") if isinstance(meta, dict) else None
             raise CheckpointError(
-                f"{path} holds a {kind!r} model, not a BEO model; retrain with "
+                f"{where} holds a {kind!r} model, not a BEO model; retrain with "
                 "`beo-bench train beo`"
             )
         if meta.get("format") != FORMAT_VERSION:
             raise CheckpointError(
-                f"{path} holds a BEO model of format {meta.get('format')}, not "
+                f"{where} holds a BEO model of format {meta.get('format')}, not "
                 f"{FORMAT_VERSION}; retrain with `beo-bench train beo`"
             )
         problem = _array_problem(arrays, meta)
         if problem is not None:
-            raise CheckpointError(f"the BEO model at {path} is damaged ({problem}); {retrain}")
+            raise CheckpointError(f"the BEO model at {where} is damaged ({problem}); {retrain}")
         try:
             c = dict(meta["config"])
             c["categories"] = tuple(c["categories"])
@@ -208,8 +210,19 @@ class BEOModel:
             return cls(config=BEOConfig(**c), info=meta.get("info", {}), **arrays)
         except Exception as e:
             raise CheckpointError(
-                f"the BEO model at {path} is damaged ({type(e).__name__}: {e}); {retrain}"
+                f"the BEO model at {where} is damaged ({type(e).__name__}: {e}); {retrain}"
             ) from e
+
+    def stored_meta(self) -> dict[str, Any]:
+        """What ``config.json`` holds (:meth:`save`; the published copy's JSON too)."""
+        return {
+            "kind": "beo",
+            "format": FORMAT_VERSION,
+            "config": {**asdict(self.config), "categories": list(self.categories)},
+            "k": self.k,
+            "digest": state_digest(self.arrays()),
+            "info": self.info,
+        }
 
     def check_matches(self, categories: tuple[str, ...], resolution: int, where: str) -> None:
         """Raise :class:`CheckpointError` unless the model was trained for exactly these
@@ -363,11 +376,18 @@ def load_model(
 ) -> BEOModel:
     """The model called ``name`` (a plain name under :func:`models_root`; a path is refused
     with :class:`~beo_bench.errors.InvalidNameError`), or with ``name=None`` the default
-    model for ``categories`` and ``resolution``, trained and stored on first use (on the
+    model for ``categories`` and ``resolution``: the published one (:mod:`.published`) where
+    it was trained for these settings, otherwise trained and stored on first use (on the
     first ``per_category`` training instances of each class, or all of them). Raises
     :class:`CheckpointError` for a missing, damaged or mismatched model."""
     from beo_bench.objects import LIBRARY_VERSION
 
+    if name is None:
+        from beo_bench.perception import published
+
+        model = published.beo_for(tuple(categories), int(resolution), per_category)
+        if model is not None:  # the published default: nothing to train
+            return model
     path = model_dir(name, categories, resolution, per_category)
     if name is None and not (path / "config.json").exists():
         if not train_default:

@@ -25,8 +25,7 @@ from __future__ import annotations
 import inspect
 import zlib
 from collections.abc import Callable
-from dataclasses import dataclass
-from pathlib import Path
+from dataclasses import dataclass, fields
 from typing import Literal
 
 import cv2
@@ -34,10 +33,10 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 from beo_bench.perception.beo_observe import grid_centres
-from beo_bench.perception.digest import model_digest
+from beo_bench.perception.digest import state_digest
 from beo_bench.perception.hbeo_crop import Crop, make_crop
-from beo_bench.perception.hbeo_net import Mixture, point_rotation
-from beo_bench.perception.hbeo_train import HBEOModel, load_hbeo, model_dir
+from beo_bench.perception.hbeo_net import Mixture, Output, point_rotation
+from beo_bench.perception.hbeo_train import HBEOModel, load_hbeo
 from scipy.spatial.transform import Rotation
 from scipy.special import logsumexp
 
@@ -61,6 +60,8 @@ class HBEOBackend:
     - ``seed`` (0): with the crop's bytes, seeds the sampling (same view, same estimate);
     - ``instances``, ``images``, ``epochs`` (None): train the default model on this many
       instances per class, crops and epochs (quick checks; None: the default's);
+    - ``device`` (``cpu``): where the network runs: ``cpu``, ``cuda`` or ``auto`` (CUDA when
+      available). The sampling and scoring stay on the CPU in float64;
     - ``threads`` (1): torch intra-op threads for this process. One image at a time is
       fastest on one thread: on 2 cores, two torch threads spinning beside numpy's BLAS
       threads made a prediction 2.4x slower (8.0 vs 3.3 ms, ``benchmarks/bench_hbeo.py``).
@@ -77,8 +78,12 @@ class HBEOBackend:
         instances: int | None = None,
         images: int | None = None,
         epochs: int | None = None,
+        device: str = "cpu",
     ) -> None:
+        from beo_bench.perception.hbeo_train import resolve_device
+
         self.mode = mode
+        self.device = resolve_device(str(device))
         self.name = "hbeo" if mode == "hbeo" else f"hbeo-mdn-{mode}"
         self.kind = "hbeo" if mode == "hbeo" else "hbeo-mdn"
         self.model_name = (
@@ -96,30 +101,28 @@ class HBEOBackend:
         if self.threads is not None:
             torch.set_num_threads(max(1, self.threads))
         self._models: dict[tuple[str, ...], tuple[HBEOModel, np.ndarray, np.ndarray]] = {}
-        self._dir: Path | None = None
-        self._digests: dict[Path, str] = {}
+        self._digest: str | None = None
+        self._digests: dict[int, str] = {}
 
     def prepare(self, categories: tuple[str, ...]) -> None:
         """Load (or train on first use, with progress bars) the model for ``categories``."""
         cats = tuple(categories)
-        self._model(cats, progress=True)
-        self._dir = model_dir(self.model_name, self.kind, cats, **self.small)  # type: ignore[arg-type]
+        m = self._model(cats, progress=True)[0]
+        if id(m) not in self._digests:  # the weights as loaded (published or cached)
+            self._digests[id(m)] = state_digest(m.state())
+        self._digest = self._digests[id(m)]
 
     def model_digest(self) -> str | None:
-        """The content digest (:func:`~beo_bench.perception.digest.model_digest`) of the
-        network the last :meth:`prepare` loaded (its weights; the BEO subspace it regresses
-        is pinned by the fingerprint in its config); None before any."""
-        if self._dir is None:
-            return None
-        if self._dir not in self._digests:
-            self._digests[self._dir] = model_digest(self._dir)
-        return self._digests[self._dir]
+        """The content digest (:func:`~beo_bench.perception.digest.state_digest`) of the
+        model the last :meth:`prepare` loaded; None before any."""
+        return self._digest
 
     def _model(
         self, cats: tuple[str, ...], progress: bool = False
     ) -> tuple[HBEOModel, np.ndarray, np.ndarray]:
         if cats not in self._models:
             m = load_hbeo(self.model_name, self.kind, cats, progress, **self.small)  # type: ignore[arg-type]
+            m.net.to(self.device)
             # fold the coefficient standardisation into the decoder: shape = c_std A + b,
             # with A (k, d) row-major so the product streams it once (numpy's sgemv reads
             # the 15 MB of a 32^3 x 117 basis several times faster than torch's addmv)
@@ -135,7 +138,9 @@ class HBEOBackend:
         net, cfg = model.net, model.net.cfg
         crop = make_crop(view.depth, view.mask, view.K, cfg.crop)
         with torch.inference_mode():
-            out = net(torch.from_numpy(crop.image)[None])
+            out = net(torch.from_numpy(crop.image)[None].to(self.device))
+            if self.device.type != "cpu":  # the rest is numpy on the CPU
+                out = Output(**{f.name: getattr(out, f.name).cpu() for f in fields(Output)})
             probs = torch.softmax(out.logits.double(), dim=1)[0].numpy()
         D = model.beo.D
         shape = out.coefficients[0].numpy() @ A + b  # eq. 4.2: W o' + mu

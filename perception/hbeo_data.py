@@ -29,6 +29,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import math
 import multiprocessing as mp
 import os
 import time
@@ -44,7 +45,9 @@ from beo_bench.errors import CorruptDataError
 from beo_bench.objects import cache
 from beo_bench.types import Mat3, Symmetry
 
-DATA_VERSION = 1
+DATA_VERSION = 2
+"""2: tabletop shards come first in every split, and the validation split is cut into enough
+shards to hold its share of them (version 1's validation shards held none)."""
 FIELDS = ("depth", "label", "instance", "keys", "rotation", "offset", "log_size", "noisy")
 """The arrays of a shard file (besides its checksum)."""
 
@@ -80,15 +83,30 @@ class DatasetConfig:
             raise ValueError("tabletop_share and noise_share are fractions in [0, 1]")
 
     def shards(self) -> list[tuple[str, int, str, int]]:
-        """(split, shard index, kind, crops) of every shard; the kinds interleave so that
-        any prefix of the shards holds both at about ``tabletop_share``."""
+        """(split, shard index, kind, crops) of every shard; the kinds interleave, starting
+        with a tabletop shard, so that any prefix of k shards holds ceil(k * tabletop_share)
+        tabletop ones. A small split is cut into shards small enough for it to hold its
+        share too (version 1 gave the 1,000 validation crops two shards of 500 and no
+        tabletop one: validation did not cover the tabletop crops training sees)."""
         out = []
         for split, n in ((self.split, self.images), (self.val_split, self.val_images)):
-            for i in range(-(-n // self.shard_size)):
-                s = self.tabletop_share
-                kind = "tabletop" if int((i + 1) * s) > int(i * s) else "isolated"
-                out.append((split, i, kind, min(self.shard_size, n - i * self.shard_size)))
+            size = self._shard_size(n)
+            for i in range(-(-n // size)):
+                out.append((split, i, self._kind(i), min(size, n - i * size)))
         return out
+
+    def _kind(self, i: int) -> str:
+        s = self.tabletop_share
+        # rounded: 15 * 0.2 is 3.0000000000000004 in floating point
+        first = math.ceil(round((i + 1) * s, 9)) > math.ceil(round(i * s, 9))
+        return "tabletop" if first else "isolated"
+
+    def _shard_size(self, n: int) -> int:
+        s = self.tabletop_share
+        if not 0 < s < 1 or n < 1:
+            return self.shard_size
+        shards = math.ceil(round(1 / s, 9))  # one tabletop shard in every ceil(1/s)
+        return max(1, min(self.shard_size, -(-n // shards)))
 
     def digest(self) -> str:
         """Names the shard directory. The image counts are left out: shard i's crops do

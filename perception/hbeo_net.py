@@ -194,11 +194,16 @@ class Mixture:
 
 
 def losses(out: Output, cfg: NetConfig, target: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
-    """The loss terms of a batch (eq. 4.3 / 5.4); ``total`` is their sum (weights 1)."""
+    """The loss terms of a batch (eq. 4.3 / 5.4); ``total`` is their sum (weights 1). With
+    ``target["coef_weight"]`` (k weights of mean 1) the projection term weights each
+    standardised coefficient's squared error, e.g. by its variance: then it is the voxel-space
+    L2 of the reconstruction, since W has orthonormal columns."""
+    sq = (out.coefficients - target["coefficients"]) ** 2
+    if "coef_weight" in target:  # the variance-weighted ablation (HBEOConfig.projection_weighting)
+        sq = sq * target["coef_weight"]
     terms = {
         "class": F.cross_entropy(out.logits, target["label"]),
-        "projection": ((out.coefficients - target["coefficients"]) ** 2).sum(-1).mean()
-        / target["coefficients"].shape[-1],
+        "projection": sq.sum(-1).mean() / target["coefficients"].shape[-1],
         "offset": ((out.offset - target["offset"]) ** 2).sum(-1).mean(),
         "size": ((out.log_size - target["log_size"]) ** 2).sum(-1).mean(),
     }

@@ -4,6 +4,7 @@ conformance, and clear errors for mismatched checkpoints."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +34,7 @@ from beo_bench.perception.hbeo_net import (
 from beo_bench.perception.hbeo_train import (
     HBEOConfig,
     HBEOModel,
+    default_config,
     load_hbeo,
     model_path,
     train_hbeo,
@@ -347,3 +349,98 @@ def test_cli_renders_a_dataset_and_trains_a_named_model(capsys) -> None:
     assert "validation: class accuracy" in capsys.readouterr().out
     model = load_hbeo("cli-test", "hbeo-mdn", CATS)
     assert model.config.dataset.images == 150 and model.config.epochs == 1
+
+
+# -- recipes, best-validation epoch, devices, published files ----------------------------------
+def test_every_split_holds_its_share_of_tabletop_crops() -> None:
+    """Validation covers what training sees: version 1's rule put no tabletop shard among
+    the first four, so a 1,000-crop validation split (two shards) held none."""
+    for images, val in ((16000, 1000), (100_000, 10_000), (600, 150)):
+        cfg = DatasetConfig(categories=CATS, images=images, val_images=val)
+        for split in ("train", "val"):
+            shards = [s for s in cfg.shards() if s[0] == split]
+            n = sum(s[3] for s in shards)
+            share = sum(s[3] for s in shards if s[2] == "tabletop") / n
+            assert n == (images if split == "train" else val)
+            assert abs(share - cfg.tabletop_share) < 0.05, (split, images, share)
+
+
+def test_the_reference_recipe_keeps_the_best_validation_epoch(beo_dir) -> None:
+    cfg = replace(_config("hbeo-mdn", beo_dir), select="best-val", epochs=4, lr=2e-2)
+    model = train_hbeo(cfg, model_path("test-best-val"), progress=False, workers=1)
+    hist = model.info["history"]
+    best = int(np.argmin([h["val_total"] for h in hist]))
+    assert model.info["epoch_kept"] == best + 1
+    from beo_bench.perception.hbeo_train import _coefficients, _tensors, evaluate
+
+    val = load_split(cfg.dataset, "val")
+    codes = _coefficients(model.beo, val.keys)
+    data = _tensors(val, codes, model.coef_mean, model.coef_std)
+    # the kept weights are that epoch's: they score its validation loss again
+    assert evaluate(model.net, data)["total"] == pytest.approx(hist[best]["val_total"], rel=1e-4)
+    ref = default_config("hbeo", CATS, recipe="reference")
+    assert (ref.dataset.images, ref.epochs, ref.select) == (100_000, 20, "best-val")
+
+
+def test_variance_weighting_is_the_voxel_space_reconstruction_error() -> None:
+    """With each standardised coefficient weighted by its variance, the projection term is
+    |W (c - c_hat)|^2 over the voxels (W orthonormal), up to one constant."""
+    g = torch.Generator().manual_seed(0)
+    k, d = 6, 50
+    W = torch.linalg.qr(torch.randn(d, k, generator=g, dtype=torch.float64))[0]
+    std = torch.rand(k, generator=g, dtype=torch.float64) + 0.1
+    z, z_hat = torch.randn(4, k, generator=g), torch.randn(4, k, generator=g)
+    var = std**2
+    out = type("O", (), {})()
+    out.coefficients, out.logits = z_hat, torch.zeros(4, 2)
+    out.rotation, out.offset, out.log_size = torch.zeros(4, 3), torch.zeros(4, 3), torch.zeros(4, 3)
+    tgt = {
+        "coefficients": z,
+        "coef_weight": (var / var.mean()).float(),
+        "label": torch.zeros(4, dtype=torch.long),
+        "rotvec": torch.zeros(4, 3),
+        "R": torch.eye(3).expand(4, 3, 3),
+        "offset": torch.zeros(4, 3),
+        "log_size": torch.zeros(4, 3),
+    }
+    got = losses(out, NetConfig(classes=2, coefficients=k), tgt)["projection"]
+    voxels = ((W @ ((z - z_hat).double() * std).T) ** 2).sum(0).mean()
+    assert float(got) == pytest.approx(float(voxels / (k * var.mean())), rel=1e-5)
+
+
+def test_devices_resolve_and_a_missing_gpu_is_a_clear_error() -> None:
+    from beo_bench.perception.hbeo_train import resolve_device
+
+    from beo_bench.errors import UsageError
+
+    assert resolve_device("cpu").type == "cpu"
+    assert resolve_device("auto").type == ("cuda" if torch.cuda.is_available() else "cpu")
+    with pytest.raises(UsageError, match="use auto, cpu or cuda"):
+        resolve_device("tpu")
+    if not torch.cuda.is_available():
+        with pytest.raises(UsageError, match="no CUDA GPU"):
+            HBEOBackend("hbeo", device="cuda")
+
+
+def test_a_published_model_reads_back_as_trained(trained, tmp_path) -> None:
+    """Publishing keeps what inference uses: float32 exactly, float16 within its rounding,
+    and the digest names the weights as used."""
+    from beo_bench.perception import published
+    from beo_bench.perception.digest import state_digest
+
+    m = trained["hbeo-mdn"]
+    published.publish_hbeo(m, tmp_path, half=False)
+    meta, arrays = published.read("hbeo-mdn", tmp_path)
+    assert state_digest(published._state(arrays)) == meta["digest"] == state_digest(m.state())
+    published.publish_hbeo(m, tmp_path, half=True)
+    meta, arrays = published.read("hbeo-mdn", tmp_path)
+    state = published._state(arrays)
+    assert meta["stored_dtype"] == "float16" and meta["digest"] == state_digest(state)
+    for k, v in m.net.state_dict().items():
+        torch.testing.assert_close(state["net"][k], v, rtol=1e-3, atol=1e-4)
+    # an altered file is refused, never used
+    data = bytearray((tmp_path / "hbeo-mdn.npz").read_bytes())
+    data[len(data) // 2] ^= 1
+    (tmp_path / "hbeo-mdn.npz").write_bytes(bytes(data))
+    with pytest.raises(CheckpointError, match="altered"):
+        published.read("hbeo-mdn", tmp_path)

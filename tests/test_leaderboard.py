@@ -163,3 +163,23 @@ def test_an_unreadable_summary_is_named_with_its_fix(tmp_path, capsys) -> None:
     assert main(argv) == 1
     err = capsys.readouterr().err
     assert "torn/summary.json is not a readable summary" in err and "--resume" in err
+
+
+def test_pose_3dof_has_a_table_in_the_form_of_tables_5_1_and_5_2(tmp_path) -> None:
+    """Mean error / > 15 deg for car, airplane and sofa, a row per backend, computed from the
+    views of each category alone."""
+    runs = tmp_path / "runs"
+    cats = ("car", "airplane", "sofa", "mug")
+    rows = [
+        pose_row(i, rot_err_deg=float(r), category=cats[i % 4], key=f"{cats[i % 4]}/test/{i}")
+        for i, r in enumerate(ROT)
+    ]
+    write_run(runs / "hbeo", "hbeo", rows, suite="pose-3dof", track="class-free", uses_hint=False)
+    regenerate(runs, tmp_path / "board")
+    md = (tmp_path / "board" / "pose-3dof.md").read_text()
+    table = _table(md, "In the form of the dissertation's Tables 5.1")
+    assert len(table) == 1 and table[0].startswith("| hbeo |")
+    for cell, cat in zip(table[0].split("|")[2:-1], ("car", "airplane", "sofa"), strict=True):
+        errs = [min(r["rot_err_deg"], 180.0) for r in rows if r["category"] == cat]
+        want = f"{np.mean(errs):.1f} / {100 * np.mean(np.array(errs) > 15):.1f}%"
+        assert cell.strip() == want

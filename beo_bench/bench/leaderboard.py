@@ -65,6 +65,10 @@ PER_CATEGORY: dict[str, tuple[str, ...]] = {
 """The per-category tables' metrics per suite (default: mean rotation error and the gross
 error rate, as the dissertation's Tables 5.1 and 5.2)."""
 PER_CATEGORY_DEFAULT: tuple[str, ...] = ("rot_err_deg_mean", "gross_err_rate")
+TABLE_5_1_CATEGORIES: tuple[str, ...] = ("car", "airplane", "sofa")
+"""The categories of the dissertation's Tables 5.1 and 5.2 (car, plane, couch)."""
+TABLE_5_1_SUITES: tuple[str, ...] = ("pose-3dof", "pose-3dof-percat")
+"""The suites whose pages carry a table in the form of Tables 5.1/5.2."""
 DEGRADATION: tuple[str, ...] = ("rot_err_deg_mean", "gross_err_rate", "class_acc", "iou_mean")
 """The metrics of an ``-ood`` suite's in -> out of distribution table."""
 OOD_SUFFIX = "-ood"
@@ -196,6 +200,37 @@ def category_table(suite: str, rows: list[Row] | list[dict[str, Any]]) -> str:
     if not tables:
         tables.append(_category_table(summaries, spec("iou_mean")))
     return "\n\n".join(tables)
+
+
+def table_5_1(rows: list[Row]) -> str:
+    """Tables 5.1 and 5.2 of the dissertation in their own form: a row per backend, the mean
+    rotation error and the > 15 deg rate for car, plane (``airplane``) and couch (``sofa``).
+    Empty when the rows hold none of those categories."""
+    ordered = _ordered(rows)
+    cats = [
+        c
+        for c in TABLE_5_1_CATEGORIES
+        if any(c in r.summary.get("per_category", {}) for r in ordered)
+    ]
+    if not cats:
+        return ""
+    mean, gross = spec("rot_err_deg_mean"), spec("gross_err_rate")
+    lines = [
+        "In the form of the dissertation's Tables 5.1 (mean rotation error, deg) and 5.2 "
+        "(> 15 deg), per category:",
+        "",
+        "| backend | " + " | ".join(cats) + " |",
+        "|---|" + "---:|" * len(cats),
+    ]
+    for r in ordered:
+        pc = r.summary.get("per_category", {})
+        cells = [
+            f"{mean.format(pc.get(c, {}).get(mean.key))} / "
+            f"{gross.format(pc.get(c, {}).get(gross.key))}"
+            for c in cats
+        ]
+        lines.append(f"| {label(r.summary)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def _category_table(rows: list[dict[str, Any]], m: MetricSpec) -> str:
@@ -628,6 +663,8 @@ def _track_part(
         extra = [vt, gap] + ([degradation_table(base, twin.rows, suite, sec.rows)] if twin else [])
         page.md += [t + "\n" for t in extra if t]
         page.md += [category_table(suite, sec.rows), ""]
+        t51 = table_5_1(sec.rows) if suite in TABLE_5_1_SUITES else ""
+        page.md += [t51, ""] if t51 else []
         plots = _plots(out, _prefix(suite, track), _heading(suite, track), sec.rows)
         page.plots += plots
         page.md += [*[f"![{p}]({p})" for p in plots], ""]

@@ -1,0 +1,300 @@
+"""The published reference models: checked-in weights the backends load by default.
+
+``perception/published/`` holds, for each published model, ``<stem>.npz`` (its arrays,
+read with ``allow_pickle=False``) and ``<stem>.json`` (its ``config.json``: config,
+subspace fingerprint, training history, digest), plus ``MANIFEST.json`` with the SHA-256 of
+every file. The stems:
+
+- ``beo``: the default BEO model (11 classes, 32^3, every training instance), arrays as
+  trained (float32, losslessly; the basis in ``beo-basis.npz``): the subspace (W, mu) every
+  published HBEO model regresses, so
+  those do not depend on retraining BEO, whose float reductions differ in the last bits
+  from one CPU to another;
+- ``hbeo`` and ``hbeo-mdn``: the small networks of the ``reference`` recipe
+  (:data:`~beo_bench.perception.hbeo_train.RECIPES`), weights stored in float16 (they are
+  used in float32; ``make bench`` measures what the rounding costs: nothing measurable).
+
+A file whose SHA-256 does not match the manifest is refused with :class:`CheckpointError`
+(never used silently), saying how to restore or retrain it. ``beo-bench publish`` writes
+these files from trained models (``beo-bench train hbeo --recipe reference --name N``
+reproduces the networks; see docs/backends.md).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import zipfile
+from functools import cache
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from beo_bench.errors import CheckpointError
+
+if TYPE_CHECKING:
+    from beo_bench.perception.beo_model import BEOModel
+    from beo_bench.perception.hbeo_train import HBEOModel
+
+PUBLISHED_DIR = Path(__file__).resolve().parent / "published"
+MANIFEST = "MANIFEST.json"
+STEMS: tuple[str, ...] = ("beo", "hbeo", "hbeo-mdn")
+NET_PREFIX = "net."
+SPLIT: dict[str, tuple[str, ...]] = {"beo": ("basis",)}
+"""Arrays stored in a file of their own (``beo-basis.npz``): no published file passes 10 MB."""
+PLANES, SHAPE, DTYPE = "__planes", "__shape", "__dtype"
+
+
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def manifest(root: Path | None = None) -> dict[str, str]:
+    """File name -> SHA-256 of every published file under ``root`` (default
+    :data:`PUBLISHED_DIR`; {} when nothing is published)."""
+    root = PUBLISHED_DIR if root is None else root
+    try:
+        return dict(json.loads((root / MANIFEST).read_text())["files"])
+    except FileNotFoundError:
+        return {}
+    except Exception as e:  # a damaged manifest
+        raise CheckpointError(
+            f"{root / MANIFEST} is unreadable ({type(e).__name__}: {e}); restore it with "
+            "`git checkout -- perception/published`"
+        ) from e
+
+
+def read(stem: str, root: Path | None = None) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """The (meta, arrays) of the published model ``stem``, each file checked against the
+    manifest: :class:`CheckpointError` for a missing, altered or unreadable one."""
+    root = PUBLISHED_DIR if root is None else root
+    files = manifest(root)
+    out: dict[str, bytes] = {}
+    parts = [f"{stem}.npz", *(f"{stem}-{a}.npz" for a in SPLIT.get(stem, ()))]
+    for name in (f"{stem}.json", *parts):
+        want = files.get(name)
+        if want is None:
+            raise CheckpointError(f"{root} publishes no {name} (the manifest does not list it)")
+        try:
+            data = (root / name).read_bytes()
+        except OSError as e:
+            raise CheckpointError(
+                f"the published {name} is missing ({e}); restore it with "
+                "`git checkout -- perception/published`"
+            ) from e
+        got = _sha256(data)
+        if got != want:
+            raise CheckpointError(
+                f"the published {root / name} has SHA-256 {got[:16]}..., the manifest says "
+                f"{want[:16]}...: it was altered or is a Git LFS pointer. Restore it with "
+                "`git checkout -- perception/published`, or train your own with `beo-bench "
+                f"train {stem} --recipe reference --name NAME` and pass `--opt model=NAME`"
+            )
+        out[name] = data
+    try:
+        meta = json.loads(out[f"{stem}.json"])
+        arrays: dict[str, np.ndarray] = {}
+        for name in parts:
+            arrays.update(_unpack(out[name]))
+    except Exception as e:
+        raise CheckpointError(f"the published {stem} model is unreadable ({e})") from e
+    return meta, arrays
+
+
+def _pack(arrays: dict[str, np.ndarray]) -> bytes:
+    """A zip of ``.npy`` members, LZMA-compressed, each float array stored as its byte planes
+    (all first bytes, then all second bytes...): float bytes of one significance compress
+    together. Lossless: the default BEO basis takes 9.3 MB this way, 13.4 MB as a plain
+    compressed npz."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_LZMA) as zf:
+        for name, a in sorted(arrays.items()):
+            a = np.asarray(a, order="C")  # ascontiguousarray would make a 0-d array 1-d
+            if a.dtype.kind == "f":
+                planes = a.reshape(-1).view(np.uint8).reshape(-1, a.itemsize).T.copy()
+                members = {
+                    f"{name}{PLANES}": planes,
+                    f"{name}{SHAPE}": np.asarray(a.shape, np.int64),
+                    f"{name}{DTYPE}": np.frombuffer(a.dtype.str.encode(), np.uint8),
+                }
+            else:
+                members = {name: a}
+            for key, m in members.items():
+                npy = io.BytesIO()
+                np.lib.format.write_array(npy, m, allow_pickle=False)
+                # a fixed timestamp: the same arrays give the same bytes (and SHA-256)
+                info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+                zf.writestr(info, npy.getvalue(), compress_type=zipfile.ZIP_LZMA)
+    return buf.getvalue()
+
+
+def _unpack(data: bytes) -> dict[str, np.ndarray]:
+    """The arrays of :func:`_pack`'s bytes (read with ``allow_pickle=False``)."""
+    with np.load(io.BytesIO(data)) as z:
+        raw = {k: z[k] for k in z.files}
+    out: dict[str, np.ndarray] = {}
+    for key, a in raw.items():
+        if key.endswith(PLANES):
+            name = key[: -len(PLANES)]
+            dtype = np.dtype(raw[name + DTYPE].tobytes().decode())
+            flat = a.T.copy().view(dtype).reshape(-1)
+            out[name] = flat.reshape(tuple(int(n) for n in raw[name + SHAPE]))
+        elif not key.endswith((SHAPE, DTYPE)):
+            out[key] = a
+    return out
+
+
+def _restore(stem: str) -> str:
+    return (
+        f"restore it with `git checkout -- perception/published` (or retrain: `beo-bench train "
+        f"{stem}{' --recipe reference' if stem != 'beo' else ''}`)"
+    )
+
+
+@cache
+def _beo() -> BEOModel | None:
+    from beo_bench.perception.beo_model import BEOModel
+
+    if "beo.npz" not in manifest():
+        return None
+    meta, arrays = read("beo")
+    return BEOModel.from_stored(meta, arrays, f"{PUBLISHED_DIR}/beo", _restore("beo"))
+
+
+def beo_for(
+    categories: tuple[str, ...], resolution: int, per_category: int | None
+) -> BEOModel | None:
+    """The published BEO model when it is the default model for these settings (the
+    default training configuration on these categories, resolution and instances), else
+    None (the caller trains its own)."""
+    from beo_bench.perception.beo_model import BEOConfig
+
+    from beo_bench.objects import LIBRARY_VERSION
+
+    want = BEOConfig(categories=tuple(categories), resolution=resolution, per_category=per_category)
+    model = _beo()
+    if model is None or model.config != want:
+        return None
+    if model.info.get("library_version") != LIBRARY_VERSION:
+        return None  # published for another object library: the default is retrained
+    return model
+
+
+@cache
+def _hbeo(kind: str) -> HBEOModel | None:
+    from beo_bench.perception.hbeo_train import HBEOConfig, HBEOModel
+
+    if f"{kind}.npz" not in manifest():
+        return None
+    meta, arrays = read(kind)
+    try:
+        cfg = HBEOConfig.from_json(meta["config"])
+    except Exception as e:
+        raise CheckpointError(f"the published {kind} model's config is unreadable ({e})") from e
+    if cfg.kind != kind or meta.get("kind") != kind:
+        raise CheckpointError(
+            f"the published {kind}.json holds a {cfg.kind} model; {_restore(kind)}"
+        )
+    state = _state(arrays)
+    beo = _beo()
+    return HBEOModel.from_stored(meta, cfg, state, f"{PUBLISHED_DIR}/{kind}", _restore(kind), beo)
+
+
+def _state(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
+    """A published file's arrays as the tensor state ``weights.pt`` would hold (float32)."""
+    import torch
+
+    state: dict[str, Any] = {
+        "net": {
+            k[len(NET_PREFIX) :]: torch.from_numpy(_widen(v))
+            for k, v in arrays.items()
+            if k.startswith(NET_PREFIX)
+        }
+    }
+    for k in ("coef_mean", "coef_std"):
+        if k in arrays:
+            state[k] = torch.from_numpy(_widen(arrays[k]))
+    return state
+
+
+def hbeo_for(kind: str, categories: tuple[str, ...]) -> HBEOModel | None:
+    """The published ``kind`` model when it was trained for ``categories``, else None."""
+    from beo_bench.objects import LIBRARY_VERSION
+
+    model = _hbeo(kind)
+    if model is None or model.categories != tuple(categories):
+        return None
+    if model.info.get("library_version") != LIBRARY_VERSION:
+        return None
+    return model
+
+
+def _widen(a: np.ndarray) -> np.ndarray:
+    """float16 storage back to the float32 the network computes in."""
+    return a.astype(np.float32) if a.dtype == np.float16 else a
+
+
+# -- writing (beo-bench publish) ----------------------------------------------------------------
+def hbeo_arrays(model: HBEOModel, half: bool = True) -> dict[str, np.ndarray]:
+    """The arrays of an HBEO model's published file: the network's floating tensors in
+    float16 (``half``), its integer buffers as they are, the standardisation in float32."""
+    out: dict[str, np.ndarray] = {}
+    for k, v in model.net.state_dict().items():
+        a = v.detach().cpu().numpy()
+        out[NET_PREFIX + k] = a.astype(np.float16) if half and a.dtype == np.float32 else a
+    out["coef_mean"] = np.asarray(model.coef_mean, np.float32)
+    out["coef_std"] = np.asarray(model.coef_std, np.float32)
+    return out
+
+
+def write(stem: str, meta: dict[str, Any], arrays: dict[str, np.ndarray], root: Path) -> str:
+    """Write ``<stem>.json``, ``<stem>.npz`` and, for each array of :data:`SPLIT`,
+    ``<stem>-<array>.npz`` under ``root`` (:func:`_pack`; atomically, each through a
+    temporary file) and record their SHA-256 in the manifest; returns the npz's SHA-256.
+    Only the stems of :data:`STEMS` are written: nothing else in ``root`` is touched."""
+    from beo_bench.perception.hbeo_train import _atomic_write
+
+    if stem not in STEMS:
+        raise ValueError(f"stem {stem!r}: one of {STEMS}")
+    root.mkdir(parents=True, exist_ok=True)
+    split = SPLIT.get(stem, ())
+    blobs = {
+        f"{stem}.npz": _pack({k: v for k, v in arrays.items() if k not in split}),
+        **{f"{stem}-{k}.npz": _pack({k: arrays[k]}) for k in split},
+        f"{stem}.json": (json.dumps(meta, indent=1, sort_keys=True) + "\n").encode(),
+    }
+    files = manifest(root)
+    for name, data in blobs.items():
+        _atomic_write(root / name, data)
+        files[name] = _sha256(data)
+    _atomic_write(
+        root / MANIFEST,
+        (json.dumps({"files": dict(sorted(files.items()))}, indent=1) + "\n").encode(),
+    )
+    _beo.cache_clear()
+    _hbeo.cache_clear()
+    return files[f"{stem}.npz"]
+
+
+def publish_beo(model: BEOModel, root: Path | None = None) -> str:
+    return write("beo", model.stored_meta(), model.arrays(), root or PUBLISHED_DIR)
+
+
+def publish_hbeo(model: HBEOModel, root: Path | None = None, half: bool = True) -> str:
+    meta = model.stored_meta()
+    meta["stored_dtype"] = "float16" if half else "float32"
+    from beo_bench.perception.digest import state_digest
+
+    arrays = hbeo_arrays(model, half)
+    # the digest is of the weights as used (float32 after widening): what a run records
+    meta["digest"] = state_digest(_state(arrays))
+    return write(model.config.kind, meta, arrays, root or PUBLISHED_DIR)
+
+
+def files_table(root: Path | None = None) -> list[tuple[str, int, str]]:
+    """(file, bytes, SHA-256) of every published file, for the README's table."""
+    root = PUBLISHED_DIR if root is None else root
+    return [(n, os.path.getsize(root / n), h) for n, h in sorted(manifest(root).items())]

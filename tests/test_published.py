@@ -1,0 +1,65 @@
+"""The published reference models: the backends' defaults load them without training,
+each file is checked against its digest, and the README lists the digests."""
+
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+from beo_bench.envs.pick import default_categories
+from beo_bench.perception import beo_model, hbeo_train, published
+from beo_bench.perception.digest import state_digest
+
+from beo_bench.errors import CheckpointError
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+@pytest.fixture
+def no_training(monkeypatch: pytest.MonkeyPatch) -> None:
+    def refuse(*a: object, **k: object) -> None:
+        raise AssertionError("a published default model was trained instead of loaded")
+
+    monkeypatch.setattr(beo_model, "train_beo", refuse)
+    monkeypatch.setattr(hbeo_train, "train_hbeo", refuse)
+
+
+def test_every_published_model_is_listed_with_its_digest() -> None:
+    files = published.manifest()
+    assert {f"{s}.npz" for s in published.STEMS} <= set(files)
+    total = sum(size for _, size, _ in published.files_table())
+    assert total <= 20e6, f"published models take {total / 1e6:.1f} MB (at most 20 MB)"
+    for name, size, _ in published.files_table():
+        assert size <= 10e6, f"{name} takes {size / 1e6:.1f} MB (at most 10 MB a file)"
+    text = README.read_text()
+    for name, sha in files.items():
+        if name.endswith(".npz"):
+            assert re.search(rf"`{re.escape(name)}`.*{sha}", text), f"README lacks {name} {sha}"
+
+
+def test_the_default_models_are_the_published_ones(no_training) -> None:
+    cats = default_categories()
+    beo = beo_model.load_model(None, cats, 32)
+    meta, _ = published.read("beo")
+    assert state_digest(beo.arrays()) == meta["digest"]
+    for kind in ("hbeo", "hbeo-mdn"):
+        m = hbeo_train.load_hbeo(None, kind, cats)  # type: ignore[arg-type]
+        meta, _ = published.read(kind)
+        assert state_digest(m.state()) == meta["digest"]
+        assert m.beo is beo  # regresses the published subspace
+        assert m.config.select == "best-val" and m.config.dataset.images == 100_000
+
+
+def test_an_altered_published_file_is_reported_not_used(tmp_path, monkeypatch) -> None:
+    root = tmp_path / "published"
+    shutil.copytree(published.PUBLISHED_DIR, root)
+    (root / "hbeo.json").write_text((root / "hbeo.json").read_text().replace("\n", "\n ", 1))
+    monkeypatch.setattr(published, "PUBLISHED_DIR", root)
+    published._hbeo.cache_clear()
+    try:
+        with pytest.raises(CheckpointError, match=r"altered.*git checkout"):
+            hbeo_train.load_hbeo(None, "hbeo", default_categories())
+    finally:
+        published._hbeo.cache_clear()
