@@ -264,7 +264,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     )  # --track on a suite without tracks is a usage error here
     kwargs = parse_options(args.opt)
     backend = get_backend(args.backend, **kwargs)  # fail here, not in a worker
-    check_track(suite, args.backend, bool(getattr(backend, "wants_class_hint", False)))
+    check_track(
+        suite,
+        args.backend,
+        bool(getattr(backend, "wants_class_hint", False)),
+        bool(getattr(backend, "needs_class_hint", False)),
+    )
     name = run_name(suite.name, args.backend, kwargs, args.seed, suite.track)
     out = Path(args.out) if args.out else Path("runs") / name
     summary = run(
@@ -763,10 +768,11 @@ def build_parser() -> argparse.ArgumentParser:
     th.add_argument("--rotation", choices=["axis-angle", "6d"], default=None, help="hbeo only")
     th.add_argument(
         "--recipe",
-        choices=["default", "reference"],
+        choices=["default", "reference", "per-category"],
         default="default",
         help="default: 16k crops x 15 epochs (minutes on CPU); reference: 100k x 20, best "
-        "validation epoch (the published models)",
+        "validation epoch (the published models); per-category: one class's network, 30k x "
+        "20 (with --categories C, for hbeo's per_category option)",
     )
     th.add_argument(
         "--device",

@@ -71,8 +71,10 @@ class BEOConfig:
     """VBPCA iterations at most (it stops earlier once the bound settles)."""
 
     def __post_init__(self) -> None:
-        if len(self.categories) < 2:
-            raise ValueError("BEO classifies: give at least two categories")
+        # one class is allowed: its subspace is what a per-category HBEO network regresses
+        # (Table 5.1's protocol); BEO's classification is then trivially that class
+        if len(self.categories) < 1:
+            raise ValueError("BEO needs at least one category")
         if self.resolution < 8:
             raise ValueError(f"resolution={self.resolution} is too coarse (use >= 8)")
         if not 0 < self.variance_fraction <= 1:

@@ -22,6 +22,7 @@ normalised scores (density, or density x prior).
 
 from __future__ import annotations
 
+import hashlib
 import inspect
 import zlib
 from collections.abc import Callable
@@ -41,6 +42,7 @@ from scipy.spatial.transform import Rotation
 from scipy.special import logsumexp
 
 from beo_bench.backend import register_backend
+from beo_bench.errors import UsageError
 from beo_bench.geometry import orthonormalise
 from beo_bench.names import check_name
 from beo_bench.types import Estimate, View
@@ -58,6 +60,13 @@ class HBEOBackend:
       on first use;
     - ``samples`` (25, MDN modes): N, the rotation samples drawn per view;
     - ``seed`` (0): with the crop's bytes, seeds the sampling (same view, same estimate);
+    - ``size`` (``small``): with no ``model``, the default network's size: ``small`` or
+      ``dissertation`` (Figure 4.2's widths; the published one was trained on a GPU);
+    - ``per_category`` (False): chapter 5's protocol (Tables 5.1/5.2): one network per
+      category, chosen by the view's class hint, so the backend runs in the class-given
+      track only. Each class's network is the ``per-category`` recipe's (``beo-bench train
+      hbeo-mdn --categories car --recipe per-category``), regressing that class's own BEO
+      subspace; it is never trained here (a missing one is an error naming the command);
     - ``instances``, ``images``, ``epochs`` (None): train the default model on this many
       instances per class, crops and epochs (quick checks; None: the default's);
     - ``device`` (``cpu``): where the network runs: ``cpu``, ``cuda`` or ``auto`` (CUDA when
@@ -79,6 +88,8 @@ class HBEOBackend:
         images: int | None = None,
         epochs: int | None = None,
         device: str = "cpu",
+        size: str = "small",
+        per_category: bool = False,
     ) -> None:
         from beo_bench.perception.hbeo_train import resolve_device
 
@@ -89,6 +100,17 @@ class HBEOBackend:
         self.model_name = (
             None if model in (None, "", "None", "default") else check_name(str(model), "model")
         )
+        if size not in ("small", "dissertation"):
+            raise ValueError(f"size={size!r}: use 'small' or 'dissertation'")
+        self.size = str(size)
+        self.per_category = per_category in (True, "true", "True", "1", 1)
+        if self.per_category and self.model_name is not None:
+            raise ValueError(
+                "per_category=true picks each class's per-category network itself: leave "
+                "model unset"
+            )
+        # the class hint chooses the network: no hint, no estimate (class-given track only)
+        self.wants_class_hint = self.needs_class_hint = self.per_category
         self.samples = int(samples)
         self.seed = int(seed)
         if self.samples < 1:
@@ -100,17 +122,29 @@ class HBEOBackend:
         self.threads = None if threads in (None, "None") else int(threads)  # type: ignore[arg-type]
         if self.threads is not None:
             torch.set_num_threads(max(1, self.threads))
-        self._models: dict[tuple[str, ...], tuple[HBEOModel, np.ndarray, np.ndarray]] = {}
+        # class list -> (model, decoder A, b, the model's index of each class in the list)
+        self._models: dict[
+            tuple[str, ...], tuple[HBEOModel, np.ndarray, np.ndarray, np.ndarray]
+        ] = {}
         self._digest: str | None = None
         self._digests: dict[int, str] = {}
 
     def prepare(self, categories: tuple[str, ...]) -> None:
-        """Load (or train on first use, with progress bars) the model for ``categories``."""
-        cats = tuple(categories)
-        m = self._model(cats, progress=True)[0]
-        if id(m) not in self._digests:  # the weights as loaded (published or cached)
-            self._digests[id(m)] = state_digest(m.state())
-        self._digest = self._digests[id(m)]
+        """Load (or train on first use, with progress bars) the model for ``categories``;
+        with ``per_category``, each class's network (never trained here)."""
+        groups = [(c,) for c in categories] if self.per_category else [tuple(categories)]
+        digests = []
+        for cats in groups:
+            m = self._model(cats, progress=True)[0]
+            if id(m) not in self._digests:  # the weights as loaded (published or cached)
+                self._digests[id(m)] = state_digest(m.state())
+            digests.append(self._digests[id(m)])
+        # per category: one digest naming the set of networks, in class order
+        self._digest = (
+            digests[0]
+            if len(digests) == 1
+            else hashlib.sha256(" ".join(digests).encode()).hexdigest()[:16]
+        )
 
     def model_digest(self) -> str | None:
         """The content digest (:func:`~beo_bench.perception.digest.state_digest`) of the
@@ -119,9 +153,17 @@ class HBEOBackend:
 
     def _model(
         self, cats: tuple[str, ...], progress: bool = False
-    ) -> tuple[HBEOModel, np.ndarray, np.ndarray]:
+    ) -> tuple[HBEOModel, np.ndarray, np.ndarray, np.ndarray]:
         if cats not in self._models:
-            m = load_hbeo(self.model_name, self.kind, cats, progress, **self.small)  # type: ignore[arg-type]
+            m = load_hbeo(
+                self.model_name,
+                self.kind,  # type: ignore[arg-type]
+                cats,
+                progress,
+                size=self.size,
+                recipe="per-category" if self.per_category else "default",
+                **self.small,
+            )
             m.net.to(self.device)
             # fold the coefficient standardisation into the decoder: shape = c_std A + b,
             # with A (k, d) row-major so the product streams it once (numpy's sgemv reads
@@ -129,19 +171,36 @@ class HBEOBackend:
             W = m.beo.basis.astype(np.float64)
             A = np.ascontiguousarray((W * m.coef_std[None]).T, dtype=np.float32)
             b = (m.beo.mean + W @ m.coef_mean).astype(np.float32)
-            self._models[cats] = (m, A, b)
+            # the published network may know more classes than asked for (a suite on some
+            # of them): its scores are read at theirs and renormalised
+            idx = np.array([m.categories.index(c) for c in cats])
+            self._models[cats] = (m, A, b, idx)
         return self._models[cats]
+
+    def _classes(self, view: View) -> tuple[str, ...]:
+        """The class list of the network that answers ``view``: the view's, or with
+        ``per_category`` its hinted class alone."""
+        if not self.per_category:
+            return tuple(view.categories)
+        if view.class_hint is None:
+            raise UsageError(
+                f"{self.name} with per_category=true chooses its network by the class hint, "
+                "and this view has none: run it in a pose suite's class-given track"
+            )
+        return (view.categories[int(view.class_hint)],)
 
     def forward(self, view: View) -> Forward:
         """The network's outputs for ``view``, converted to the camera frame."""
-        model, A, b = self._model(tuple(view.categories))
+        model, A, b, idx = self._model(self._classes(view))
         net, cfg = model.net, model.net.cfg
         crop = make_crop(view.depth, view.mask, view.K, cfg.crop)
         with torch.inference_mode():
             out = net(torch.from_numpy(crop.image)[None].to(self.device))
             if self.device.type != "cpu":  # the rest is numpy on the CPU
                 out = Output(**{f.name: getattr(out, f.name).cpu() for f in fields(Output)})
-            probs = torch.softmax(out.logits.double(), dim=1)[0].numpy()
+            probs = torch.softmax(out.logits.double(), dim=1)[0].numpy()[idx]
+        if self.per_category:  # a one-class network: the class is the hint
+            probs = np.eye(len(view.categories))[int(view.class_hint)]  # type: ignore[arg-type]
         D = model.beo.D
         shape = out.coefficients[0].numpy() @ A + b  # eq. 4.2: W o' + mu
         np.clip(shape, 0.0, 1.0, out=shape)

@@ -134,7 +134,7 @@ def rotvec_to_matrix(w: torch.Tensor) -> torch.Tensor:
         ],
         -2,
     )
-    eye = torch.eye(3, dtype=w.dtype).expand(K.shape)
+    eye = torch.eye(3, dtype=w.dtype, device=w.device).expand(K.shape)
     return eye + a * K + b * (K @ K)
 
 
@@ -182,9 +182,9 @@ class Mixture:
 
     def sample(self, n: int, rng: np.random.Generator) -> np.ndarray:
         """(B, n, 3) draws: a component by its weight, then its Gaussian."""
-        w = self.log_weights.exp().double().numpy()
-        mu = self.means.double().numpy()
-        sd = np.sqrt(self.variances.double().numpy())
+        w = self.log_weights.exp().double().cpu().numpy()
+        mu = self.means.double().cpu().numpy()
+        sd = np.sqrt(self.variances.double().cpu().numpy())
         B, M = w.shape
         u = rng.random((B, n))
         comp = np.minimum((u[..., None] > np.cumsum(w, axis=1)[:, None]).sum(-1), M - 1)
@@ -224,7 +224,7 @@ def point_rotation(out: Output, cfg: NetConfig) -> torch.Tensor:
     if cfg.rotation == "mdn":
         m = Mixture.from_raw(out.rotation, cfg.components)
         best = m.log_weights.argmax(-1)
-        return rotvec_to_matrix(m.means[torch.arange(len(best)), best])
+        return rotvec_to_matrix(m.means[torch.arange(len(best), device=best.device), best])
     return rotvec_to_matrix(out.rotation)
 
 

@@ -343,6 +343,7 @@ def model_path(name: str) -> Path:
 RECIPES: dict[str, dict[str, Any]] = {
     "default": {},
     "reference": {"images": 100_000, "val_images": 10_000, "epochs": 20, "select": "best-val"},
+    "per-category": {"images": 30_000, "val_images": 6_000, "epochs": 20, "select": "best-val"},
 }
 """Training recipes. ``default``: 16,000 crops, 15 epochs, the last epoch's weights (a
 couple of minutes on 2 CPU cores; what tests and quick checks shrink further).
@@ -350,7 +351,10 @@ couple of minutes on 2 CPU cores; what tests and quick checks shrink further).
 models (``beo-bench train hbeo|hbeo-mdn --recipe reference`` reproduces them; their epochs
 took 14.7 and 16.3 minutes on 2 CPU cores, plus rendering the crops once). Why: the small
 network on 16,000 crops gives 23.9 deg mean on ``pose-3dof``, the reference one 13.0 deg;
-the method needs the data."""
+the method needs the data. ``per-category``: one class's network (chapter 5 trained one per
+category; ``--categories car``), 30,000 crops of it (nearly three times the class's share of
+the reference set), 20 epochs, the best validation epoch: about 6 minutes per class on 2 CPU
+cores, rendering included."""
 
 
 def default_config(
@@ -790,12 +794,18 @@ def _cpu_state(net: HBEONet) -> dict[str, torch.Tensor]:
 
 
 def model_dir(
-    name: str | None, kind: Kind, categories: tuple[str, ...], **small: int | None
+    name: str | None,
+    kind: Kind,
+    categories: tuple[str, ...],
+    size: str = "small",
+    recipe: str = "default",
+    **small: int | None,
 ) -> Path:
     """Where :func:`load_hbeo` looks: the named model's directory, or with ``name=None``
-    the default ``kind`` model's for ``categories`` and ``small``."""
+    the ``recipe`` model's of network ``size`` for ``categories`` and ``small``."""
     if name is None:
-        return model_path(default_name(default_config(kind, categories, **small)))
+        cfg = with_overrides(default_config(kind, categories, recipe=recipe, **small), size=size)
+        return model_path(default_name(cfg))
     return model_path(name)
 
 
@@ -805,27 +815,39 @@ def load_hbeo(
     categories: tuple[str, ...],
     progress: bool = False,
     train_default: bool = True,
+    size: str = "small",
+    recipe: str = "default",
     **small: int | None,
 ) -> HBEOModel:
     """The model called ``name`` (a plain name under :func:`models_root`; a path is refused
     with :class:`~beo_bench.errors.InvalidNameError`), or with ``name=None`` the default
-    ``kind`` model for ``categories``: the published reference model (:mod:`.published`)
-    where there is one for these categories, otherwise the ``default`` recipe's (made
-    smaller by ``small``: :func:`default_config`'s ``instances``, ``images``, ``epochs``),
-    trained on first use."""
+    ``kind`` model of network ``size`` for ``categories``: the published reference model
+    (:mod:`.published`) where there is one for these categories, otherwise the ``default``
+    recipe's (made smaller by ``small``: :func:`default_config`'s ``instances``, ``images``,
+    ``epochs``), trained on first use; or, with another ``recipe`` or ``train_default=False``,
+    the trained one (:class:`CheckpointError` naming the ``beo-bench train`` command that
+    makes it when there is none)."""
     from beo_bench.objects import LIBRARY_VERSION
 
-    if name is None and not any(v is not None for v in small.values()):
+    if name is None and recipe == "default" and not any(v is not None for v in small.values()):
         from beo_bench.perception import published
 
-        model = published.hbeo_for(kind, tuple(categories))
+        model = published.hbeo_for(kind, tuple(categories), size)
         if model is not None:  # the published reference model: nothing to train
             return model
-    path = model_dir(name, kind, categories, **small)
+    path = model_dir(name, kind, categories, size, recipe, **small)
     if name is None and not (path / "weights.pt").exists():
-        if not train_default:
-            raise CheckpointError(f"no default {kind} model at {path}")
-        train_hbeo(default_config(kind, categories, **small), path, progress=progress)
+        if not train_default or recipe != "default":
+            how = (
+                f"beo-bench train {kind} --categories {' '.join(categories)} --recipe {recipe}"
+                + ("" if size == "small" else f" --size {size}")
+            )
+            raise CheckpointError(
+                f"no {recipe} {kind} model for {', '.join(categories)} at {path}: train it "
+                f"first with `{how}`"
+            )
+        cfg = with_overrides(default_config(kind, categories, **small), size=size)
+        train_hbeo(cfg, path, progress=progress)
     model = HBEOModel.load(path)
     if model.config.kind != kind:
         raise CheckpointError(

@@ -444,3 +444,58 @@ def test_a_published_model_reads_back_as_trained(trained, tmp_path) -> None:
     (tmp_path / "hbeo-mdn.npz").write_bytes(bytes(data))
     with pytest.raises(CheckpointError, match="altered"):
         published.read("hbeo-mdn", tmp_path)
+
+
+def test_the_network_and_its_rotations_stay_on_the_device_of_their_input() -> None:
+    """Every tensor the network and its rotation heads make follows the input's device
+    (a CPU-made identity broke `--device cuda` training at the first validation). The
+    ``meta`` device stands in for a GPU: mixing it with a CPU tensor raises."""
+    from beo_bench.perception.hbeo_net import HBEONet, NetConfig, losses, point_rotation
+
+    for rot in ("axis-angle", "6d", "mdn"):
+        cfg = NetConfig.preset("small", classes=3, coefficients=5, crop=32, rotation=rot)
+        net = HBEONet(cfg).to("meta")
+        out = net(torch.zeros(4, 2, 32, 32, device="meta"))
+        assert point_rotation(out, cfg).device.type == "meta"
+        tgt = {
+            "label": torch.zeros(4, dtype=torch.long, device="meta"),
+            "coefficients": torch.zeros(4, 5, device="meta"),
+            "rotvec": torch.zeros(4, 3, device="meta"),
+            "R": torch.zeros(4, 3, 3, device="meta"),
+            "offset": torch.zeros(4, 3, device="meta"),
+            "log_size": torch.zeros(4, 3, device="meta"),
+        }
+        assert losses(out, cfg, tgt)["total"].device.type == "meta"
+
+
+def test_per_category_networks_are_chosen_by_the_hint_and_never_trained_in_a_run(
+    monkeypatch,
+) -> None:
+    """Table 5.1's protocol (``per_category=true``): the hinted class picks its own network;
+    a class without one is an error naming the command that trains it (nothing trains
+    inside a run), and a view without the hint is refused."""
+    from dataclasses import replace as dc_replace
+
+    from beo_bench.perception import hbeo_train
+
+    from beo_bench.errors import UsageError
+
+    def refuse(*a: object, **k: object) -> None:
+        raise AssertionError("a per-category network was trained inside a run")
+
+    monkeypatch.setattr(hbeo_train, "train_hbeo", refuse)
+    b = HBEOBackend("likelihood", per_category=True)
+    assert b.wants_class_hint and b.needs_class_hint
+    assert not HBEOBackend("likelihood").needs_class_hint
+    with pytest.raises(
+        CheckpointError,
+        match=r"`beo-bench train hbeo-mdn --categories lamp --recipe per-category`",
+    ):
+        b.prepare(("lamp",))
+    (view,) = sample_views(picks=[("car", 0)], seed=3)
+    cats = ("airplane", "car", "sofa")
+    assert b._classes(dc_replace(view, categories=cats, class_hint=1)) == ("car",)
+    with pytest.raises(UsageError, match="class hint"):
+        b.predict(dc_replace(view, class_hint=None))
+    with pytest.raises(ValueError, match="leave model unset"):
+        HBEOBackend("hbeo", per_category=True, model="mine")

@@ -52,7 +52,7 @@ def _run(out: Path, suite: str, backend: str, n: int, track: str | None = None, 
 
 def test_pose_suites_have_two_tracks_and_default_to_class_free() -> None:
     tracked = [s for s in list_suites() if get_suite(s).class_hint]
-    assert sorted(tracked) == ["pose-1dof", "pose-3dof", "pose-3dof-ood"]
+    assert sorted(tracked) == ["pose-1dof", "pose-3dof", "pose-3dof-ood", "pose-3dof-percat"]
     for name in list_suites():
         s = get_suite(name)
         if s.class_hint:
@@ -169,3 +169,39 @@ def test_all_runs_hint_users_in_both_tracks_and_the_others_class_free(tmp_path) 
     for name in made:
         s = json.loads((runs / name / "summary.json").read_text())
         assert s["track"] == (name.split("@")[1].split("__")[0] if "@" in name else None)
+
+
+class PerCategorySpy(HintSpy):
+    """A backend that cannot answer without the class (per-category networks)."""
+
+    needs_class_hint = True
+
+
+def test_a_backend_that_needs_the_hint_runs_in_the_class_given_track_only(tmp_path) -> None:
+    """Per-category networks (Tables 5.1/5.2's protocol) choose the network by the class:
+    the campaign runs them class-given only, and a class-free run of one is refused."""
+    suite = get_suite("pose-3dof")
+    assert backend_tracks(suite, True, needs_class_hint=True) == ("class-given",)
+    B._add("test-percat-spy", PerCategorySpy, "test")
+    try:
+        with pytest.raises(UsageError, match=r"needs the class hint.*--track class-given"):
+            _run(tmp_path / "free", "pose-3dof", "test-percat-spy", 2, track="class-free")
+        s = _run(tmp_path / "given", "pose-3dof", "test-percat-spy", 2, track="class-given")
+        assert s["track"] == "class-given"
+    finally:
+        B._REGISTRY.pop("test-percat-spy", None)
+
+
+def test_the_per_category_suite_draws_only_its_classes(tmp_path, spy) -> None:
+    """``pose-3dof-percat`` (Table 5.1's categories) holds car, airplane and sofa views only,
+    and its views carry that class list."""
+    suite = get_suite("pose-3dof-percat")
+    assert suite.categories == ("airplane", "car", "sofa")
+    _run(tmp_path / "p", "pose-3dof-percat", spy, 6, track="class-given")
+    rows = read_rows(tmp_path / "p" / "results.jsonl")
+    assert sorted({r["category"] for r in rows}) == ["airplane", "car", "sofa"]
+    assert [r["true_class"] for r in rows] == [0, 1, 2, 0, 1, 2]
+    with pytest.raises(UsageError, match="isolated suites only"):
+        from dataclasses import replace
+
+        replace(get_suite("tabletop"), categories=("car",))

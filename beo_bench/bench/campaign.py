@@ -102,12 +102,16 @@ def run_campaign(c: Campaign) -> list[Path]:
     for suite in suites:
         item_timeout_s(suite, c.item_timeout)  # a bad value fails here, before any run
     # build each backend here: a bad option fails with its message, not in a worker
-    hints = [bool(getattr(get_backend(n, **kw), "wants_class_hint", False)) for n, kw in c.backends]
+    built = [get_backend(n, **kw) for n, kw in c.backends]
+    hints = [
+        (bool(getattr(b, "wants_class_hint", False)), bool(getattr(b, "needs_class_hint", False)))
+        for b in built
+    ]
     # one set of worker processes for every run (see WorkerPool: start-up once, not per run)
     with WorkerPool(c.workers) as pool:
         for suite in suites:
             for (name, kwargs), hint in zip(c.backends, hints, strict=True):
-                for track in backend_tracks(suite, hint):
+                for track in backend_tracks(suite, *hint):
                     tracked = suite.with_overrides(track=track)
                     out = c.runs / run_name(suite.name, name, kwargs, c.seed, track)
                     run(

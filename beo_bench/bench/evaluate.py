@@ -210,7 +210,7 @@ class ItemViews:
 
             w, h = self.suite.image_size
             self._renderer = IsolatedRenderer(Intrinsics(w, h, self.suite.fovy_deg))
-            self._objects = ObjectSet(self.suite.split)
+            self._objects = ObjectSet(self.suite.split, self.suite.categories)
             self._noise = DepthNoise() if self.suite.noise else None
         return self._renderer
 

@@ -529,7 +529,7 @@ def suite_categories(suite: Suite) -> tuple[str, ...]:
     if suite.kind == "isolated":
         from beo_bench.objects import ObjectSet
 
-        return ObjectSet(suite.split).categories
+        return ObjectSet(suite.split, suite.categories).categories
     from beo_bench.envs.pick import default_categories
 
     return default_categories()
@@ -558,7 +558,7 @@ def _prepare(cfg: RunConfig) -> Prepared:
     load_plugins()
     backend = get_backend(cfg.backend, **cfg.backend_kwargs)
     wants = bool(getattr(backend, "wants_class_hint", False))
-    check_track(cfg.suite, cfg.backend, wants)
+    check_track(cfg.suite, cfg.backend, wants, bool(getattr(backend, "needs_class_hint", False)))
     prepare_backend(backend, suite_categories(cfg.suite))
     digest = getattr(backend, "model_digest", None)
     return Prepared(digest() if callable(digest) else None, cfg.suite.gives_class and wants, wants)

@@ -75,8 +75,13 @@ class Suite:
     description: str = ""
     item_timeout_s: float = 60.0
     track: str | None = None
+    categories: tuple[str, ...] | None = None
+    """Isolated suites only: the classes its items are drawn from (None: every class of
+    the split). Views then carry this class list."""
 
     def __post_init__(self) -> None:
+        if self.categories is not None and self.kind != "isolated":
+            raise UsageError(f"suite {self.name!r}: a class subset applies to isolated suites only")
         if self.class_hint and self.track is None:
             # frozen: the default track is filled in once, here
             object.__setattr__(self, "track", DEFAULT_TRACK)
@@ -155,6 +160,19 @@ SUITES: dict[str, Suite] = {
             "(full azimuth, elevation range, roll 99% within 25 deg; Tables 4.1, 5.1, 5.2)",
         ),
         Suite(
+            "pose-3dof-percat",
+            1,
+            "isolated",
+            "3dof",
+            size=600,
+            seed=7000,
+            class_hint=True,
+            categories=("airplane", "car", "sofa"),
+            description="Tables 5.1/5.2's protocol: pose-3dof's viewpoints on the car, "
+            "airplane and sofa test instances, where a network trained on one category "
+            "(`per_category=true`, chosen by the class) meets the shared one",
+        ),
+        Suite(
             "pose-3dof-ood",
             2,
             "isolated",
@@ -206,19 +224,33 @@ def list_suites() -> list[str]:
     return sorted(SUITES)
 
 
-def backend_tracks(suite: Suite, uses_class_hint: bool) -> tuple[str | None, ...]:
+def backend_tracks(
+    suite: Suite, uses_class_hint: bool, needs_class_hint: bool = False
+) -> tuple[str | None, ...]:
     """The tracks a backend is run in on ``suite``: both for a backend that can use the
     class hint, ``class-free`` only for one that cannot (its ``class-given`` run would score
-    exactly the same; the leaderboard lists its class-free run in both tracks' tables), and
-    ``(None,)`` on a suite without tracks."""
+    exactly the same; the leaderboard lists its class-free run in both tracks' tables),
+    ``class-given`` only for one that cannot work without it (``needs_class_hint``, e.g.
+    per-category networks), and ``(None,)`` on a suite without tracks."""
     if suite.track is None:
         return (None,)
+    if needs_class_hint:
+        return ("class-given",)
     return TRACKS if uses_class_hint else (DEFAULT_TRACK,)
 
 
-def check_track(suite: Suite, backend: str, uses_class_hint: bool) -> None:
+def check_track(
+    suite: Suite, backend: str, uses_class_hint: bool, needs_class_hint: bool = False
+) -> None:
     """Refuse the ``class-given`` track for a backend that cannot use the hint (a
-    :class:`UsageError` saying to run it class-free)."""
+    :class:`UsageError` saying to run it class-free), and the ``class-free`` one (or a
+    suite without tracks) for a backend that needs it."""
+    if needs_class_hint and suite.track != "class-given":
+        raise UsageError(
+            f"backend {backend!r} needs the class hint (it chooses a per-category network by "
+            f"it), which only the class-given track of a pose suite gives: run it with "
+            f"--track class-given on a suite with tracks, not {suite.label}"
+        )
     if suite.track == "class-given" and not uses_class_hint:
         raise UsageError(
             f"backend {backend!r} does not use the class hint (no wants_class_hint), so its "
