@@ -23,7 +23,7 @@ from beo_bench.backend import sample_views
 from beo_bench.errors import CheckpointError, InvalidNameError, ViewError
 from beo_bench.geometry import yaw_starts
 from beo_bench.metrics import rotation_error, voxel_iou
-from beo_bench.objects import instance_from_key
+from beo_bench.objects import ObjectSet, instance_from_key
 from beo_bench.types import View
 
 CATS = ("bottle", "bowl", "car", "mug")
@@ -143,6 +143,26 @@ def test_a_saved_model_loads_identically(tmp_path) -> None:
     (tmp_path / "ulp" / "arrays.npz").write_bytes(b"not a zip")  # a torn write
     with pytest.raises(CheckpointError, match="unreadable model"):
         model_digest(tmp_path / "ulp")
+
+
+def test_a_one_class_model_is_that_class_subspace() -> None:
+    """One class is allowed (a per-category HBEO network regresses its subspace, Table 5.1's
+    protocol): the basis is orthonormal and reconstructs the class's own shapes better than
+    its mean alone."""
+    model = train_beo(BEOConfig(categories=("bowl",), per_category=4, resolution=16))
+    assert model.categories == ("bowl",) and model.k >= 1
+    np.testing.assert_allclose(model.basis.T @ model.basis, np.eye(model.k), atol=1e-4)
+    grids = np.stack(
+        [
+            i.voxels(16).reshape(-1).astype(np.float32)
+            for i in ObjectSet("train").instances("bowl")[:4]
+        ]
+    )
+    centred = grids - model.mean
+    resid = centred - (centred @ model.basis) @ model.basis.T
+    assert np.linalg.norm(resid) < 0.8 * np.linalg.norm(centred)
+    with pytest.raises(ValueError, match="at least one category"):
+        BEOConfig(categories=())
 
 
 def test_training_gives_the_same_model_whatever_the_thread_count() -> None:
