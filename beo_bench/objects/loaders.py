@@ -63,6 +63,7 @@ from beo_bench.objects.objectset import (
 )
 from beo_bench.objects.registry import Generated, check_split, get_category
 from beo_bench.objects.registry import categories as registered_categories
+from beo_bench.objects.symmetry import DEFAULT_MARGIN, ESTIMATOR_VERSION
 from beo_bench.types import Mat3, Symmetry
 
 SOURCES: tuple[str, ...] = ("shapenet", "modelnet", "folder")
@@ -86,7 +87,17 @@ SIZE_SAMPLES = 7
 """Procedural ``test`` instances whose median largest extent is a category's size."""
 
 SYMMETRY_THRESHOLD = 0.95
-"""Volume IoU above which a candidate rotation counts as a symmetry of a loaded mesh."""
+"""Volume IoU below which no candidate rotation counts as a symmetry of a loaded mesh (the
+floor of :mod:`beo_bench.objects.symmetry`'s acceptance rule, which also asks for a score
+within its margin of the mesh's best candidate)."""
+
+SYMMETRY_CACHE_PARAMS = {
+    "threshold": SYMMETRY_THRESHOLD,
+    "margin": DEFAULT_MARGIN,
+    "v": ESTIMATOR_VERSION,
+}
+"""Cache key of estimated symmetries: the estimator's version, so groups found by an older
+estimator (z-only search, hard threshold, offsets at the centre of mass) are recomputed."""
 
 HASH_SPLITS: tuple[tuple[str, float], ...] = (("train", 0.80), ("val", 0.05), ("test", 0.15))
 """Shares of the hash-based splits of ShapeNet and folders."""
@@ -656,12 +667,12 @@ class _LoadedGenerated(Generated):
 
 
 def loaded_symmetry(mesh: trimesh.Trimesh) -> Symmetry:
-    """:func:`~beo_bench.objects.processing.estimate_symmetry` of a canonical mesh at
+    """:func:`~beo_bench.objects.symmetry.estimate_symmetry` of a canonical mesh at
     :data:`SYMMETRY_THRESHOLD`, cached on disk by content hash."""
     arrays = cache.cached(
         "symmetry",
         cache.mesh_hash(mesh),
-        {"threshold": SYMMETRY_THRESHOLD, "v": 1},
+        SYMMETRY_CACHE_PARAMS,
         lambda: processing.pack_symmetry(
             processing.estimate_symmetry(mesh, threshold=SYMMETRY_THRESHOLD)
         ),

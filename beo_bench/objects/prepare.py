@@ -24,6 +24,7 @@ from beo_bench.objects import cache
 from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.objectset import instance_from_key
 from beo_bench.objects.processing import DEFAULT_RESOLUTION
+from beo_bench.objects.symmetry import symmetry_name
 from beo_bench.types import Symmetry
 
 
@@ -37,7 +38,9 @@ class InstanceStats:
     """Bounding-box size (x, y, z) in metres."""
     volume: float
     symmetry: str
-    """``none``, ``continuous``, ``continuous+flip`` or ``<n>-fold`` (group order)."""
+    """:func:`~beo_bench.objects.symmetry.symmetry_name` of the group: ``none``, ``<n>-fold``
+    (cyclic), ``<n>-fold+flips`` (dihedral: a box with distinct sides is ``2-fold+flips``),
+    ``continuous``, ``continuous+flip``, ..."""
     parts: int
     generate_s: float
     """Building the mesh (primitives and union, or reading and repairing a file)."""
@@ -46,10 +49,9 @@ class InstanceStats:
 
 
 def symmetry_label(sym: Symmetry) -> str:
-    """A short name of a symmetry group for tables."""
-    if sym["continuous"]:
-        return "continuous" + ("+flip" if sym["discrete"] else "")
-    return f"{len(sym['discrete']) + 1}-fold" if sym["discrete"] else "none"
+    """A short name of a symmetry group for tables (named after the group's structure, not
+    its order: a box's three half turns are not "4-fold")."""
+    return symmetry_name(sym)
 
 
 def process(inst: ObjectInstance, D: int = DEFAULT_RESOLUTION) -> InstanceStats:
