@@ -48,6 +48,22 @@ class MeshLoadError(MeshError):
     """A mesh file that is missing, unreadable or corrupt."""
 
 
+class CorruptMeshError(MeshLoadError):
+    """A mesh file that parses but whose content is damaged, so that using it would give a
+    wrong object rather than an error (see the two subclasses)."""
+
+
+class NonFiniteMeshError(CorruptMeshError):
+    """A mesh with NaN or infinite vertex coordinates. Readers drop such vertices with their
+    faces, which used to surface much later as a misleading "not watertight"."""
+
+
+class TruncatedMeshError(CorruptMeshError):
+    """A mesh file that ends in the middle of a statement or whose faces index vertices
+    that are not in the file: an interrupted download or copy. Repair would otherwise turn
+    the remaining part into a plausible but partial object."""
+
+
 class EmptyMeshError(MeshError):
     """A mesh with no faces or no volume."""
 

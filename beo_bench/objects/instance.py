@@ -20,6 +20,7 @@ from beo_bench.objects.params import Params
 from beo_bench.objects.processing import (
     COACD_SETTINGS,
     DEFAULT_RESOLUTION,
+    MAX_FACES,
     convex_decomposition,
     pack_parts,
     surface_samples,
@@ -29,8 +30,9 @@ from beo_bench.objects.processing import (
 from beo_bench.objects.registry import Generated
 from beo_bench.types import BoolGrid, Symmetry
 
-COACD_CACHE_PARAMS = {"v": 2, **COACD_SETTINGS}
-"""Cache key of CoACD results: format version and the settings that shape them."""
+COACD_CACHE_PARAMS = {"v": 3, "max_faces": MAX_FACES, **COACD_SETTINGS}
+"""Cache key of CoACD results: format version and the settings that shape them (v3: the
+input is simplified to ``max_faces`` first)."""
 SURFACE_SAMPLES = 4096
 """Default number of cached surface samples per instance."""
 
@@ -86,7 +88,8 @@ class ObjectInstance:
         out = cache.cached(
             "voxels",
             self.content_hash,
-            {"D": int(D), "v": 1},
+            # v2: overlapping parts count once (processing.contains)
+            {"D": int(D), "v": 2},
             lambda: {"occ": np.packbits(voxelize(self.mesh, D))},
         )
         return np.unpackbits(out["occ"], count=D**3).astype(bool).reshape(D, D, D)

@@ -3,11 +3,14 @@
 Every loader returns an :class:`~beo_bench.objects.ObjectSet` of lazily loaded instances in
 the library's canonical frame (+z up, +x front, origin at the bounding-box centre, metres).
 The processing of one file is: read (a multi-geometry scene is concatenated), rotate into
-our axes, :func:`~beo_bench.objects.processing.repair` (``basic``, ``voxel`` or ``none``),
-centre on the bounding box and scale so that the largest extent is the category's size
-(:func:`default_size`, or the ``size`` option). Nothing is read until an instance's
-``mesh`` is first used; errors then name the file (:class:`~beo_bench.errors.MeshLoadError`,
-:class:`~beo_bench.errors.EmptyMeshError`, :class:`~beo_bench.errors.NonWatertightMeshError`).
+our axes, :func:`~beo_bench.objects.processing.repair` (``basic``, ``solid``, ``voxel`` or
+``none``), centre on the bounding box and scale so that the largest extent is the
+category's size (:func:`default_size`, or the ``size`` option). Nothing is read until an
+instance's ``mesh`` is first used, or :meth:`ObjectSet.check` builds them all; errors then
+name the file (:class:`~beo_bench.errors.MeshLoadError` and its
+:class:`~beo_bench.errors.NonFiniteMeshError` and
+:class:`~beo_bench.errors.TruncatedMeshError`, :class:`~beo_bench.errors.EmptyMeshError`,
+:class:`~beo_bench.errors.NonWatertightMeshError`).
 
 Symmetry is estimated (real datasets carry no annotation) on first use and cached on disk;
 collision parts come from CoACD (:func:`beo_bench.objects.prepare.prepare` fills the cache in
@@ -40,6 +43,7 @@ import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NoReturn
 from urllib.parse import parse_qsl, quote, unquote, urlencode
 
 import numpy as np
@@ -50,6 +54,7 @@ from beo_bench.errors import (
     EmptyMeshError,
     InvalidKeyError,
     MeshLoadError,
+    TruncatedMeshError,
     UnknownCategoryError,
     UnknownSplitError,
 )
@@ -78,7 +83,8 @@ source was called in the process)."""
 MESH_SUFFIXES: tuple[str, ...] = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf")
 """File types :func:`load_folder` picks up (matched case-insensitively)."""
 
-REPAIR_MODES: tuple[str, ...] = ("basic", "voxel", "none")
+REPAIR_MODES: tuple[str, ...] = processing.REPAIR_MODES
+"""See :func:`~beo_bench.objects.processing.repair`."""
 
 DEFAULT_SIZE = 0.15
 """Largest extent (m) of a loaded mesh whose category has no procedural counterpart."""
@@ -207,7 +213,9 @@ def load_shapenet(
     size, scaled to a real-world largest extent: :func:`default_size` of the category, or
     ``size`` (metres for all, a ``{category: metres}`` mapping, or ``"native"`` to keep the
     file's units). Many ShapeNet models are open surfaces that ``repair="basic"`` cannot
-    close; use ``repair="voxel"`` for those. Splits: see the module docstring (``ood``
+    close; use ``repair="solid"`` for those (a watertight rebuild with at most
+    :data:`~beo_bench.objects.processing.MAX_FACES` faces; ``"voxel"`` is the older
+    voxel-shell remesh, with 20k-200k faces). Splits: see the module docstring (``ood``
     raises :class:`~beo_bench.errors.UnknownSplitError`).
     """
     return _load("shapenet", path, split, categories, per_category, _Options.make(repair, size))
@@ -709,9 +717,11 @@ def read_mesh(path: str | Path) -> trimesh.Trimesh:
     """Read one mesh file as a single :class:`trimesh.Trimesh` (scenes are concatenated,
     materials skipped), in the file's own axes and units.
 
-    Raises :class:`~beo_bench.errors.MeshLoadError` for a missing, unreadable or corrupt
-    file and :class:`~beo_bench.errors.EmptyMeshError` for one without faces, each naming
-    the file.
+    Raises, each naming the file: :class:`~beo_bench.errors.MeshLoadError` for a missing,
+    unreadable or unparseable file; :class:`~beo_bench.errors.NonFiniteMeshError` for NaN
+    or infinite coordinates; :class:`~beo_bench.errors.TruncatedMeshError` for an OBJ that
+    was cut off (its last line is incomplete, or unterminated while the surface is open);
+    :class:`~beo_bench.errors.EmptyMeshError` for one without faces.
     """
     p = Path(path)
     if not p.is_file():
@@ -726,15 +736,25 @@ def read_mesh(path: str | Path) -> trimesh.Trimesh:
     suffix = p.suffix.lower()
     if suffix == ".off":
         data = _GLUED_OFF.sub(rb"\1\n", data, count=1)
+    # before parsing: a cut file may not parse at all, and a parser error would hide why
+    cut = _obj_unterminated_line(data) if suffix == ".obj" else None
+    if cut is not None and not _obj_line_ok(cut):
+        _raise_truncated(p, cut, "which is incomplete")
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # e.g. missing texture images: irrelevant here
+            # process=False: processing silently drops NaN vertices with their faces, which
+            # turned a corrupt coordinate into a misleading "not watertight" later
             if suffix == ".off":
-                loaded = trimesh.load(io.BytesIO(data), file_type="off", force="mesh")
+                loaded = trimesh.load(
+                    io.BytesIO(data), file_type="off", force="mesh", process=False
+                )
             else:
                 kw = {"skip_materials": True} if suffix == ".obj" else {}
-                loaded = trimesh.load(str(p), force="mesh", **kw)
+                loaded = trimesh.load(str(p), force="mesh", process=False, **kw)
     except Exception as e:
+        if cut is not None:
+            _raise_truncated(p, cut, "and the file does not parse")
         raise MeshLoadError(
             f"{p}: cannot parse the {suffix or 'mesh'} file ({type(e).__name__}: {e}); it is "
             f"corrupt or not a mesh: re-download or re-export it"
@@ -748,11 +768,56 @@ def read_mesh(path: str | Path) -> trimesh.Trimesh:
         raise EmptyMeshError(
             f"{p}: the file has no faces; use a mesh with geometry or remove the file"
         )
-    if not np.isfinite(loaded.vertices).all():
-        raise MeshLoadError(
-            f"{p}: vertices with NaN or infinite coordinates; the file is corrupt: re-export it"
-        )
+    processing.check_finite(loaded, str(p))
+    if cut is not None:
+        closed = loaded.copy()
+        closed.merge_vertices(merge_tex=True, merge_norm=True)
+        if not closed.is_watertight:
+            _raise_truncated(p, cut, "and the surface is open")
+    loaded.process()  # what trimesh does by default: merge duplicate vertices
     return loaded
+
+
+_OBJ_REF = re.compile(rb"^-?\d+(/(-?\d+)?){0,2}$")
+_OBJ_MIN_ARGS = {b"v": 3, b"vn": 3, b"vt": 1, b"f": 3, b"l": 2}
+
+
+def _obj_unterminated_line(data: bytes) -> list[bytes] | None:
+    """The tokens of an OBJ's last line if it has no line break (None if it has one).
+
+    Exporters end every line with a line break, so a file cut at an arbitrary byte (an
+    interrupted download or copy) almost always ends in an unterminated line. That line is
+    proof when it is malformed (``f 12 1``, ``v 0.5 -``); a well-formed one only counts
+    when the surface is open, since a few writers omit the final line break. A cut exactly
+    at a line break cannot be told from a complete file of an open mesh.
+    """
+    if not data.strip() or data.endswith((b"\n", b"\r")):
+        return None
+    return data[data.rfind(b"\n") + 1 :].split()
+
+
+def _raise_truncated(p: Path, tokens: list[bytes], why: str) -> NoReturn:
+    shown = b" ".join(tokens)[:60].decode("utf-8", errors="replace")
+    raise TruncatedMeshError(
+        f"{p}: the file is truncated: it ends in the middle of a line ({shown!r}, {why}); "
+        f"re-download or re-export it (a complete file ends with a line break)"
+    )
+
+
+def _obj_line_ok(tokens: list[bytes]) -> bool:
+    """Whether an OBJ statement is complete (statements other than data pass)."""
+    if not tokens or tokens[0] not in _OBJ_MIN_ARGS:
+        return True
+    args = tokens[1:]
+    if len(args) < _OBJ_MIN_ARGS[tokens[0]]:
+        return False
+    if tokens[0] in (b"f", b"l"):
+        return all(_OBJ_REF.match(a) for a in args)
+    try:
+        [float(a) for a in args]
+    except ValueError:
+        return False
+    return True
 
 
 def _looks_like_text(data: bytes) -> bool:

@@ -14,7 +14,12 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from beo_bench.errors import InstanceIndexError, InvalidKeyError, UnknownCategoryError
+from beo_bench.errors import (
+    InstanceIndexError,
+    InvalidKeyError,
+    MeshError,
+    UnknownCategoryError,
+)
 from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.params import Params
 from beo_bench.objects.registry import (
@@ -200,6 +205,26 @@ class ObjectSet:
     def __iter__(self) -> Iterator[ObjectInstance]:
         for c in self.categories:
             yield from self.instances(c)
+
+    def check(self) -> ObjectSet:
+        """Build every instance now (read, repair, centre and scale its mesh), so that a file
+        that cannot be used fails here, named, instead of at first use deep in an episode or
+        a worker process. Raises the first failure's :class:`~beo_bench.errors.MeshError`
+        class with every failure listed; returns the set, for chaining."""
+        failures: list[MeshError] = []
+        for inst in self:
+            try:
+                _ = inst.mesh
+            except MeshError as e:
+                failures.append(e)
+        if len(failures) == 1:
+            raise failures[0]
+        if failures:
+            listed = "\n".join(f"  {e}" for e in failures)
+            raise type(failures[0])(
+                f"{len(failures)} of {len(self)} objects cannot be used:\n{listed}"
+            ) from failures[0]
+        return self
 
     def __repr__(self) -> str:
         return (
