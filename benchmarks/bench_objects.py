@@ -91,6 +91,13 @@ def main() -> None:
     warm = median_time(outside.collision_parts, repeat=5)
     report("CoACD result, cached second call", 1000 * warm, "ms", "< 10 ms", warm < 0.01)
 
+    # 4b. symmetry estimation of a loaded mesh (nearly equal moments: the slowest case)
+    from beo_bench.objects.processing import estimate_symmetry
+
+    mug_mesh = procedural_instance("mug", "test", 0).mesh
+    t = median_time(lambda: estimate_symmetry(mug_mesh), repeat=3)
+    report("estimate the symmetry group of a mug-like mesh (median)", t, "s", "< 1 s", t < 1.0)
+
     # 5. the whole default library, cold then warm
     _fresh_cache()
     every = [inst for split in DEFAULT_SPLIT_SIZES for inst in ObjectSet(split)]

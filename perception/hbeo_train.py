@@ -353,8 +353,8 @@ took 14.7 and 16.3 minutes on 2 CPU cores, plus rendering the crops once). Why: 
 network on 16,000 crops gives 23.9 deg mean on ``pose-3dof``, the reference one 13.0 deg;
 the method needs the data. ``per-category``: one class's network (chapter 5 trained one per
 category; ``--categories car``), 30,000 crops of it (nearly three times the class's share of
-the reference set), 20 epochs, the best validation epoch: about 6 minutes per class on 2 CPU
-cores, rendering included."""
+the reference set), 20 epochs, the best validation epoch: 5 (``hbeo``) to 7 (``hbeo-mdn``)
+minutes a class on 2 CPU cores, plus 2 minutes of rendering."""
 
 
 def default_config(
