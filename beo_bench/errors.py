@@ -72,6 +72,14 @@ class NonWatertightMeshError(MeshError):
     """A mesh that is not watertight and could not be repaired."""
 
 
+class ImplausibleSizeError(MeshError):
+    """A loaded mesh whose real-world size cannot be a tabletop object: smaller than the
+    gripper can meaningfully hold or see, or too large to lie on the table in every pose.
+    Usually the file's units were misread (a millimetre file taken as metres) or a
+    normalised model was kept at its file scale; the message names the ``units=`` or
+    ``size=`` option that fixes it."""
+
+
 class DatasetLayoutError(BeoBenchError, ValueError):
     """A dataset folder that does not have the expected layout."""
 

@@ -16,6 +16,14 @@ it physically; reward 1 when an object of the target class ends lifted at least 
 its rest height, else 0. The episode terminates on success or after ``max_attempts``;
 ``step`` after that (or before ``reset``) raises :class:`EnvStateError`.
 
+Every episode's target is visible: ``reset`` keeps a scene only when the target object has
+at least ``min_target_pixels`` pixels in the segmentation (default: 50 at 640x480, the
+suites' ``min_pixels``, scaled with the image area). Otherwise it draws another camera pose
+(up to :data:`CAMERA_DRAWS`), then another scene (up to :data:`SCENE_DRAWS`), and finally
+raises :class:`NoVisibleTargetError`; an object too large for the table raises
+:class:`~beo_bench.scenes.layout.ObjectTooLargeError` at once. Seeds whose first draw was
+fine give the same episodes as before this guarantee.
+
 Bad settings raise :class:`~beo_bench.errors.EnvConfigError` at ``gym.make`` and bad
 actions :class:`~beo_bench.errors.ActionError` at ``step``, each saying what to change.
 """
@@ -34,7 +42,7 @@ from beo_bench.scenes.builder import Scene, TableConfig, build_tabletop
 from beo_bench.scenes.camera import CameraRig, Intrinsics
 from beo_bench.scenes.execute import GraspOutcome, execute_grasp, park, release, settle
 from beo_bench.scenes.gripper import MAX_OPENING
-from beo_bench.scenes.layout import PlacementError, place_objects
+from beo_bench.scenes.layout import ObjectTooLargeError, PlacementError, place_objects
 from beo_bench.scenes.noise import DepthNoise, apply_noise
 from beo_bench.scenes.renderer import Renderer
 from gymnasium import spaces
@@ -52,6 +60,18 @@ OPENING_TOLERANCE = 1e-6
 """How far (m) a finger opening may stray outside [0, ``MAX_OPENING``] and still be taken
 (clipped): float32 rounding of a bound, not a user's mistake."""
 
+SCENE_DRAWS = 20
+"""Object draws ``reset`` tries before giving up (placement failures and scenes whose
+target stays hidden both count)."""
+
+CAMERA_DRAWS = 10
+"""Camera poses ``reset`` tries per scene for a visible target before drawing a new scene
+(a target hidden behind a larger object is usually seen from another side)."""
+
+MIN_TARGET_PIXELS_640x480 = 50
+"""Default least number of target pixels at 640x480 (the suites' ``min_pixels``: a
+scored view needs at least as many), scaled by image area for other sizes."""
+
 KWARGS = (
     "split",
     "num_objects",
@@ -64,7 +84,13 @@ KWARGS = (
     "max_attempts",
     "render_mode",
     "table",
+    "min_target_pixels",
 )
+
+
+class NoVisibleTargetError(BeoBenchError, RuntimeError):
+    """``reset`` found no scene whose target shows at least ``min_target_pixels`` pixels:
+    an episode without a visible target cannot be solved, so none is produced."""
 
 
 class EnvStateError(BeoBenchError, RuntimeError):
@@ -82,7 +108,8 @@ class BEOPickEnv(gym.Env):
     image_size: (width, height) ((640, 480)); fovy_deg: vertical field of view (45);
     camera: a ``CameraRig`` or a dict of its fields; noise: False, True (default
     ``DepthNoise``) or a ``DepthNoise``; max_attempts: grasps per episode (1);
-    render_mode: None or "rgb_array"; table: a ``TableConfig``.
+    render_mode: None or "rgb_array"; table: a ``TableConfig``; min_target_pixels: the
+    least visible pixels of the target (default 50 at 640x480, scaled by image area).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 4}
@@ -131,6 +158,7 @@ class BEOPickEnv(gym.Env):
         max_attempts: int = 1,
         render_mode: str | None = None,
         table: TableConfig | None = None,
+        min_target_pixels: int | None = None,
     ) -> None:
         if render_mode not in (None, "rgb_array"):
             raise EnvConfigError(f"render_mode={render_mode!r}: use None or 'rgb_array'")
@@ -180,6 +208,15 @@ class BEOPickEnv(gym.Env):
             raise EnvConfigError(f"max_attempts={max_attempts}: allow at least one attempt")
         self.max_attempts = int(max_attempts)
         self.table = table or TableConfig()
+        if min_target_pixels is None:
+            area = width * height / (640 * 480)
+            min_target_pixels = max(1, round(MIN_TARGET_PIXELS_640x480 * area))
+        if _whole(min_target_pixels, "min_target_pixels") < 1:
+            raise EnvConfigError(
+                f"min_target_pixels={min_target_pixels}: give at least 1 (an episode needs a "
+                "visible target)"
+            )
+        self.min_target_pixels = int(min_target_pixels)
 
     # -- public state --------------------------------------------------------------------------
     @property
@@ -266,31 +303,68 @@ class BEOPickEnv(gym.Env):
         rng = self.np_random
         if self._renderer is None:
             self._renderer = Renderer(self.intrinsics)
-        for _ in range(20):
+        placed, best = 0, (-1, "")
+        look_at = np.array([0.0, 0.0, self.table.table_height])
+        # Draws happen in the order they always did, so a seed whose first scene and camera
+        # show the target gives the episode it gave before the visibility guarantee.
+        for _ in range(SCENE_DRAWS):
             k = int(rng.integers(self.num_objects[0], self.num_objects[1] + 1))
             cats = [self.categories[j] for j in rng.choice(len(self.categories), k, replace=False)]
             insts = [self.objects.get(c, int(rng.integers(self.objects.count(c)))) for c in cats]
             try:
-                poses = place_objects(insts, rng, self.table.table_height, self.table.area_half)
-                break
+                poses = place_objects(
+                    insts,
+                    rng,
+                    self.table.table_height,
+                    self.table.area_half,
+                    table_half=self.table.table_half,
+                )
+            except ObjectTooLargeError:
+                raise  # no other draw makes this object fit: say which one it is
             except PlacementError:
                 continue  # these did not fit: draw another set (deterministic under the seed)
+            placed += 1
+            self._scene = build_tabletop(insts, poses, self.intrinsics, self.table)
+            park(self._scene)
+            settle(self._scene)
+            self._renderer.bind(self._scene.model, self._scene.geom_labels)
+            self._cam = self.rig.sample(rng, look_at)
+            self._target = int(rng.integers(k)) + 1
+            for view in range(CAMERA_DRAWS):
+                if view:
+                    self._cam = self.rig.sample(rng, look_at)
+                frame = self._renderer.render(self._scene.data, self._cam)
+                pixels = int(np.count_nonzero(frame.segmentation == self._target))
+                if pixels >= self.min_target_pixels:
+                    break
+                if pixels > best[0]:
+                    best = (pixels, f"{cats[self._target - 1]} among {cats}")
+            else:
+                continue  # hidden from every camera pose: draw another scene
+            break
         else:
-            raise PlacementError("20 draws of objects did not fit on the table")
-        self._scene = build_tabletop(insts, poses, self.intrinsics, self.table)
-        park(self._scene)
-        settle(self._scene)
-        self._renderer.bind(self._scene.model, self._scene.geom_labels)
-        self._cam = self.rig.sample(rng, np.array([0.0, 0.0, self.table.table_height]))
-        self._target = int(rng.integers(k)) + 1
+            if not placed:
+                raise PlacementError(
+                    f"{SCENE_DRAWS} draws of objects did not fit on the table without overlap; "
+                    "use fewer objects (num_objects) or a larger TableConfig.area_half"
+                )
+            raise NoVisibleTargetError(
+                f"BEOPick-v0 reset: in {placed} scenes x {CAMERA_DRAWS} camera poses the target "
+                f"never showed {self.min_target_pixels} pixels (best {best[0]}: {best[1]}); "
+                f"lower min_target_pixels, use a larger image_size, or a camera rig that "
+                f"frames the table (camera=...)"
+            )
         self._attempts = 0
         self._terminated = False
-        obs = self._observe()
-        return _copy(obs), {"num_objects": k, "attempt": 0}
+        obs = self._observe(frame)
+        return _copy(obs), {"num_objects": k, "attempt": 0, "target_pixels": pixels}
 
-    def _observe(self) -> dict[str, Any]:
+    def _observe(self, frame: Any = None) -> dict[str, Any]:
+        """The observation of the current scene; ``frame``: its rendering if reset has just
+        made it (rendering twice would cost a second pass)."""
         assert self._scene is not None and self._renderer is not None
-        frame = self._renderer.render(self._scene.data, self._cam)
+        if frame is None:
+            frame = self._renderer.render(self._scene.data, self._cam)
         depth = frame.depth
         if self.noise is not None:
             depth = apply_noise(depth, self.np_random, self.noise)

@@ -32,6 +32,11 @@ class PlacementError(BeoBenchError):
     """The objects do not fit on the table without overlapping."""
 
 
+class ObjectTooLargeError(PlacementError, ValueError):
+    """An object whose footprint cannot lie on the table in its rest pose, wherever it is
+    put: drawing other objects would not help, so it is refused instead of retried."""
+
+
 @dataclass(frozen=True)
 class RestPose:
     """An instance resting on a plane at z = 0: ``rotation`` (canonical -> world, yaw as
@@ -93,17 +98,38 @@ def place_objects(
     area_half: tuple[float, float],
     gap: float = 0.005,
     tries: int = 400,
+    table_half: tuple[float, float] | None = None,
 ) -> list[Mat4]:
     """World poses for ``instances``: rest pose, uniform random yaw, centres uniform in the
     table's central area on footprint discs ``gap`` apart (no initial interpenetration).
-    Larger objects are placed first. Raises :class:`PlacementError` when they do not fit."""
+    Larger objects are placed first. Raises :class:`PlacementError` when they do not fit.
+
+    With ``table_half`` (the table top's half-extents), every footprint disc also lies
+    wholly on the table: a centre's range shrinks to ``table_half - radius`` where that is
+    smaller than ``area_half`` (objects overhanging the edge tipped off the table and left
+    episodes with an invisible target), and an object whose disc is wider than the table
+    raises :class:`ObjectTooLargeError` naming it."""
     rests = [rest_pose(inst) for inst in instances]
+    area = [np.asarray(area_half, dtype=np.float64) for _ in rests]
+    if table_half is not None:
+        half = np.asarray(table_half, dtype=np.float64)
+        for i, (inst, rp) in enumerate(zip(instances, rests, strict=True)):
+            if rp.radius > half.min():
+                raise ObjectTooLargeError(
+                    f"object {inst.key} ({inst.category}) does not fit on the table: its "
+                    f"footprint radius in its rest pose is {rp.radius:.3f} m and the table top "
+                    f"is {2 * half[0]:.2f} x {2 * half[1]:.2f} m; load it smaller (size=<metres> "
+                    f"or the right units=) or use a larger TableConfig.table_half"
+                )
+            area[i] = np.minimum(area[i], half - rp.radius)
     order = np.argsort([-r.radius for r in rests], kind="stable")
     centres: dict[int, np.ndarray] = {}
     for i in order:
         r = rests[i].radius
         for _ in range(tries):
-            c = rng.uniform(-1.0, 1.0, 2) * np.asarray(area_half)
+            # the same draw as before the table bound; only its scale shrinks for objects
+            # that would overhang, so seeds of scenes that fitted give the same scenes
+            c = rng.uniform(-1.0, 1.0, 2) * area[i]
             if all(np.linalg.norm(c - centres[j]) >= r + rests[j].radius + gap for j in centres):
                 centres[int(i)] = c
                 break

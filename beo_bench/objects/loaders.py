@@ -4,13 +4,25 @@ Every loader returns an :class:`~beo_bench.objects.ObjectSet` of lazily loaded i
 the library's canonical frame (+z up, +x front, origin at the bounding-box centre, metres).
 The processing of one file is: read (a multi-geometry scene is concatenated), rotate into
 our axes, :func:`~beo_bench.objects.processing.repair` (``basic``, ``solid``, ``voxel`` or
-``none``), centre on the bounding box and scale so that the largest extent is the
-category's size (:func:`default_size`, or the ``size`` option). Nothing is read until an
+``none``), centre on the bounding box and scale (see "Units and size" below), then a plausibility
+check of the size (:class:`~beo_bench.errors.ImplausibleSizeError`). Nothing is read until an
 instance's ``mesh`` is first used, or :meth:`ObjectSet.check` builds them all; errors then
 name the file (:class:`~beo_bench.errors.MeshLoadError` and its
 :class:`~beo_bench.errors.NonFiniteMeshError` and
 :class:`~beo_bench.errors.TruncatedMeshError`, :class:`~beo_bench.errors.EmptyMeshError`,
 :class:`~beo_bench.errors.NonWatertightMeshError`).
+
+Units and size. Normalised datasets (ShapeNetCore's unit-diagonal models, ModelNet's
+arbitrary units) carry no scale, so their meshes are scaled so that the largest extent is
+the category's typical size (:data:`CATEGORY_SIZES`, :func:`default_size`): their default
+``units`` is ``"normalised"``. Folders hold scans and robotics assets (YCB-like) whose files
+do carry a scale, so their default is ``units="auto"``: the file's units are detected by
+:func:`detect_units`. ``units="m"``, ``"cm"`` or ``"mm"`` states them; ``size=<metres>``
+(or a ``{category: metres}`` mapping) sets the largest extent whatever the file says, and
+``size="native"`` (older keys) means ``units="m"``. Every loaded mesh must then be a
+plausible tabletop object (:func:`check_plausible_size`): largest extent at least
+:data:`MIN_EXTENT` and bounding-box diagonal at most :data:`MAX_DIAGONAL`, so that it lies on
+the table in any pose and the env can always place it.
 
 Symmetry is estimated (real datasets carry no annotation) on first use and cached on disk;
 collision parts come from CoACD (:func:`beo_bench.objects.prepare.prepare` fills the cache in
@@ -52,6 +64,7 @@ import trimesh
 from beo_bench.errors import (
     DatasetLayoutError,
     EmptyMeshError,
+    ImplausibleSizeError,
     InvalidKeyError,
     MeshLoadError,
     TruncatedMeshError,
@@ -87,7 +100,86 @@ REPAIR_MODES: tuple[str, ...] = processing.REPAIR_MODES
 """See :func:`~beo_bench.objects.processing.repair`."""
 
 DEFAULT_SIZE = 0.15
-"""Largest extent (m) of a loaded mesh whose category has no procedural counterpart."""
+"""Largest extent (m) of a normalised mesh whose category is neither in
+:data:`CATEGORY_SIZES` nor registered (a :class:`UnknownSizeWarning` says so), and the
+reference size :func:`detect_units` aims at for such categories: about the geometric mean of
+the plausible range, 2 cm to 1 m."""
+
+MIN_EXTENT = 0.01
+"""Smallest plausible largest extent (m) of a loaded object: below 1 cm an object is half a
+finger pad (2 cm wide) and a few pixels at the cameras' 0.7-1.1 m, neither graspable nor
+seen; a millimetre value read as centimetres usually lands here."""
+
+MAX_DIAGONAL = 0.70
+"""Largest plausible bounding-box diagonal (m): the table's depth (``TableConfig``:
+2 x 0.35 m). An object within it lies on the table in every pose (its footprint radius is
+at most half the diagonal), so placement can never push it off; beyond it, objects were
+placed hanging over the edge, fell off and gave episodes with no visible target."""
+
+UNITS: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+"""Metres per file unit of the units a file may be stated or detected to be in."""
+
+UNIT_MODES: tuple[str, ...] = ("auto", *UNITS, "normalised")
+"""Values of the ``units`` option: ``auto`` (detect, :func:`detect_units`), ``m``, ``cm``,
+``mm`` (keep the file's scale, in these units), ``normalised`` (the file has no meaningful
+scale: scale the largest extent to the category's size, :func:`default_size`)."""
+
+DEFAULT_UNITS: dict[str, str] = {
+    "shapenet": "normalised",
+    "modelnet": "normalised",
+    "folder": "auto",
+}
+"""Each source's default ``units``: ShapeNetCore normalises every model to a unit diagonal
+and ModelNet's units are arbitrary; folders hold scans and assets in real units."""
+
+# Typical largest extent (m) of each category, for normalised datasets. Values are for the
+# object as it sits on a table and is grasped:
+# - the library's 11 classes: the median of its procedural test instances (SIZE_SAMPLES; a
+#   test checks they agree), toy-scale for chair, sofa, table, car and airplane, since the
+#   real objects cannot be picked up;
+# - household and YCB objects: real sizes (YCB's published dimensions where it has them);
+# - ShapeNet and ModelNet classes whose real object does not fit on a table (furniture,
+#   vehicles, buildings, people): toy models, like the library's, at 10-25 cm;
+# - nothing above 0.40 m, so that any normalised shape (diagonal <= sqrt(3) x extent) stays
+#   within MAX_DIAGONAL.
+CATEGORY_SIZES: dict[str, float] = {
+    # the library's classes
+    "airplane": 0.145, "bottle": 0.253, "bowl": 0.158, "box": 0.105, "can": 0.123,
+    "car": 0.097, "chair": 0.096, "lamp": 0.254, "mug": 0.106, "sofa": 0.138, "table": 0.126,
+    # food (YCB)
+    "apple": 0.075, "banana": 0.19, "lemon": 0.068, "orange": 0.073, "peach": 0.059,
+    "pear": 0.10, "plum": 0.052, "strawberry": 0.05,
+    # kitchen and household (YCB where listed)
+    "cup": 0.09, "glass": 0.12, "jar": 0.15, "pitcher": 0.24, "plate": 0.26, "pot": 0.25,
+    "flower_pot": 0.20, "vase": 0.25, "plant": 0.30, "spoon": 0.16, "fork": 0.20,
+    "knife": 0.22, "spatula": 0.35, "scissors": 0.20, "hammer": 0.33, "power_drill": 0.18,
+    "screwdriver": 0.20, "wrench": 0.20, "cracker_box": 0.21, "sugar_box": 0.175,
+    "mustard_bottle": 0.19, "bleach_cleanser": 0.25, "tomato_soup_can": 0.10,
+    "tuna_fish_can": 0.085, "sponge": 0.11, "basket": 0.30, "bag": 0.35, "cap": 0.25,
+    "helmet": 0.28, "pillow": 0.40, "clock": 0.25, "trash_bin": 0.30, "birdhouse": 0.25,
+    "faucet": 0.25, "cone": 0.20, "glass_box": 0.20, "book": 0.24,
+    # electronics
+    "camera": 0.12, "cellphone": 0.15, "telephone": 0.20, "remote_control": 0.18,
+    "earphone": 0.18, "microphone": 0.20, "keyboard": 0.40, "laptop": 0.35,
+    "display": 0.40, "monitor": 0.40, "loudspeaker": 0.25, "radio": 0.25, "printer": 0.40,
+    "microwave": 0.40, "xbox": 0.30, "pistol": 0.20,
+    # toy models of things that do not fit on a table
+    "bathtub": 0.15, "bed": 0.15, "bench": 0.15, "bookshelf": 0.15, "cabinet": 0.12,
+    "dishwasher": 0.10, "file_cabinet": 0.12, "piano": 0.15, "washer": 0.10, "stove": 0.10,
+    "desk": 0.15, "dresser": 0.12, "night_stand": 0.10, "wardrobe": 0.15, "tv_stand": 0.15,
+    "stool": 0.10, "sink": 0.12, "toilet": 0.12, "bus": 0.20, "train": 0.25,
+    "motorcycle": 0.15, "bicycle": 0.17, "skateboard": 0.20, "vessel": 0.20, "rocket": 0.20,
+    "tower": 0.25, "mailbox": 0.12, "guitar": 0.25, "rifle": 0.25, "person": 0.20,
+    "tent": 0.15, "stairs": 0.15, "door": 0.20, "curtain": 0.20, "mantel": 0.15,
+    "range_hood": 0.12,
+}  # fmt: skip
+"""Typical largest extent (m) per category for normalised datasets (see the comment above
+for where the values come from); ``size={category: metres}`` overrides an entry."""
+
+
+class UnknownSizeWarning(UserWarning):
+    """A normalised mesh of a category with no known size: it gets :data:`DEFAULT_SIZE`."""
+
 
 SIZE_SAMPLES = 7
 """Procedural ``test`` instances whose median largest extent is a category's size."""
@@ -203,6 +295,7 @@ def load_shapenet(
     repair: str = "basic",
     *,
     size: float | Mapping[str, float] | str | None = None,
+    units: str | None = None,
 ) -> ObjectSet:
     """ShapeNetCore v2 (``<root>/<synset>/<model id>/models/model_normalized.obj``).
 
@@ -212,13 +305,16 @@ def load_shapenet(
     (:data:`SHAPENET_TO_CANONICAL`) and, since ShapeNet normalises every model to unit
     size, scaled to a real-world largest extent: :func:`default_size` of the category, or
     ``size`` (metres for all, a ``{category: metres}`` mapping, or ``"native"`` to keep the
-    file's units). Many ShapeNet models are open surfaces that ``repair="basic"`` cannot
-    close; use ``repair="solid"`` for those (a watertight rebuild with at most
-    :data:`~beo_bench.objects.processing.MAX_FACES` faces; ``"voxel"`` is the older
-    voxel-shell remesh, with 20k-200k faces). Splits: see the module docstring (``ood``
-    raises :class:`~beo_bench.errors.UnknownSplitError`).
+    file's units as metres); ``units`` (default ``"normalised"``; ``"auto"``, ``"m"``,
+    ``"cm"``, ``"mm"``) keeps the file's scale instead (see the module docstring). Every
+    mesh must pass :func:`check_plausible_size`. Many ShapeNet models are open surfaces
+    that ``repair="basic"`` cannot close; use ``repair="solid"`` for those (a watertight
+    rebuild with at most :data:`~beo_bench.objects.processing.MAX_FACES` faces;
+    ``"voxel"`` is the older voxel-shell remesh, with 20k-200k faces). Splits: see the
+    module docstring (``ood`` raises :class:`~beo_bench.errors.UnknownSplitError`).
     """
-    return _load("shapenet", path, split, categories, per_category, _Options.make(repair, size))
+    opts = _Options.make(repair, size, units=units, source="shapenet")
+    return _load("shapenet", path, split, categories, per_category, opts)
 
 
 def load_modelnet(
@@ -229,6 +325,7 @@ def load_modelnet(
     repair: str = "basic",
     *,
     size: float | Mapping[str, float] | str | None = None,
+    units: str | None = None,
 ) -> ObjectSet:
     """ModelNet10 or ModelNet40 (``<root>/<class>/<train|test>/<name>.off``).
 
@@ -239,10 +336,11 @@ def load_modelnet(
     ModelNet's test folder; ``train`` and ``val`` divide its train folder (``val`` is a
     stable ~10 % by file name); ``ood`` raises. OFF files with the count line glued to
     the header (``OFF490 518 0``, common in ModelNet) are read correctly. ``repair`` and
-    ``size`` are as for :func:`load_shapenet` (ModelNet's units are arbitrary, so meshes
-    are scaled to the category size by default).
+    ``size`` and ``units`` are as for :func:`load_shapenet` (ModelNet's units are
+    arbitrary, so meshes are scaled to the category size by default).
     """
-    return _load("modelnet", path, split, categories, per_category, _Options.make(repair, size))
+    opts = _Options.make(repair, size, units=units, source="modelnet")
+    return _load("modelnet", path, split, categories, per_category, opts)
 
 
 def load_folder(
@@ -253,6 +351,7 @@ def load_folder(
     repair: str = "basic",
     *,
     size: float | Mapping[str, float] | str | None = None,
+    units: str | None = None,
     up: str = "z",
     front: str = "x",
 ) -> ObjectSet:
@@ -262,12 +361,16 @@ def load_folder(
     The sub-folder name is the category name. ``up`` and ``front`` name the files' axes
     (``"x"``, ``"-y"``, ...; default ours: +z up, +x front). Splits are by a stable hash
     of the path relative to the root: 80 % ``train``, 5 % ``val``, 15 % ``test``; ``ood``
-    raises. ``size`` defaults to the category's size like the other loaders; pass
-    ``size="native"`` for meshes already in metres.
+    raises. Files keep their real scale: ``units="auto"`` (the default) detects metres,
+    centimetres or millimetres from the largest extent (:func:`detect_units`); pass
+    ``units="mm"`` (``"cm"``, ``"m"``) to state them, ``units="normalised"`` to scale
+    unit-size models to the category's size (:data:`CATEGORY_SIZES`), or ``size=<metres>``
+    (or a ``{category: metres}`` mapping) to set the largest extent. A mesh that is no
+    plausible tabletop object raises :class:`~beo_bench.errors.ImplausibleSizeError` when
+    it is built (:meth:`ObjectSet.check` builds all).
     """
-    return _load(
-        "folder", path, split, categories, per_category, _Options.make(repair, size, up, front)
-    )
+    opts = _Options.make(repair, size, up, front, units, "folder")
+    return _load("folder", path, split, categories, per_category, opts)
 
 
 def load_any(
@@ -313,16 +416,95 @@ def set_dataset_roots(roots: Mapping[str, str | Path]) -> None:
 
 @functools.cache
 def default_size(category: str) -> float:
-    """The largest extent (m) a loaded mesh of ``category`` is scaled to: the median over
-    :data:`SIZE_SAMPLES` procedural ``test`` instances if the category is registered,
-    else :data:`DEFAULT_SIZE`."""
-    if category not in registered_categories():
-        return DEFAULT_SIZE
+    """The largest extent (m) a normalised mesh of ``category`` is scaled to: its entry in
+    :data:`CATEGORY_SIZES`; else, for a category registered after import (a user's own
+    procedural class), the median over :data:`SIZE_SAMPLES` of its procedural ``test``
+    instances; else :data:`DEFAULT_SIZE`."""
+    if category in CATEGORY_SIZES:
+        return CATEGORY_SIZES[category]
+    if category in registered_categories():
+        return procedural_size(category)
+    return DEFAULT_SIZE
+
+
+def procedural_size(category: str) -> float:
+    """The median largest extent (m) of :data:`SIZE_SAMPLES` procedural ``test`` instances of
+    a registered category."""
     ext = [
         float(procedural_instance(category, "test", i).mesh.extents.max())
         for i in range(SIZE_SAMPLES)
     ]
     return round(float(np.median(ext)), 6)
+
+
+@functools.cache
+def _warn_unknown_size(category: str) -> None:
+    # once per category and process: one line per mesh would bury the advice
+    warnings.warn(
+        f"category {category!r} has no known size (not in CATEGORY_SIZES nor registered): its "
+        f"normalised meshes get {DEFAULT_SIZE} m; pass size={{{category!r}: <metres>}} to the "
+        f"loader for its real size",
+        UnknownSizeWarning,
+        stacklevel=3,
+    )
+
+
+def _size_of(category: str) -> float:
+    if category not in CATEGORY_SIZES and category not in registered_categories():
+        _warn_unknown_size(category)
+    return default_size(category)
+
+
+def detect_units(extent: float, category: str | None = None) -> str:
+    """The units (``"m"``, ``"cm"`` or ``"mm"``) of a file whose largest extent is
+    ``extent`` file units.
+
+    Rule: of the three readings (``extent`` x 1, x 0.01, x 0.001 m), keep those whose
+    largest extent lies in [:data:`MIN_EXTENT`, :data:`MAX_DIAGONAL`], and take the one
+    nearest, by ratio, to the category's typical size (:func:`default_size`;
+    :data:`DEFAULT_SIZE` for categories without one). Ties go to the larger unit. So a
+    45-unit file is a 4.5 cm lemon in millimetres but a 45 cm object in centimetres when
+    its category is unknown (45 cm is 3.0x the 15 cm reference, 4.5 cm 3.3x). Raises
+    :class:`~beo_bench.errors.ImplausibleSizeError` when no reading is plausible.
+    """
+    ref = DEFAULT_SIZE
+    if category is not None and (category in CATEGORY_SIZES or category in registered_categories()):
+        ref = default_size(category)
+    plausible = [u for u, f in UNITS.items() if MIN_EXTENT <= extent * f <= MAX_DIAGONAL]
+    if not plausible:
+        raise ImplausibleSizeError(
+            f"a largest extent of {extent:.6g} file units is no tabletop object in metres, "
+            f"centimetres or millimetres (each reading is outside {MIN_EXTENT}-{MAX_DIAGONAL} "
+            f"m); pass size=<metres> for its largest extent"
+        )
+    return min(plausible, key=lambda u: abs(np.log(extent * UNITS[u] / ref)))
+
+
+def check_plausible_size(mesh: trimesh.Trimesh, what: str, how: str) -> None:
+    """Raise :class:`~beo_bench.errors.ImplausibleSizeError` (naming ``what``, the file, and
+    ``how`` it was scaled) unless the canonical mesh is a plausible tabletop object: largest
+    extent >= :data:`MIN_EXTENT` and bounding-box diagonal <= :data:`MAX_DIAGONAL`."""
+    ext = np.asarray(mesh.extents, dtype=np.float64)
+    largest, diagonal = float(ext.max()), float(np.linalg.norm(ext))
+    if largest >= MIN_EXTENT and diagonal <= MAX_DIAGONAL:
+        return
+    dims = " x ".join(f"{e:.4g}" for e in ext)
+    if largest < MIN_EXTENT:
+        why = (
+            f"its largest extent is below {MIN_EXTENT} m: too small to see or grasp with "
+            f"the 2 cm finger pads"
+        )
+    else:
+        why = (
+            f"its diagonal {diagonal:.3g} m exceeds {MAX_DIAGONAL} m, the table's depth: it "
+            f"cannot lie on the table"
+        )
+    raise ImplausibleSizeError(
+        f"{what}: loaded at {dims} m ({how}); {why}. If the file's units are wrong, pass "
+        f"units='mm', 'cm' or 'm' (or 'auto' to detect them); for a normalised model pass "
+        f"units='normalised' or size=<metres> (largest extent; typical sizes are in "
+        f"CATEGORY_SIZES)"
+    )
 
 
 def axes_rotation(up: str = "z", front: str = "x") -> Mat3:
@@ -347,6 +529,9 @@ class _Options:
     size: float | str | tuple[tuple[str, float], ...] | None = None
     up: str = "z"
     front: str = "x"
+    units: str | None = None
+    """One of :data:`UNIT_MODES`; None: the source's default (:data:`DEFAULT_UNITS`), so
+    that an object has one key whether its default was passed explicitly or not."""
 
     @classmethod
     def make(
@@ -355,6 +540,8 @@ class _Options:
         size: float | Mapping[str, float] | str | None = None,
         up: str = "z",
         front: str = "x",
+        units: str | None = None,
+        source: str | None = None,
     ) -> _Options:
         if repair not in REPAIR_MODES:
             raise ValueError(f"repair={repair!r}: use one of {', '.join(REPAIR_MODES)}")
@@ -365,7 +552,13 @@ class _Options:
             )
         else:
             sz = None if size is None else _check_size(size)
-        return cls(repair, sz, up, front)
+        if units is not None:
+            units = "normalised" if units == "normalized" else units
+            if units not in UNIT_MODES:
+                raise ValueError(f"units={units!r}: use one of {', '.join(UNIT_MODES)}")
+            if source is not None and units == DEFAULT_UNITS[source]:
+                units = None
+        return cls(repair, sz, up, front, units)
 
     def size_for(self, category: str) -> float | str | None:
         """The size option that applies to ``category`` (None: the category default)."""
@@ -381,6 +574,8 @@ class _Options:
         size = self.size_for(category)
         if size is not None:
             q["size"] = size if isinstance(size, str) else repr(float(size))
+        elif self.units is not None:  # an explicit size makes the units irrelevant
+            q["units"] = self.units
         if self.up != "z":
             q["up"] = self.up
         if self.front != "x":
@@ -393,7 +588,7 @@ class _Options:
             q = dict(parse_qsl(query, keep_blank_values=True, strict_parsing=bool(query)))
         except ValueError:
             raise InvalidKeyError(f"key {key!r}: malformed options {query!r}") from None
-        unknown = set(q) - {"repair", "size", "up", "front"}
+        unknown = set(q) - {"repair", "size", "up", "front", "units"}
         if unknown:
             raise InvalidKeyError(f"key {key!r}: unknown option(s) {sorted(unknown)}")
         size: float | str | None = q.get("size")
@@ -403,7 +598,14 @@ class _Options:
             except ValueError:
                 raise InvalidKeyError(f"key {key!r}: size {size!r} is not a number") from None
         try:
-            return cls.make(q.get("repair", "basic"), size, q.get("up", "z"), q.get("front", "x"))
+            return cls.make(
+                q.get("repair", "basic"),
+                size,
+                q.get("up", "z"),
+                q.get("front", "x"),
+                q.get("units"),
+                key.partition("/")[0],
+            )
         except ValueError as e:
             raise InvalidKeyError(f"key {key!r}: {e}") from None
 
@@ -412,10 +614,19 @@ def _check_size(v: object) -> float | str:
     if v == "native":
         return "native"
     if isinstance(v, str):
-        raise ValueError(f"size={v!r}: use metres (a number), a mapping, or 'native'")
+        raise ValueError(
+            f"size={v!r}: use metres (a number), a mapping, or 'native' (for file units "
+            f"other than metres pass units='cm', 'mm' or 'auto' instead)"
+        )
     f = float(v)  # type: ignore[arg-type]
     if not (np.isfinite(f) and f > 0):
         raise ValueError(f"size={v!r}: the largest extent must be positive metres")
+    # refused here, before any file is read: the plausibility check would refuse every mesh
+    if not MIN_EXTENT <= f <= MAX_DIAGONAL:
+        raise ImplausibleSizeError(
+            f"size={v!r}: a tabletop object's largest extent is {MIN_EXTENT}-{MAX_DIAGONAL} m "
+            f"(at most the table's depth); give metres in that range"
+        )
     return f
 
 
@@ -654,7 +865,12 @@ def _instance(source: str, entry: _Entry, index: int, opts: _Options) -> ObjectI
         index=index,
         source=source,
         build=functools.partial(
-            _build, str(entry.path), entry.category, tuple(map(tuple, rot.tolist())), opts
+            _build,
+            str(entry.path),
+            entry.category,
+            tuple(map(tuple, rot.tolist())),
+            opts,
+            opts.units or DEFAULT_UNITS[source],
         ),
         pickable=get_category(entry.category).pickable if registered else True,
         path=entry.path,
@@ -689,9 +905,14 @@ def loaded_symmetry(mesh: trimesh.Trimesh) -> Symmetry:
 
 
 def _build(
-    path: str, category: str, rotation: tuple[tuple[float, ...], ...], opts: _Options
+    path: str,
+    category: str,
+    rotation: tuple[tuple[float, ...], ...],
+    opts: _Options,
+    units: str = "normalised",
 ) -> Generated:
-    """Read, rotate, repair, centre and scale one file (the lazy part of an instance)."""
+    """Read, rotate, repair, centre, scale and check one file (the lazy part of an
+    instance); ``units`` is the option with the source's default filled in."""
     mesh = read_mesh(path)
     R = np.asarray(rotation, dtype=np.float64)
     if not np.allclose(R, np.eye(3)):
@@ -701,11 +922,40 @@ def _build(
     mesh = processing.repair(mesh, what=path, mode=opts.repair)
     # centre and scale after the repair, which may move the bounds (voxel remeshing)
     mesh.apply_translation(-mesh.bounds.mean(axis=0))
-    size = opts.size_for(category)
-    if size != "native":
-        target = default_size(category) if size is None else float(size)
-        mesh.apply_scale(target / float(mesh.extents.max()))
+    mesh.apply_scale(_scale(mesh, path, category, opts.size_for(category), units))
+    check_plausible_size(mesh, path, _how_scaled(mesh, opts.size_for(category), units))
     return _LoadedGenerated(mesh)
+
+
+def _scale(
+    mesh: trimesh.Trimesh, path: str, category: str, size: float | str | None, units: str
+) -> float:
+    """The factor from file units to metres (precedence: an explicit size, 'native', the
+    units option)."""
+    extent = float(mesh.extents.max())
+    if isinstance(size, float):
+        return size / extent
+    if size == "native":
+        return 1.0  # older keys: the file's units are metres, as they always were
+    if units == "normalised":
+        return _size_of(category) / extent
+    if units == "auto":
+        try:
+            units = detect_units(extent, category)
+        except ImplausibleSizeError as e:
+            raise ImplausibleSizeError(f"{path}: {e}") from None
+    return UNITS[units]
+
+
+def _how_scaled(mesh: trimesh.Trimesh, size: float | str | None, units: str) -> str:
+    """How a (scaled) mesh got its size, for the plausibility error."""
+    if isinstance(size, float):
+        return f"size={size} m"
+    if size == "native":
+        return "size='native': the file's units taken as metres"
+    if units == "normalised":
+        return "units='normalised': scaled to the category's size"
+    return f"units={units!r}"
 
 
 _TEXT_SUFFIXES = (".obj", ".off")
