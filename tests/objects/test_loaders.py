@@ -397,9 +397,12 @@ def test_empty_mesh_raises(bad_root: Path) -> None:
 def test_repair_modes(bad_root: Path) -> None:
     with pytest.raises(NonWatertightMeshError, match=re.escape("open_box.obj")):
         _ = _find(load_folder, bad_root, "open_box.obj", repair="none").mesh
-    assert _find(load_folder, bad_root, "open_box.obj").mesh.is_watertight  # basic: a quad
+    assert _find(load_folder, bad_root, "open_box.obj", repair="basic").mesh.is_watertight
     with pytest.raises(NonWatertightMeshError, match=re.escape("open_tube.obj")):
-        _ = _find(load_folder, bad_root, "open_tube.obj").mesh  # a 24-gon: beyond basic
+        _ = _find(load_folder, bad_root, "open_tube.obj", repair="basic").mesh  # a 24-gon
+    # the default rebuilds what basic cannot close, and keeps the default out of the key
+    tube = _find(load_folder, bad_root, "open_tube.obj")
+    assert tube.mesh.is_watertight and tube.mesh.volume > 0 and "repair=" not in tube.key
     fixed = _find(load_folder, bad_root, "open_tube.obj", repair="voxel")
     assert fixed.mesh.is_watertight and fixed.mesh.volume > 0
     assert "repair=voxel" in fixed.key
