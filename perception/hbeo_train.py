@@ -836,6 +836,19 @@ def load_hbeo(
         if model is not None:  # the published reference model: nothing to train
             return model
     path = model_dir(name, kind, categories, size, recipe, **small)
+    from beo_bench.objects.dataset import active_dataset
+
+    dataset = active_dataset()
+    if name is None and dataset is not None:
+        # a network rendered from the built-in library is not a model of this dataset,
+        # and training one inside a run (minutes) is what a user must ask for
+        raise CheckpointError(
+            f"no published {kind} model covers the classes of the dataset {dataset.root} "
+            f"(digest {dataset.short}: {', '.join(categories)}), and HBEO is not yet trained "
+            f"on user datasets by `beo-bench train`; score it with a model trained on these "
+            f"classes (`--opt model=NAME`), or use `beo` (`beo-bench train beo --objects "
+            f"{dataset.root}`)"
+        )
     if name is None and not (path / "weights.pt").exists():
         if not train_default or recipe != "default":
             how = (

@@ -571,7 +571,7 @@ def _category_dirs(source: str, root: str) -> dict[str, list[str]]:
 def _category_entries(source: str, root: str, category: str, split: str) -> list[_Entry]:
     """The models of ``category`` in ``split``, in instance-index order."""
     dirs = _category_dirs(source, root).get(category, [])
-    entries = [e for d in dirs for e in _dir_entries(source, root, d) if e.split == split]
+    entries = [e for d in dirs for e in _dir_entries(source, root, d) if split in (e.split, "all")]
     return sorted(entries, key=lambda e: e.ident)
 
 
@@ -597,7 +597,8 @@ def _load(
     per_category: int | None,
     opts: _Options,
 ) -> ObjectSet:
-    check_split(split)
+    if split != "all":  # "all": every model of the dataset, whatever its hash split
+        check_split(split)
     if split == "ood":
         raise UnknownSplitError(
             f"split 'ood' does not exist for {source} data: it is the procedural library's "
