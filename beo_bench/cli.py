@@ -188,15 +188,18 @@ def _fmt_bytes(n: float) -> str:
     return f"{n:.1f} GB"
 
 
-def library_table(stats: list, split: str) -> str:
-    """A plain-text summary of the object library from per-instance statistics."""
+def library_table(stats: list, split: str, split_counts: dict[str, str] | None = None) -> str:
+    """A plain-text summary of the object library from per-instance statistics.
+    ``split_counts``: per category, its models per split (a user's dataset; default: the
+    procedural library's split sizes)."""
     from beo_bench.objects import DEFAULT_SPLIT_SIZES, get_category
 
     by_cat: dict[str, list] = {}
     for s in stats:
         by_cat.setdefault(s.category, []).append(s)
+    splits = "train/val/test" if split_counts is not None else "train/val/test/ood"
     head = (
-        f"{'category':<10} {'train/val/test/ood':>18} {'params':>6} {'pick':>4}  "
+        f"{'category':<10} {splits:>18} {'params':>6} {'pick':>4}  "
         f"{'symmetry (' + split + ' split)':<52} {'largest extent cm':>17} "
         f"{'parts':>5} {'gen ms':>6} {'proc ms':>7}"
     )
@@ -208,8 +211,9 @@ def library_table(stats: list, split: str) -> str:
         order = np.argsort(-counts)
         sym = ", ".join(f"{labels[i]} {100 * counts[i] / len(ss):.0f}%" for i in order)
         ext = np.array([max(s.extents) for s in ss]) * 100
+        counts = split_counts.get(cat, "") if split_counts is not None else sizes
         lines.append(
-            f"{cat:<10} {sizes:>18} {len(spec.params) if spec else 0:>6} "
+            f"{cat:<10} {counts:>18} {len(spec.params) if spec else 0:>6} "
             f"{'yes' if spec is None or spec.pickable else 'no':>4}  {sym:<52} "
             f"{f'{ext.min():.1f}-{ext.max():.1f}':>17} "
             f"{np.mean([s.parts for s in ss]):>5.0f} "
@@ -233,9 +237,12 @@ def cmd_objects(args: argparse.Namespace) -> int:
     dataset = _dataset(args)
     if dataset is not None and args.root is not None:
         raise UsageError("give the dataset once: --objects ROOT (--root is its older spelling)")
+    split_counts = None
     if dataset is not None:
         objects = dataset.objects(args.split, args.categories, args.per_category)
         print(f"dataset {dataset.root}: {dataset.layout} layout, digest {dataset.digest}")
+        per_split = [dataset.objects(s, objects.categories) for s in ("train", "val", "test")]
+        split_counts = {c: "/".join(str(o.count(c)) for o in per_split) for c in objects.categories}
     else:
         objects = ObjectSet(
             args.split, args.categories, root=args.root, per_category=args.per_category
@@ -244,7 +251,7 @@ def cmd_objects(args: argparse.Namespace) -> int:
     stats = prepare(objects, D=args.resolution, workers=args.workers)
     wall = time.perf_counter() - t0
     print()
-    print(library_table(stats, args.split))
+    print(library_table(stats, args.split, split_counts))
     print(
         f"\n{len(stats)} instances processed in {wall:.1f} s with {args.workers} "
         f"workers ({len(stats) / wall:.1f} instances/s; voxels {args.resolution}^3, "

@@ -146,3 +146,25 @@ def test_usage_errors(dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixtu
     assert main(["train", "beo", "--objects", str(dataset), "--split", "test"]) == 2
     assert "--split all" in capsys.readouterr().err
     assert main(["train", "hbeo", "--objects", str(dataset)]) == 2
+
+
+def test_objects_and_view_commands(
+    dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    common = ["--objects", str(dataset), "--split", "all"]
+    assert main(["objects", *common, "--workers", "1", "--resolution", "16"]) == 0
+    out = capsys.readouterr().out
+    assert open_dataset(dataset).digest in out
+    # the dataset's own split counts, not the procedural library's sizes
+    rows = {
+        line.split()[0]: line.split()[1]
+        for line in out.splitlines()
+        if line[:4] in ("ball", "bloc", "rod ")
+    }
+    assert sorted(rows) == ["ball", "block", "rod"]
+    assert all(sum(map(int, v.split("/"))) == 4 for v in rows.values())
+    view = ["view", *common, "--no-rrd", "--out", str(tmp_path / "v"), "--image-size", "160", "120"]
+    assert main(view) == 0
+    assert (tmp_path / "v" / "scene_0.png").is_file()
+    objects = capsys.readouterr().out.split("objects ")[1].split(";")[0].split(", ")
+    assert set(objects) <= {"ball", "block", "rod"}
