@@ -606,16 +606,11 @@ def _dataset_categories(args: argparse.Namespace, dataset: Any, split: str) -> t
 def cmd_train(args: argparse.Namespace) -> int:
     """Train a model and store it under its name (the default name is the one the backend
     looks for, so training it ahead of time only saves the first run the wait)."""
-    dataset = _dataset(args)
     if args.model != "beo":
-        if dataset is not None or args.split is not None:
-            raise UsageError(
-                f"`train {args.model}` renders its crops from the built-in library only; on a "
-                "user dataset train BEO (`beo-bench train beo --objects ROOT`)"
-            )
         return _train_hbeo(args)
     from beo_bench.perception.beo_model import BEOConfig, default_name, model_path, train_beo
 
+    dataset = _dataset(args)
     _split_needs_dataset(args, dataset)
     split = args.split or "train"
     cats = _categories(args) if dataset is None else _dataset_categories(args, dataset, split)
@@ -638,11 +633,24 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def _hbeo_config(args: argparse.Namespace, kind: Kind) -> HBEOConfig:
+    """The HBEO training set-up the options describe; with ``--objects``, rendered from
+    that dataset (made this process's active one, so the BEO subspace it regresses is the
+    dataset's: ``beo-bench train beo --objects ROOT`` first)."""
+    from beo_bench.objects.dataset import activate
     from beo_bench.perception.hbeo_train import default_config, with_overrides
 
+    dataset = _dataset(args)
+    _split_needs_dataset(args, dataset)
+    activate(dataset)
+    split = args.split or "train"
+    cats = _categories(args) if dataset is None else _dataset_categories(args, dataset, split)
+    # a folder too small for a hash split validates on what it trains on (--split all)
+    splits = {} if dataset is None else {"split": split, "val_split": split}
+    if dataset is not None and split == "train":
+        splits["val_split"] = "val"
     base = default_config(
         kind,
-        _categories(args),
+        cats,
         instances=args.per_category,
         images=args.images,
         epochs=getattr(args, "epochs", None),
@@ -657,6 +665,7 @@ def _hbeo_config(args: argparse.Namespace, kind: Kind) -> HBEOConfig:
         rotation=getattr(args, "rotation", None),
         batch_size=getattr(args, "batch_size", None),
         projection_weighting=getattr(args, "projection_weighting", None),
+        **splits,
     )
 
 
@@ -929,8 +938,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--split",
         choices=SPLITS_ALL,
         default=None,
-        help="beo with --objects: the dataset's split to train on (default train; all: every "
-        "model, for folders too small for a hash split)",
+        help="with --objects: the dataset's split to train on (default train; all: every "
+        "model, for folders too small for a hash split, which then also validates on it)",
     )
     tr.add_argument("--categories", nargs="+", default=None, help="default: the 11 built-in")
     tr.add_argument(
@@ -995,7 +1004,17 @@ def build_parser() -> argparse.ArgumentParser:
     pb.add_argument("--float32", action="store_true", help="keep float32 weights (default fp16)")
     pb.set_defaults(func=cmd_publish)
 
-    rd = sub.add_parser("render-dataset", help="render HBEO's training crops (cached shards)")
+    rd = sub.add_parser(
+        "render-dataset",
+        help="render HBEO's training crops (cached shards)",
+        parents=[dataset_parent()],
+    )
+    rd.add_argument(
+        "--split",
+        choices=SPLITS_ALL,
+        default=None,
+        help="with --objects: the dataset's split to render (default train; all: every model)",
+    )
     rd.add_argument("--categories", nargs="+", default=None, help="default: the 11 built-in")
     rd.add_argument("--per-category", type=positive_int, default=None, help="instances per class")
     _dataset_args(rd)

@@ -36,6 +36,13 @@ def make_dataset(root: Path) -> Path:
     return root
 
 
+def make_unseen(root: Path) -> None:
+    """Add a file no earlier session made: the dataset's digest (which names its models) is
+    then new, so no model for it exists even in a cache kept across test sessions."""
+    thickness = 0.3 + 0.2 * np.random.default_rng().random()
+    trimesh.creation.box(extents=(1.0, 0.5, thickness)).export(root / "block" / "unseen.stl")
+
+
 @pytest.fixture
 def dataset(tmp_path: Path) -> Path:
     return make_dataset(tmp_path / "my_objects")
@@ -117,9 +124,7 @@ def test_beo_needs_training_then_runs(
 ) -> None:
     common = ["--objects", str(dataset), "--split", "all"]
     run = ["run", *common, "--suite", "pose-1dof", "--backend", "beo", "--episodes", "3"]
-    # the dataset's digest names the model, so no model trained here exists yet for it
-    # unless an earlier test in this session trained the same files; use a fresh variant
-    trimesh.creation.box(extents=(1.0, 0.5, 0.5)).export(dataset / "block" / "extra.stl")
+    make_unseen(dataset)
     rc = main([*run, "--workers", "1", "--out", str(tmp_path / "untrained")])
     err = capsys.readouterr().err
     assert rc == 1
@@ -145,7 +150,9 @@ def test_usage_errors(dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixtu
     # a split that misses classes of the dataset: say to use --split all
     assert main(["train", "beo", "--objects", str(dataset), "--split", "test"]) == 2
     assert "--split all" in capsys.readouterr().err
-    assert main(["train", "hbeo", "--objects", str(dataset)]) == 2
+    assert main(["train", "hbeo", "--objects", str(dataset), "--split", "test"]) == 2
+    assert main(["render-dataset", "--objects", str(dataset), "--split", "test"]) == 2
+    assert "--split all" in capsys.readouterr().err
 
 
 def test_objects_and_view_commands(
@@ -168,3 +175,26 @@ def test_objects_and_view_commands(
     assert (tmp_path / "v" / "scene_0.png").is_file()
     objects = capsys.readouterr().out.split("objects ")[1].split(";")[0].split(", ")
     assert set(objects) <= {"ball", "block", "rod"}
+
+
+def test_hbeo_trained_on_own_dataset(
+    dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    common = ["--objects", str(dataset), "--split", "all"]
+    tiny = ["--images", "160", "--epochs", "1"]  # one batch of the default 128, and a part
+    run = ["run", *common, "--suite", "pose-1dof", "--backend", "hbeo", "--episodes", "3"]
+    run += ["--opt", "images=160", "--opt", "epochs=1", "--workers", "1"]
+    make_unseen(dataset)
+    # the BEO subspace first (HBEO regresses its coefficients), then HBEO on the same data
+    assert main(["train", "beo", *common]) == 0
+    assert main([*run, "--out", str(tmp_path / "untrained")]) == 1
+    err = capsys.readouterr().err
+    assert f"beo-bench train hbeo --objects {dataset.resolve()} --images 160 --epochs 1" in err
+    # the backend finds the model trained with the options it was given (images, epochs)
+    train = ["train", "hbeo", *common, *tiny, "--workers", "1"]
+    assert main(train) == 0, capsys.readouterr().err
+    out = tmp_path / "hbeo"
+    assert main([*run, "--out", str(out)]) == 0, capsys.readouterr().err
+    s = _summary(out)
+    assert s["n"] == 3 and s["failures"] == 0 and s["model_digest"]
+    assert s["suite"] == f"pose-1dof.{open_dataset(dataset).short}"
