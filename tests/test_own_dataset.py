@@ -5,6 +5,7 @@ by ``beo-bench train beo --objects``, and suites named by the dataset's content 
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import asdict, replace
 from pathlib import Path
 
@@ -50,6 +51,28 @@ def dataset(tmp_path: Path) -> Path:
 
 def _summary(run: Path) -> dict:
     return json.loads((run / "summary.json").read_text())
+
+
+def test_digest_is_cached_per_file(dataset: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from beo_bench.objects import dataset as ds_module
+
+    monkeypatch.setattr(ds_module, "RACY_NS", 0)  # the files were written just now
+    first = dataset_digest(dataset, "folder")
+    read: list[Path] = []
+    real = ds_module._file_sha256
+
+    def counting(path: Path) -> str:
+        read.append(path)
+        return real(path)
+
+    monkeypatch.setattr(ds_module, "_file_sha256", counting)
+    assert dataset_digest(dataset, "folder") == first and read == []  # stat only
+    edited = dataset / "rod" / "rod0.obj"
+    trimesh.creation.cylinder(radius=0.3, height=1.0).export(edited)
+    stamp = edited.stat().st_mtime_ns + 5_000_000_000  # a later edit, whatever the clock's grain
+    os.utime(edited, ns=(stamp, stamp))
+    assert dataset_digest(dataset, "folder") != first
+    assert read == [edited]  # only the changed file is read again
 
 
 def test_digest_names_content_not_place(dataset: Path, tmp_path: Path) -> None:
@@ -109,6 +132,11 @@ def test_all_on_own_dataset(dataset: Path, tmp_path: Path, capsys: pytest.Captur
     icp = _summary(runs / f"{suite}@class-free__icp")
     assert icp["n"] == EPISODES and icp["failures"] == 0
     assert 0.3 < icp["metrics"]["iou_mean"] <= 1.0
+
+    # paired comparison of two runs on the dataset (summarised as the base suite's)
+    pair = [str(runs / f"{suite}@class-free__{b}") for b in ("oracle", "icp")]
+    assert main(["compare", *pair]) == 0, capsys.readouterr().err
+    assert suite in capsys.readouterr().out
 
     # the run's identity holds the dataset's content digest, not where it lies
     record = json.loads((runs / f"{suite}@class-free__oracle" / "run.json").read_text())

@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,6 +31,9 @@ handful of datasets one machine sees)."""
 SHORT_CHARS = 8
 """Hex characters of the digest in suite, run and leaderboard names."""
 DIGEST_CACHE_VERSION = 1
+RACY_NS = 3_000_000_000
+"""Files modified less than this long (ns) before they are hashed are not cached (their
+time stamp may not tell a later edit apart: some file systems keep whole seconds)."""
 ALL_SPLIT = "all"
 """The split holding every model of a dataset (a small folder's hash split puts only a few
 files in ``test``; ``--split all`` evaluates on all of them)."""
@@ -142,14 +146,18 @@ def dataset_digest(root: str | Path, layout: str) -> str:
         memo = {}
     fresh: dict[str, list] = {}
     h = hashlib.sha256(layout.encode())
+    now_ns = time.time_ns()
     for rel, path in dataset_files(root, layout):
         st = path.stat()
         old = memo.get(rel)
-        if old is not None and old[:2] == [st.st_size, st.st_mtime_ns]:
+        if old is not None and old[2] is not None and old[:2] == [st.st_size, st.st_mtime_ns]:
             file_hash = str(old[2])
         else:
             file_hash = _file_sha256(path)
-        fresh[rel] = [st.st_size, st.st_mtime_ns, file_hash]
+        # a file modified just now may change again within the file system's timestamp
+        # granularity without its size or time changing: hash it again next time
+        recent = now_ns - st.st_mtime_ns < RACY_NS
+        fresh[rel] = [st.st_size, st.st_mtime_ns, None if recent else file_hash]
         h.update(f"{rel}\0{file_hash}\n".encode())
     if fresh != memo:
         try:
