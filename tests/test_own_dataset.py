@@ -87,6 +87,12 @@ def test_digest_names_content_not_place(dataset: Path, tmp_path: Path) -> None:
     assert [d.objects("all").count(c) for c in ("ball", "block", "rod")] == [4, 4, 4]
     # the hash split leaves most files out of test; "all" is every one of them
     assert len(d.objects("test")) < 12
+    # the same files loaded another way are another suite (never one run directory)
+    assert d.short == d.digest[:8]
+    assert open_dataset(dataset, up="y").short not in (
+        d.short,
+        open_dataset(dataset, size=0.1).short,
+    )
 
 
 def test_builtin_suite_identity_unchanged() -> None:

@@ -56,8 +56,14 @@ class Dataset:
 
     @property
     def short(self) -> str:
-        """The digest as it appears in suite names (``pose-3dof.<short>``)."""
-        return self.digest[:SHORT_CHARS]
+        """What suite names carry (``pose-3dof.<short>``): the content digest's first
+        characters with the default loading options; with others (``--repair``, ``--up``,
+        ``--size``) a digest of content and options, so that the same files loaded two
+        ways never share a run directory or a leaderboard page."""
+        if (self.repair, self.up, self.size) == ("basic", "z", None):
+            return self.digest[:SHORT_CHARS]
+        blob = json.dumps(self.identity(), sort_keys=True).encode()
+        return hashlib.sha256(blob).hexdigest()[:SHORT_CHARS]
 
     def identity(self) -> dict[str, object]:
         """What fixes the objects (the root is where they are, not what they are)."""
@@ -194,7 +200,8 @@ _ACTIVE: Dataset | None = None
 
 def activate(dataset: Dataset | None) -> None:
     """Make ``dataset`` the one this process's backends load models for (the runner calls
-    it in the driver and in each worker before a backend is prepared): a model for a
+    it in the driver and in each worker before a backend is prepared, for every run, so a
+    run on the library resets it; the CLI resets it after each command): a model for a
     dataset's class list is looked up by its digest, and never trained implicitly."""
     global _ACTIVE
     _ACTIVE = dataset

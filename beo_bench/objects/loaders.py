@@ -23,6 +23,8 @@ Splits of real datasets (``ood`` exists only for the procedural library):
   ``val`` and 15 % in ``test``; adding files never moves the others.
 * ModelNet: ``test`` is ModelNet's test folder; ModelNet's train folder is split by a hash
   of the file name into ``val`` (~10 %) and ``train`` (the rest).
+* ``all``: every model, whatever its split (``--split all``: a folder of ten files has only
+  one or two in ``test``).
 
 Keys have no machine paths: ``shapenet/<synset>/<model id>``,
 ``modelnet/<class>/<train|test>/<name>``, ``folder/<path relative to the root>``, plus
