@@ -113,6 +113,73 @@ def model_name(text: str) -> str:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
+def size_option(text: str) -> float | str:
+    """An argparse ``type`` for ``--size``: metres (a number > 0) or ``native``."""
+    return "native" if text == "native" else positive_float(text)
+
+
+def dataset_parent(size_flags: tuple[str, ...] = ("--size", "--object-size")) -> Any:
+    """The options that point a command at a user's dataset (``--objects`` and how its
+    files are loaded), shared by every command that reads objects. ``size_flags``: the
+    spellings of the object-size option (``train`` has its own ``--size``, the network's,
+    so there it is ``--object-size`` only)."""
+    from beo_bench.objects.processing import REPAIR_MODES
+
+    p = argparse.ArgumentParser(add_help=False)
+    g = p.add_argument_group("your own dataset")
+    g.add_argument(
+        "--objects",
+        metavar="ROOT",
+        default=None,
+        help="a dataset instead of the built-in library: ShapeNetCore.v2, ModelNet10/40 or "
+        "a folder with one sub-folder of meshes per category (the layout is detected)",
+    )
+    g.add_argument(
+        "--repair",
+        choices=list(REPAIR_MODES),
+        default="basic",
+        help="with --objects: how meshes are made watertight (solid: for open surfaces)",
+    )
+    g.add_argument(
+        "--up",
+        default="z",
+        help="with --objects (folders): the files' up axis, e.g. y or -z (default z)",
+    )
+    g.add_argument(
+        *size_flags,
+        dest="object_size",
+        type=size_option,
+        default=None,
+        metavar="M|native",
+        help="with --objects: largest extent in metres, or native (the files' units); "
+        "default: the category's size",
+    )
+    return p
+
+
+SPLITS_ALL = ["train", "val", "test", "all"]
+"""Splits of a user's dataset (``all``: every model, whatever its hash split)."""
+
+
+def _dataset(args: argparse.Namespace) -> Any:
+    """The :class:`~beo_bench.objects.dataset.Dataset` that ``--objects`` names (None
+    without it; loading options given without it are a usage error)."""
+    root = getattr(args, "objects", None)
+    if root is None:
+        given = [
+            f"--{k}"
+            for k, default in (("repair", "basic"), ("up", "z"), ("object-size", None))
+            if getattr(args, k.replace("-", "_"), default) != default
+        ]
+        if given or getattr(args, "split", None) == "all":
+            given += ["--split all"] if getattr(args, "split", None) == "all" else []
+            raise UsageError(f"{', '.join(given)} apply to a user dataset only: add --objects ROOT")
+        return None
+    from beo_bench.objects.dataset import open_dataset
+
+    return open_dataset(root, repair=args.repair, up=args.up, size=args.object_size)
+
+
 def _fmt_bytes(n: float) -> str:
     for unit in ("B", "KB", "MB", "GB"):
         if n < 1024 or unit == "GB":
@@ -121,15 +188,18 @@ def _fmt_bytes(n: float) -> str:
     return f"{n:.1f} GB"
 
 
-def library_table(stats: list, split: str) -> str:
-    """A plain-text summary of the object library from per-instance statistics."""
+def library_table(stats: list, split: str, split_counts: dict[str, str] | None = None) -> str:
+    """A plain-text summary of the object library from per-instance statistics.
+    ``split_counts``: per category, its models per split (a user's dataset; default: the
+    procedural library's split sizes)."""
     from beo_bench.objects import DEFAULT_SPLIT_SIZES, get_category
 
     by_cat: dict[str, list] = {}
     for s in stats:
         by_cat.setdefault(s.category, []).append(s)
+    splits = "train/val/test" if split_counts is not None else "train/val/test/ood"
     head = (
-        f"{'category':<10} {'train/val/test/ood':>18} {'params':>6} {'pick':>4}  "
+        f"{'category':<10} {splits:>18} {'params':>6} {'pick':>4}  "
         f"{'symmetry (' + split + ' split)':<52} {'largest extent cm':>17} "
         f"{'parts':>5} {'gen ms':>6} {'proc ms':>7}"
     )
@@ -141,8 +211,9 @@ def library_table(stats: list, split: str) -> str:
         order = np.argsort(-counts)
         sym = ", ".join(f"{labels[i]} {100 * counts[i] / len(ss):.0f}%" for i in order)
         ext = np.array([max(s.extents) for s in ss]) * 100
+        counts = split_counts.get(cat, "") if split_counts is not None else sizes
         lines.append(
-            f"{cat:<10} {sizes:>18} {len(spec.params) if spec else 0:>6} "
+            f"{cat:<10} {counts:>18} {len(spec.params) if spec else 0:>6} "
             f"{'yes' if spec is None or spec.pickable else 'no':>4}  {sym:<52} "
             f"{f'{ext.min():.1f}-{ext.max():.1f}':>17} "
             f"{np.mean([s.parts for s in ss]):>5.0f} "
@@ -163,12 +234,24 @@ def cmd_objects(args: argparse.Namespace) -> int:
     from beo_bench.objects.prepare import prepare
     from beo_bench.objects.sheet import contact_sheet
 
-    objects = ObjectSet(args.split, args.categories, root=args.root, per_category=args.per_category)
+    dataset = _dataset(args)
+    if dataset is not None and args.root is not None:
+        raise UsageError("give the dataset once: --objects ROOT (--root is its older spelling)")
+    split_counts = None
+    if dataset is not None:
+        objects = dataset.objects(args.split, args.categories, args.per_category)
+        print(f"dataset {dataset.root}: {dataset.layout} layout, digest {dataset.digest}")
+        per_split = [dataset.objects(s, objects.categories) for s in ("train", "val", "test")]
+        split_counts = {c: "/".join(str(o.count(c)) for o in per_split) for c in objects.categories}
+    else:
+        objects = ObjectSet(
+            args.split, args.categories, root=args.root, per_category=args.per_category
+        )
     t0 = time.perf_counter()
     stats = prepare(objects, D=args.resolution, workers=args.workers)
     wall = time.perf_counter() - t0
     print()
-    print(library_table(stats, args.split))
+    print(library_table(stats, args.split, split_counts))
     print(
         f"\n{len(stats)} instances processed in {wall:.1f} s with {args.workers} "
         f"workers ({len(stats) / wall:.1f} instances/s; voxels {args.resolution}^3, "
@@ -219,7 +302,12 @@ def _print_models(root: Path) -> None:
 def cmd_view(args: argparse.Namespace) -> int:
     from beo_bench.view import view_scene
 
-    kwargs = {"split": args.split, "image_size": tuple(args.image_size)}
+    kwargs: dict[str, Any] = {"split": args.split, "image_size": tuple(args.image_size)}
+    dataset = _dataset(args)
+    if dataset is not None:
+        kwargs["objects"] = objects = dataset.objects(args.split)
+        # scenes hold distinct classes: a small dataset caps the default 1-4
+        kwargs["num_objects"] = (1, min(4, len(objects.categories)))
     if args.num_objects is not None:
         kwargs["num_objects"] = args.num_objects
     r = view_scene(args.seed, args.out, rrd=not args.no_rrd, **kwargs)
@@ -262,6 +350,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     suite = _suite(args.suite).with_overrides(
         size=args.episodes, seed=args.seed, track=args.track
     )  # --track on a suite without tracks is a usage error here
+    dataset = _dataset(args)
+    _split_needs_dataset(args, dataset)
+    if dataset is not None:
+        suite = suite.with_dataset(dataset, args.split)
     kwargs = parse_options(args.opt)
     backend = get_backend(args.backend, **kwargs)  # fail here, not in a worker
     check_track(
@@ -288,6 +380,28 @@ def cmd_run(args: argparse.Namespace) -> int:
         path = log_run(RunConfig(suite, args.backend, kwargs), args.rerun)
         print(f"recording of the first views: {path}  (open with `rerun {path}`)")
     return 0
+
+
+def _split_needs_dataset(args: argparse.Namespace, dataset: Any) -> None:
+    """``--split`` replaces the suites' split on a user's dataset only (a built-in suite's
+    split is part of its definition)."""
+    if args.split is not None and dataset is None:
+        raise UsageError(
+            f"--split {args.split} applies to a user dataset only (add --objects ROOT); the "
+            "built-in suites fix their split"
+        )
+
+
+def dataset_suites() -> list[str]:
+    """The suites ``all --objects`` runs by default: the isolated ones that draw from every
+    class of a split (not a fixed class subset, not the procedural ``ood`` split)."""
+    from beo_bench.bench.suites import SUITES
+
+    return [
+        n
+        for n, s in sorted(SUITES.items())
+        if s.kind == "isolated" and s.categories is None and s.split != "ood"
+    ]
 
 
 def _suite(name: str) -> Any:
@@ -441,9 +555,13 @@ def cmd_all(args: argparse.Namespace) -> int:
     from beo_bench.bench.campaign import Campaign, parse_backend_spec, run_campaign
     from beo_bench.bench.suites import list_suites
 
-    suites = args.suites or list_suites()
+    dataset = _dataset(args)
+    _split_needs_dataset(args, dataset)
+    suites = args.suites or (list_suites() if dataset is None else dataset_suites())
     for s in suites:
-        _suite(s)  # an unknown name fails before any run starts
+        suite = _suite(s)  # an unknown name fails before any run starts
+        if dataset is not None:
+            suite.with_dataset(dataset, args.split)  # so does a scene suite on a dataset
     specs = args.backends or _default_backends()
     c = Campaign(
         {s: args.episodes for s in suites},
@@ -453,6 +571,8 @@ def cmd_all(args: argparse.Namespace) -> int:
         workers=args.workers,
         use_ray=args.ray,
         seed=args.seed,
+        dataset=dataset,
+        split=args.split,
         **_timeout(args),
     )
     _print_leaderboard(run_campaign(c), c.leaderboards)
@@ -469,6 +589,20 @@ def _categories(args: argparse.Namespace) -> tuple[str, ...]:
     return cats
 
 
+def _dataset_categories(args: argparse.Namespace, dataset: Any, split: str) -> tuple[str, ...]:
+    """The classes to train on a user's dataset: ``--categories`` (each must be in it) or
+    every class of the dataset (the class list its suites' views carry); each needs models
+    in ``split``."""
+    objects = dataset.objects(split, args.categories or dataset.categories(), args.per_category)
+    empty = [c for c in objects.categories if objects.count(c) == 0]
+    if empty or not objects.categories:
+        raise UsageError(
+            f"the {split!r} split of {dataset.root} has no models of "
+            f"{', '.join(empty) or 'any class'}: use --split all (every model), or add files"
+        )
+    return objects.categories
+
+
 def cmd_train(args: argparse.Namespace) -> int:
     """Train a model and store it under its name (the default name is the one the backend
     looks for, so training it ahead of time only saves the first run the wait)."""
@@ -476,16 +610,19 @@ def cmd_train(args: argparse.Namespace) -> int:
         return _train_hbeo(args)
     from beo_bench.perception.beo_model import BEOConfig, default_name, model_path, train_beo
 
-    cats = _categories(args)
+    dataset = _dataset(args)
+    _split_needs_dataset(args, dataset)
+    split = args.split or "train"
+    cats = _categories(args) if dataset is None else _dataset_categories(args, dataset, split)
     cfg = BEOConfig(
         categories=cats,
         resolution=args.resolution,
         per_category=args.per_category,
         variance_fraction=args.variance_fraction,
     )
-    name = args.name or default_name(cats, args.resolution, args.per_category)
+    name = args.name or default_name(cats, args.resolution, args.per_category, dataset)
     t0 = time.perf_counter()
-    model = train_beo(cfg, progress=True)
+    model = train_beo(cfg, progress=True, dataset=dataset, split=split)
     path = model.save(model_path(name))
     print(
         f"BEO model {name!r}: {len(cats)} classes at {args.resolution}^3, subspace k={model.k} "
@@ -496,11 +633,24 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def _hbeo_config(args: argparse.Namespace, kind: Kind) -> HBEOConfig:
+    """The HBEO training set-up the options describe; with ``--objects``, rendered from
+    that dataset (made this process's active one, so the BEO subspace it regresses is the
+    dataset's: ``beo-bench train beo --objects ROOT`` first)."""
+    from beo_bench.objects.dataset import activate
     from beo_bench.perception.hbeo_train import default_config, with_overrides
 
+    dataset = _dataset(args)
+    _split_needs_dataset(args, dataset)
+    activate(dataset)
+    split = args.split or "train"
+    cats = _categories(args) if dataset is None else _dataset_categories(args, dataset, split)
+    # a folder too small for a hash split validates on what it trains on (--split all)
+    splits = {} if dataset is None else {"split": split, "val_split": split}
+    if dataset is not None and split == "train":
+        splits["val_split"] = "val"
     base = default_config(
         kind,
-        _categories(args),
+        cats,
         instances=args.per_category,
         images=args.images,
         epochs=getattr(args, "epochs", None),
@@ -515,6 +665,7 @@ def _hbeo_config(args: argparse.Namespace, kind: Kind) -> HBEOConfig:
         rotation=getattr(args, "rotation", None),
         batch_size=getattr(args, "batch_size", None),
         projection_weighting=getattr(args, "projection_weighting", None),
+        **splits,
     )
 
 
@@ -625,8 +776,15 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--workers", type=positive_int, default=None, help="default: one per core")
     d.set_defaults(func=cmd_demo)
 
-    o = sub.add_parser("objects", help="process and summarise an object set")
-    o.add_argument("--split", default="test", choices=["train", "val", "test", "ood"])
+    o = sub.add_parser(
+        "objects", help="process and summarise an object set", parents=[dataset_parent()]
+    )
+    o.add_argument(
+        "--split",
+        default="test",
+        choices=["train", "val", "test", "ood", "all"],
+        help="all: every model of a --objects dataset",
+    )
     o.add_argument("--categories", nargs="+", default=None)
     o.add_argument(
         "--root", default=None, help="a ShapeNetCore v2, ModelNet or per-category mesh folder"
@@ -644,10 +802,19 @@ def build_parser() -> argparse.ArgumentParser:
     o.add_argument("--sheet", type=Path, default=None, help="write a contact sheet PNG")
     o.set_defaults(func=cmd_objects)
 
-    v = sub.add_parser("view", help="write a BEOPick-v0 scene to a rerun .rrd and a PNG")
+    v = sub.add_parser(
+        "view",
+        help="write a BEOPick-v0 scene to a rerun .rrd and a PNG",
+        parents=[dataset_parent()],
+    )
     v.add_argument("--seed", type=seed_int, default=0)
     v.add_argument("--out", type=Path, default=Path("out/view"))
-    v.add_argument("--split", default="test", choices=["train", "val", "test", "ood"])
+    v.add_argument(
+        "--split",
+        default="test",
+        choices=["train", "val", "test", "ood", "all"],
+        help="all: every model of a --objects dataset",
+    )
     v.add_argument("--num-objects", type=positive_int, default=None, help="default: 1-4")
     v.add_argument(
         "--image-size", type=_image_side, nargs=2, default=[640, 480], metavar=("W", "H")
@@ -663,7 +830,13 @@ def build_parser() -> argparse.ArgumentParser:
     pc.add_argument("--split", default="test", choices=["train", "val", "test", "ood"])
     pc.set_defaults(func=cmd_pick_check)
 
-    r = sub.add_parser("run", help="score a backend on a suite")
+    r = sub.add_parser("run", help="score a backend on a suite", parents=[dataset_parent()])
+    r.add_argument(
+        "--split",
+        choices=SPLITS_ALL,
+        default=None,
+        help="with --objects: the dataset's split to score on (default: the suite's, test)",
+    )
     r.add_argument("--suite", required=True)
     r.add_argument("--backend", required=True)
     r.add_argument(
@@ -699,9 +872,22 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(func=cmd_run)
 
     al = sub.add_parser(
-        "all", help="run every suite with every backend (resuming), then regenerate leaderboards/"
+        "all",
+        help="run every suite with every backend (resuming), then regenerate leaderboards/",
+        parents=[dataset_parent()],
     )
-    al.add_argument("--suites", nargs="+", default=None, help="default: every suite")
+    al.add_argument(
+        "--suites",
+        nargs="+",
+        default=None,
+        help="default: every suite (with --objects: every isolated suite that a dataset has)",
+    )
+    al.add_argument(
+        "--split",
+        choices=SPLITS_ALL,
+        default=None,
+        help="with --objects: the dataset's split to score on (default: the suites', test)",
+    )
     al.add_argument(
         "--backends",
         type=backend_spec,
@@ -742,8 +928,19 @@ def build_parser() -> argparse.ArgumentParser:
     lb.add_argument("--out", default="leaderboards")
     lb.set_defaults(func=cmd_leaderboard)
 
-    tr = sub.add_parser("train", help="train a perception model (beo, hbeo, hbeo-mdn)")
+    tr = sub.add_parser(
+        "train",
+        help="train a perception model (beo, hbeo, hbeo-mdn)",
+        parents=[dataset_parent(("--object-size",))],
+    )
     tr.add_argument("model", choices=["beo", "hbeo", "hbeo-mdn"])
+    tr.add_argument(
+        "--split",
+        choices=SPLITS_ALL,
+        default=None,
+        help="with --objects: the dataset's split to train on (default train; all: every "
+        "model, for folders too small for a hash split, which then also validates on it)",
+    )
     tr.add_argument("--categories", nargs="+", default=None, help="default: the 11 built-in")
     tr.add_argument(
         "--name",
@@ -807,7 +1004,17 @@ def build_parser() -> argparse.ArgumentParser:
     pb.add_argument("--float32", action="store_true", help="keep float32 weights (default fp16)")
     pb.set_defaults(func=cmd_publish)
 
-    rd = sub.add_parser("render-dataset", help="render HBEO's training crops (cached shards)")
+    rd = sub.add_parser(
+        "render-dataset",
+        help="render HBEO's training crops (cached shards)",
+        parents=[dataset_parent()],
+    )
+    rd.add_argument(
+        "--split",
+        choices=SPLITS_ALL,
+        default=None,
+        help="with --objects: the dataset's split to render (default train; all: every model)",
+    )
     rd.add_argument("--categories", nargs="+", default=None, help="default: the 11 built-in")
     rd.add_argument("--per-category", type=positive_int, default=None, help="instances per class")
     _dataset_args(rd)
@@ -854,6 +1061,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         except KeyboardInterrupt:
             hint = RESUME_HINTS.get(args.command, "run the command again to start over")
             return _fail(f"interrupted; {hint}", 130, what="")
+        finally:
+            # a run on a user's dataset made it this process's (for its backends' models);
+            # a later call in the same process (tests, notebooks) starts from the library
+            if "beo_bench.objects.dataset" in sys.modules:
+                sys.modules["beo_bench.objects.dataset"].activate(None)
 
 
 def _fail(message: str, code: int, what: str = "error: ") -> int:

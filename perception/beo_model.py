@@ -44,6 +44,7 @@ from threadpoolctl import threadpool_limits
 
 from beo_bench.errors import CheckpointError
 from beo_bench.names import inside
+from beo_bench.objects.dataset import Dataset, active_dataset, train_command
 
 FORMAT_VERSION = 1
 DEFAULT_NAME = "default"
@@ -290,26 +291,41 @@ def model_dir(
     categories: tuple[str, ...],
     resolution: int = 32,
     per_category: int | None = None,
+    dataset: Dataset | None = None,
 ) -> Path:
     """Where :func:`load_model` looks: the named model's directory, or with ``name=None``
-    the default model's for these settings."""
+    the default model's for these settings (and ``dataset``)."""
     if name is None:
-        return model_path(default_name(categories, resolution, per_category))
+        return model_path(default_name(categories, resolution, per_category, dataset))
     return model_path(name)
 
 
 def default_name(
-    categories: tuple[str, ...], resolution: int, per_category: int | None = None
+    categories: tuple[str, ...],
+    resolution: int,
+    per_category: int | None = None,
+    dataset: Dataset | None = None,
 ) -> str:
-    """The name of the default model for a class list, resolution and training-set size."""
-    key = [list(categories), int(resolution), per_category]
+    """The name of the default model for a class list, resolution and training-set size,
+    and for a user's ``dataset`` its content and loading options (so a mug of the built-in
+    library and a mug of a scan folder never share a model)."""
+    key: list[Any] = [list(categories), int(resolution), per_category]
+    if dataset is not None:  # appended: the built-in library's names stay as they were
+        key.append(dataset.identity())
     h = hashlib.sha256(json.dumps(key).encode()).hexdigest()
     return f"{DEFAULT_NAME}-{resolution}-{h[:8]}"
 
 
 @threadpool_limits.wrap(limits=1)
-def train_beo(config: BEOConfig, progress: bool = False) -> BEOModel:
-    """Train a BEO model (section 3.2) on the ``train`` split.
+def train_beo(
+    config: BEOConfig,
+    progress: bool = False,
+    dataset: Dataset | None = None,
+    split: str = "train",
+) -> BEOModel:
+    """Train a BEO model (section 3.2) on the ``train`` split (or ``split``) of the
+    procedural library, or of a user's ``dataset`` (``beo-bench train beo --objects``; its
+    digest and the split are recorded in ``info``).
 
     The fit runs on one BLAS thread, so its float reductions happen in the same order on
     every machine and a retrained default model is bitwise the published one. With the
@@ -322,7 +338,7 @@ def train_beo(config: BEOConfig, progress: bool = False) -> BEOModel:
 
     t0 = time.perf_counter()
     grids, size_rows = training_voxels(
-        config.categories, config.resolution, config.per_category, progress
+        config.categories, config.resolution, config.per_category, progress, dataset, split
     )
     sizes = {c: size_rows[c].mean(axis=0) for c in config.categories}
     t_data = time.perf_counter() - t0
@@ -361,6 +377,7 @@ def train_beo(config: BEOConfig, progress: bool = False) -> BEOModel:
             "instances": {c: len(grids[c]) for c in config.categories},
             "explained": {c: round(fits[c].explained, 4) for c in config.categories},
             "vbpca_iterations": {c: len(fits[c].bound) for c in config.categories},
+            **({"dataset": dataset.identity(), "split": split} if dataset else {}),
             "data_s": round(t_data, 2),
             "train_s": round(time.perf_counter() - t0, 2),
         },
@@ -380,18 +397,31 @@ def load_model(
     with :class:`~beo_bench.errors.InvalidNameError`), or with ``name=None`` the default
     model for ``categories`` and ``resolution``: the published one (:mod:`.published`) where
     it was trained for these settings, otherwise trained and stored on first use (on the
-    first ``per_category`` training instances of each class, or all of them). Raises
-    :class:`CheckpointError` for a missing, damaged or mismatched model."""
+    first ``per_category`` training instances of each class, or all of them). On a user's
+    dataset (:func:`~beo_bench.objects.dataset.active_dataset`) the default model is the
+    one ``beo-bench train beo --objects ROOT`` stored, never trained here (a
+    :class:`CheckpointError` names that command). Raises :class:`CheckpointError` for a
+    missing, damaged or mismatched model."""
     from beo_bench.objects import LIBRARY_VERSION
 
-    if name is None:
+    dataset = active_dataset()
+    if name is None and dataset is None:
         from beo_bench.perception import published
 
         model = published.beo_for(tuple(categories), int(resolution), per_category)
         if model is not None:  # the published default: nothing to train
             return model
-    path = model_dir(name, categories, resolution, per_category)
+    path = model_dir(name, categories, resolution, per_category, dataset)
     if name is None and not (path / "config.json").exists():
+        if dataset is not None:
+            how = train_command("beo", dataset) + (
+                f" --resolution {resolution}" if resolution != 32 else ""
+            )
+            raise CheckpointError(
+                f"no BEO model for the dataset {dataset.root} (digest {dataset.short}, classes "
+                f"{', '.join(categories)}) at {path}: train it first with `{how}` "
+                "(models for a dataset are never trained implicitly)"
+            )
         if not train_default:
             raise CheckpointError(f"no default BEO model at {path}")
         cfg = BEOConfig(

@@ -36,7 +36,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from beo_bench.perception.hbeo_crop import CROP_SIZE, make_crop
@@ -44,6 +44,10 @@ from beo_bench.perception.hbeo_crop import CROP_SIZE, make_crop
 from beo_bench.errors import CorruptDataError
 from beo_bench.objects import cache
 from beo_bench.types import Mat3, Symmetry
+
+if TYPE_CHECKING:
+    from beo_bench.objects import ObjectSet
+    from beo_bench.objects.dataset import Dataset
 
 DATA_VERSION = 2
 """2: tabletop shards come first in every split, and the validation split is cut into enough
@@ -73,6 +77,17 @@ class DatasetConfig:
     noise_share: float = 0.3
     min_pixels: int = 50
     seed: int = 0
+    objects: Dataset | None = None
+    """A user's dataset the crops are rendered from (``--objects``; None: the procedural
+    library). Its identity, not its path, names the shards."""
+
+    def object_set(self, split: str) -> ObjectSet:
+        """The instances of ``split`` the crops of that split are rendered from."""
+        if self.objects is not None:
+            return self.objects.objects(split, self.categories, self.per_category)
+        from beo_bench.objects import ObjectSet
+
+        return ObjectSet(split, self.categories, per_category=self.per_category)
 
     def __post_init__(self) -> None:
         if not self.categories:
@@ -114,6 +129,10 @@ class DatasetConfig:
         from beo_bench.objects import LIBRARY_VERSION
 
         fields = {k: v for k, v in asdict(self).items() if k not in ("images", "val_images")}
+        # without a dataset the library's shard names stay as they were
+        del fields["objects"]
+        if self.objects is not None:
+            fields["objects"] = self.objects.identity()
         key = json.dumps([fields, DATA_VERSION, LIBRARY_VERSION], sort_keys=True)
         return hashlib.sha256(key.encode()).hexdigest()[:12]
 
@@ -305,12 +324,10 @@ def _isolated_shard(config: DatasetConfig, split: str, rng: np.random.Generator,
     from beo_bench.scenes.isolated import IsolatedRenderer
     from beo_bench.scenes.noise import DepthNoise, apply_noise
 
-    from beo_bench.objects import ObjectSet
-
     if "isolated" not in _WORKER:
         _WORKER["isolated"] = IsolatedRenderer(cache_models=2)
     r = _WORKER["isolated"]
-    objects = ObjectSet(split, config.categories, per_category=config.per_category)
+    objects = config.object_set(split)
     col = _Collector(config.categories, config.crop)
     noisy: list[bool] = []
     noise = DepthNoise()
@@ -335,11 +352,10 @@ def _tabletop_shard(config: DatasetConfig, split: str, rng: np.random.Generator,
     from beo_bench.envs.pick import BEOPickEnv
     from beo_bench.scenes.noise import DepthNoise, apply_noise
 
-    from beo_bench.objects import ObjectSet
-
-    key = f"tabletop-{split}-{config.categories}-{config.per_category}"
+    digest = config.objects.digest if config.objects is not None else ""
+    key = f"tabletop-{split}-{config.categories}-{config.per_category}-{digest}"
     if key not in _WORKER:
-        objects = ObjectSet(split, config.categories, per_category=config.per_category)
+        objects = config.object_set(split)
         _WORKER[key] = BEOPickEnv(
             objects=objects,
             categories=config.categories,
@@ -393,7 +409,6 @@ def render_dataset(
     ``repaired``, how many of them were on disk but damaged (or from an older version)."""
     from tqdm import tqdm
 
-    from beo_bench.objects import ObjectSet
     from beo_bench.objects.prepare import prepare
 
     root = dataset_dir(config)
@@ -418,8 +433,7 @@ def render_dataset(
         return root, stats
     # the objects' meshes and collision parts first, in parallel (cached on disk)
     for split in {config.split, config.val_split}:
-        objects = ObjectSet(split, config.categories, per_category=config.per_category)
-        prepare(objects, workers=workers, progress=progress)
+        prepare(config.object_set(split), workers=workers, progress=progress)
     workers = (os.cpu_count() or 1) if workers is None else max(1, workers)
     if mp.current_process().daemon:
         workers = 1

@@ -123,12 +123,19 @@ class HBEOConfig:
         )
 
     def to_json(self) -> dict[str, Any]:
-        return asdict(self)
+        out = asdict(self)
+        if self.dataset.objects is None:  # library models keep the config they had
+            del out["dataset"]["objects"]
+        return out
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> HBEOConfig:
+        from beo_bench.objects.dataset import Dataset
+
         ds = dict(d["dataset"])
         ds["categories"] = tuple(ds["categories"])
+        if ds.get("objects") is not None:
+            ds["objects"] = Dataset(**ds["objects"])
         return cls(**{**d, "dataset": DatasetConfig(**ds)})
 
 
@@ -370,7 +377,12 @@ def default_config(
     validation crops) and ``epochs`` shrink it for quick checks."""
     if recipe not in RECIPES:
         raise ValueError(f"recipe {recipe!r}: use one of {sorted(RECIPES)}")
-    cfg = HBEOConfig(kind=kind, dataset=DatasetConfig(categories=tuple(categories)))
+    from beo_bench.objects.dataset import active_dataset
+
+    # on a user's dataset (made active by the runner or `train --objects`), its crops
+    cfg = HBEOConfig(
+        kind=kind, dataset=DatasetConfig(categories=tuple(categories), objects=active_dataset())
+    )
     cfg = with_overrides(cfg, **RECIPES[recipe])
     if instances is not None:
         cfg = replace(cfg, beo_instances=int(instances))
@@ -388,9 +400,14 @@ def default_name(config: HBEOConfig) -> str:
 
     from beo_bench.objects import LIBRARY_VERSION
 
-    key = json.dumps(
-        [config.to_json(), LIBRARY_VERSION, FORMAT_VERSION, DATA_VERSION], sort_keys=True
-    )
+    cfg = config.to_json()
+    if config.dataset.objects is not None:
+        # a dataset's model is named by what the data is, not where it lies, nor which of
+        # its splits it was trained on (as BEO's): the backend looks it up by class list
+        cfg["dataset"]["objects"] = config.dataset.objects.identity()
+        for k in ("split", "val_split"):
+            del cfg["dataset"][k]
+    key = json.dumps([cfg, LIBRARY_VERSION, FORMAT_VERSION, DATA_VERSION], sort_keys=True)
     return f"default-{config.kind}-{hashlib.sha256(key.encode()).hexdigest()[:10]}"
 
 
@@ -836,6 +853,20 @@ def load_hbeo(
         if model is not None:  # the published reference model: nothing to train
             return model
     path = model_dir(name, kind, categories, size, recipe, **small)
+    from beo_bench.objects.dataset import active_dataset, train_command
+
+    dataset = active_dataset()
+    if name is None and dataset is not None and not (path / "weights.pt").exists():
+        # training inside a run (minutes) is what a user must ask for
+        how = train_command(kind, dataset) + (f" --recipe {recipe}" if recipe != "default" else "")
+        flags = {"instances": "--per-category", "images": "--images", "epochs": "--epochs"}
+        how += "".join(f" {flags.get(k, k)} {v}" for k, v in small.items() if v is not None)
+        how += "" if size == "small" else f" --size {size}"
+        raise CheckpointError(
+            f"no {kind} model for the dataset {dataset.root} (digest {dataset.short}, classes "
+            f"{', '.join(categories)}) at {path}: train it first with `{how}` (models for a "
+            "dataset are never trained implicitly)"
+        )
     if name is None and not (path / "weights.pt").exists():
         if not train_default or recipe != "default":
             how = (

@@ -9,11 +9,15 @@ from __future__ import annotations
 import hashlib
 import multiprocessing as mp
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from beo_bench.objects import ObjectSet, cache
 from beo_bench.objects.prepare import prepare
+
+if TYPE_CHECKING:
+    from beo_bench.objects.dataset import Dataset
 
 MEANS_VERSION = 1
 
@@ -35,17 +39,28 @@ def class_means(
     progress: bool = False,
 ) -> ClassMeans:
     """Means over the first ``per_category`` (default: all) ``train`` instances of each
-    category (see :func:`training_voxels`), cached."""
-    settings = {
+    category (see :func:`training_voxels`), cached. On a user's dataset (the active one,
+    :func:`~beo_bench.objects.dataset.active_dataset`) its instances instead: its ``train``
+    split, or every model when a class has none there (a small folder's hash split)."""
+    from beo_bench.objects.dataset import active_dataset, reference_split
+
+    settings: dict[str, object] = {
         "version": MEANS_VERSION,
         "categories": list(categories),
         "D": resolution,
         "n": per_category,
     }
+    dataset, split = active_dataset(), "train"
+    if dataset is not None:  # only then: the library's cache keys stay as they were
+        split = reference_split(dataset, categories)
+        settings["dataset"] = dataset.identity()
+        settings["split"] = split
     key = hashlib.sha256(repr(sorted(settings.items())).encode()).hexdigest()
 
     def compute() -> dict[str, np.ndarray]:
-        grids, sizes = training_voxels(categories, resolution, per_category, progress)
+        grids, sizes = training_voxels(
+            categories, resolution, per_category, progress, dataset, split
+        )
         return {
             "shape": np.asarray([grids[c].mean(axis=0) for c in categories], dtype=np.float32),
             "size": np.asarray([sizes[c].mean(axis=0) for c in categories], dtype=np.float64),
@@ -60,13 +75,20 @@ def training_voxels(
     resolution: int = 32,
     per_category: int | None = None,
     progress: bool = False,
+    dataset: Dataset | None = None,
+    split: str = "train",
 ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Per category, the (n, D, D, D) bool voxel grids and (n, 3) extents of the first
     ``per_category`` (default: all) ``train`` instances. The first call voxelises them in
     worker processes (one per core; in this process inside a daemonic worker, which may not
     start children), which also caches their meshes, samples and parts; later calls read
-    the disk cache."""
-    objects = ObjectSet("train", categories, per_category=per_category)
+    the disk cache. ``dataset``: a user's dataset instead of the procedural library, and
+    ``split`` instead of ``train``."""
+    objects = (
+        ObjectSet(split, categories, per_category=per_category)
+        if dataset is None
+        else dataset.objects(split, categories, per_category)
+    )
     workers = 1 if mp.current_process().daemon else None
     prepare(objects, D=resolution, workers=workers, progress=progress)
     grids, sizes = {}, {}

@@ -14,9 +14,12 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from beo_bench.errors import BeoBenchError
+
+if TYPE_CHECKING:
+    from beo_bench.objects.dataset import Dataset
 
 
 def options_label(kwargs: dict[str, Any]) -> str:
@@ -75,7 +78,8 @@ def parse_backend_spec(spec: str) -> tuple[str, dict[str, Any]]:
 class Campaign:
     """Which suites (name -> items, None for the suite's own size) and backends (name,
     options) to run, where, and how. ``item_timeout``: seconds per item in every run (None:
-    each suite's ``item_timeout_s``)."""
+    each suite's ``item_timeout_s``). ``dataset``: run the suites on a user's dataset
+    (:meth:`~beo_bench.bench.suites.Suite.with_dataset`; ``split`` replaces their split)."""
 
     suites: dict[str, int | None]
     backends: list[tuple[str, dict[str, Any]]]
@@ -86,6 +90,8 @@ class Campaign:
     seed: int | None = None
     progress: bool = True
     item_timeout: float | None = None
+    dataset: Dataset | None = None
+    split: str | None = None
 
 
 def run_campaign(c: Campaign) -> list[Path]:
@@ -99,6 +105,8 @@ def run_campaign(c: Campaign) -> list[Path]:
 
     load_plugins()
     suites = [get_suite(s).with_overrides(size=n, seed=c.seed) for s, n in c.suites.items()]
+    if c.dataset is not None:
+        suites = [s.with_dataset(c.dataset, c.split) for s in suites]
     for suite in suites:
         item_timeout_s(suite, c.item_timeout)  # a bad value fails here, before any run
     # build each backend here: a bad option fails with its message, not in a worker

@@ -173,12 +173,12 @@ def view_values(run: Run) -> dict[str, dict[tuple[int, int], float]]:
     """Per summary metric that is a mean over views, each (item, view)'s value as the
     summary counts it (:func:`beo_bench.bench.summary.view_values`: failures at their worst
     case; NaN where a view is not scored on it)."""
-    from beo_bench.bench.suites import get_suite
+    from beo_bench.bench.suites import base_suite
     from beo_bench.bench.summary import view_values as summary_values
 
     rows = list(run.rows)
     keys = [(int(r["item"]), int(r["view"])) for r in rows]
-    per_metric = summary_values(get_suite(run.summary["suite"]), rows)
+    per_metric = summary_values(base_suite(run.summary["suite"]), rows)
     return {m: dict(zip(keys, (float(x) for x in v), strict=True)) for m, v in per_metric.items()}
 
 

@@ -194,7 +194,11 @@ class ItemViews:
     item's rows need when its backend hung or crashed (:meth:`templates`)."""
 
     def __init__(self, suite: Suite) -> None:
+        from beo_bench.objects.dataset import activate
+
         self.suite = suite
+        # in a worker process too: the backend built here loads its model for this dataset
+        activate(suite.dataset)
         self.class_hint = False
         self._renderer: Any = None
         self._env: Any = None
@@ -210,7 +214,12 @@ class ItemViews:
 
             w, h = self.suite.image_size
             self._renderer = IsolatedRenderer(Intrinsics(w, h, self.suite.fovy_deg))
-            self._objects = ObjectSet(self.suite.split, self.suite.categories)
+            s = self.suite
+            self._objects = (
+                ObjectSet(s.split, s.categories)
+                if s.dataset is None
+                else s.dataset.objects(s.split, s.categories)
+            )
             self._noise = DepthNoise() if self.suite.noise else None
         return self._renderer
 

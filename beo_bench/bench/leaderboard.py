@@ -125,14 +125,16 @@ def items(s: dict[str, Any]) -> int:
 
 def suite_size(name: str) -> int | None:
     """The registered suite's own size (None for a suite this package does not know)."""
-    from beo_bench.bench.suites import SUITES
+    from beo_bench.bench.suites import SUITES, base_name
 
+    name = base_name(name)  # a suite on a user's dataset has its base suite's size
     return SUITES[name].size if name in SUITES else None
 
 
 def suite_seed(name: str) -> int | None:
-    from beo_bench.bench.suites import SUITES
+    from beo_bench.bench.suites import SUITES, base_name
 
+    name = base_name(name)
     return SUITES[name].seed if name in SUITES else None
 
 

@@ -42,7 +42,7 @@ import subprocess
 import time
 import warnings
 from collections.abc import Iterator
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -396,7 +396,7 @@ def _identity(cfg: RunConfig) -> dict[str, Any]:
     only on (seed, i): a run can be extended, or summarised over its first items; the item
     timeout and the description change no score either."""
     drop = ("size", "description", "item_timeout_s")
-    suite = {k: v for k, v in asdict(cfg.suite).items() if k not in drop}
+    suite = {k: v for k, v in cfg.suite.record().items() if k not in drop}
     record = {"suite": suite, "backend": cfg.backend, "backend_kwargs": cfg.backend_kwargs}
     return json.loads(json.dumps(record, default=jsonable))
 
@@ -519,13 +519,16 @@ def provenance(cfg: RunConfig) -> dict[str, Any]:
             "processor": platform.machine(),
             "cpus": os.cpu_count(),
         },
-        "suite": asdict(cfg.suite),
+        "suite": cfg.suite.record(),
         "backend_kwargs": cfg.backend_kwargs,
+        **({"dataset_root": cfg.suite.dataset.root} if cfg.suite.dataset else {}),
     }
 
 
 def suite_categories(suite: Suite) -> tuple[str, ...]:
     """The class list a suite's views carry (``View.categories``)."""
+    if suite.dataset is not None:
+        return suite.dataset.objects(suite.split, suite.categories).categories
     if suite.kind == "isolated":
         from beo_bench.objects import ObjectSet
 
@@ -554,8 +557,10 @@ def _prepare(cfg: RunConfig) -> Prepared:
     the ``class-given`` track (its class-free run scores the same)."""
     from beo_bench.backend import get_backend, load_plugins, prepare_backend
     from beo_bench.bench.suites import check_track
+    from beo_bench.objects.dataset import activate
 
     load_plugins()
+    activate(cfg.suite.dataset)  # a model for a dataset's classes is looked up by its digest
     backend = get_backend(cfg.backend, **cfg.backend_kwargs)
     wants = bool(getattr(backend, "wants_class_hint", False))
     check_track(cfg.suite, cfg.backend, wants, bool(getattr(backend, "needs_class_hint", False)))

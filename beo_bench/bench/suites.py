@@ -10,10 +10,13 @@ scoring: results of different versions are never compared.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
-from typing import Literal
+from dataclasses import asdict, dataclass, replace
+from typing import TYPE_CHECKING, Any, Literal
 
 from beo_bench.errors import BeoBenchError, UsageError
+
+if TYPE_CHECKING:
+    from beo_bench.objects.dataset import Dataset
 
 Kind = Literal["isolated", "tabletop", "pick"]
 Protocol = Literal["known-pose", "1dof", "3dof", "free"]
@@ -78,8 +81,23 @@ class Suite:
     categories: tuple[str, ...] | None = None
     """Isolated suites only: the classes its items are drawn from (None: every class of
     the split). Views then carry this class list."""
+    dataset: Dataset | None = None
+    """The user's dataset the objects come from (``--objects``; None: the procedural
+    library). Set by :meth:`with_dataset`, which also names the suite by the dataset's
+    digest; its identity (digest and loading options, not its path) is part of the run's."""
 
     def __post_init__(self) -> None:
+        if self.dataset is not None and self.kind != "isolated":
+            raise UsageError(
+                f"suite {self.name!r} renders BEOPick-v0 scenes of the built-in library; "
+                "only isolated suites (known-pose, pose-1dof, pose-3dof, ...) run on a user "
+                "dataset (--objects): choose those with --suites/--suite"
+            )
+        if self.split == "all" and self.dataset is None:
+            raise UsageError(
+                "split 'all' exists for a user dataset only (--objects ROOT); the procedural "
+                "library has train, val, test and ood"
+            )
         if self.categories is not None and self.kind != "isolated":
             raise UsageError(f"suite {self.name!r}: a class subset applies to isolated suites only")
         if self.class_hint and self.track is None:
@@ -123,6 +141,48 @@ class Suite:
             seed=self.seed if seed is None else int(seed),
             track=self.track if track is None else str(track),
         )
+
+    def with_dataset(self, dataset: Dataset, split: str | None = None) -> Suite:
+        """This suite's protocol on a user's dataset (and its ``split``; None keeps the
+        suite's own), named ``<suite>.<digest8>``: results on other data, or on an
+        edited copy of this dataset, never share its runs or leaderboard page."""
+        return replace(
+            self,
+            name=f"{self.name}.{dataset.short}",
+            dataset=dataset,
+            split=self.split if split is None else split,
+        )
+
+    @property
+    def base_name(self) -> str:
+        """The registered suite this one is (its name without a dataset's digest)."""
+        return base_name(self.name)
+
+    def record(self) -> dict[str, Any]:
+        """The suite as a JSON-able dict (``run.json``, ``summary.json``). Without a
+        dataset it is exactly the fields' ``asdict`` minus ``dataset``, so runs on the
+        built-in library keep the identity they had before datasets existed; with one,
+        the dataset's identity (its root is where it lies, not what it is: the run's
+        provenance records it)."""
+        out = asdict(self)
+        del out["dataset"]
+        if self.dataset is not None:
+            out["dataset"] = self.dataset.identity()
+        return out
+
+
+def base_name(name: str) -> str:
+    """``pose-3dof.1a2b3c4d`` -> ``pose-3dof`` (a name without a digest is returned as is)."""
+    head, dot, tail = name.rpartition(".")
+    if dot and head in SUITES and len(tail) == 8 and all(c in "0123456789abcdef" for c in tail):
+        return head
+    return name
+
+
+def base_suite(name: str) -> Suite:
+    """The registered suite a (possibly dataset-named) suite name stands for: what decides
+    how its results are summarised and compared."""
+    return get_suite(base_name(name))
 
 
 SUITES: dict[str, Suite] = {

@@ -35,6 +35,8 @@ Splits of real datasets (``ood`` exists only for the procedural library):
   ``val`` and 15 % in ``test``; adding files never moves the others.
 * ModelNet: ``test`` is ModelNet's test folder; ModelNet's train folder is split by a hash
   of the file name into ``val`` (~10 %) and ``train`` (the rest).
+* ``all``: every model, whatever its split (``--split all``: a folder of ten files has only
+  one or two in ``test``).
 
 Keys have no machine paths: ``shapenet/<synset>/<model id>``,
 ``modelnet/<class>/<train|test>/<name>``, ``folder/<path relative to the root>``, plus
@@ -787,7 +789,7 @@ def _category_dirs(source: str, root: str) -> dict[str, list[str]]:
 def _category_entries(source: str, root: str, category: str, split: str) -> list[_Entry]:
     """The models of ``category`` in ``split``, in instance-index order."""
     dirs = _category_dirs(source, root).get(category, [])
-    entries = [e for d in dirs for e in _dir_entries(source, root, d) if e.split == split]
+    entries = [e for d in dirs for e in _dir_entries(source, root, d) if split in (e.split, "all")]
     return sorted(entries, key=lambda e: e.ident)
 
 
@@ -813,7 +815,8 @@ def _load(
     per_category: int | None,
     opts: _Options,
 ) -> ObjectSet:
-    check_split(split)
+    if split != "all":  # "all": every model of the dataset, whatever its hash split
+        check_split(split)
     if split == "ood":
         raise UnknownSplitError(
             f"split 'ood' does not exist for {source} data: it is the procedural library's "

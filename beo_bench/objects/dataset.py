@@ -1,0 +1,225 @@
+"""A user's dataset as a benchmark input: its root, layout, loading options and content
+digest (``beo-bench ... --objects ROOT``).
+
+Results on a dataset are only comparable with results on the same files loaded the same
+way, so a :class:`Dataset` is identified by the digest of its mesh files' content (not
+their path: a copied dataset is the same dataset, an edited one is another) and by the
+loading options. Suites on a dataset carry it (``Suite.dataset``) and are named
+``<suite>.<digest8>``, so run directories and leaderboard pages never mix datasets.
+
+The digest hashes every file once; per-file hashes are cached on disk by path, size and
+modification time, so a later call on an unchanged ShapeNet-size dataset costs a ``stat``
+per file, not a re-read.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from beo_bench.errors import UsageError
+from beo_bench.objects.objectset import ObjectSet
+
+DIGEST_CHARS = 16
+"""Hex characters of a dataset digest kept (64 bits: collisions are not a concern for the
+handful of datasets one machine sees)."""
+SHORT_CHARS = 8
+"""Hex characters of the digest in suite, run and leaderboard names."""
+DIGEST_CACHE_VERSION = 1
+RACY_NS = 3_000_000_000
+"""Files modified less than this long (ns) before they are hashed are not cached (their
+time stamp may not tell a later edit apart: some file systems keep whole seconds)."""
+ALL_SPLIT = "all"
+"""The split holding every model of a dataset (a small folder's hash split puts only a few
+files in ``test``; ``--split all`` evaluates on all of them)."""
+
+
+@dataclass(frozen=True)
+class Dataset:
+    """A dataset folder and how it is loaded; what ``--objects`` and its options make."""
+
+    root: str
+    """Absolute path of the dataset's root folder (not part of its identity)."""
+    layout: str
+    """``shapenet``, ``modelnet`` or ``folder`` (see ``loaders.detect_layout``)."""
+    digest: str
+    """Content digest of its mesh files (:func:`dataset_digest`)."""
+    repair: str = "basic"
+    up: str = "z"
+    size: float | str | None = None
+    """Largest extent in metres, ``"native"``, or None for the category size."""
+
+    @property
+    def short(self) -> str:
+        """What suite names carry (``pose-3dof.<short>``): the content digest's first
+        characters with the default loading options; with others (``--repair``, ``--up``,
+        ``--size``) a digest of content and options, so that the same files loaded two
+        ways never share a run directory or a leaderboard page."""
+        if (self.repair, self.up, self.size) == ("basic", "z", None):
+            return self.digest[:SHORT_CHARS]
+        blob = json.dumps(self.identity(), sort_keys=True).encode()
+        return hashlib.sha256(blob).hexdigest()[:SHORT_CHARS]
+
+    def identity(self) -> dict[str, object]:
+        """What fixes the objects (the root is where they are, not what they are)."""
+        return {
+            "layout": self.layout,
+            "digest": self.digest,
+            "repair": self.repair,
+            "up": self.up,
+            "size": self.size,
+        }
+
+    def objects(
+        self, split: str, categories: Sequence[str] | None = None, per_category: int | None = None
+    ) -> ObjectSet:
+        """The dataset's ``split`` (or every model: :data:`ALL_SPLIT`) as an object set."""
+        from beo_bench.objects import loaders
+
+        kwargs: dict[str, object] = {"repair": self.repair, "size": self.size}
+        if self.layout == "folder":
+            kwargs["up"] = self.up
+        load = {
+            "shapenet": loaders.load_shapenet,
+            "modelnet": loaders.load_modelnet,
+            "folder": loaders.load_folder,
+        }[self.layout]
+        return load(self.root, split, categories, per_category, **kwargs)  # type: ignore[arg-type]
+
+    def categories(self) -> tuple[str, ...]:
+        """Every class of the dataset (in any split), sorted."""
+        return self.objects(ALL_SPLIT).categories
+
+
+def open_dataset(
+    root: str | Path,
+    repair: str = "basic",
+    up: str = "z",
+    size: float | str | None = None,
+) -> Dataset:
+    """The dataset at ``root`` (layout detected, content digested); a
+    :class:`~beo_bench.errors.UsageError` for options that do not apply."""
+    from beo_bench.objects import loaders
+
+    layout = loaders.detect_layout(root)
+    path = str(Path(root).expanduser().resolve())
+    if up != "z" and layout != "folder":
+        raise UsageError(
+            f"--up applies to folder datasets only; {path} is a {layout} dataset, whose axes "
+            "are known (drop --up)"
+        )
+    if repair not in loaders.REPAIR_MODES:
+        raise UsageError(f"--repair {repair!r}: use one of {', '.join(loaders.REPAIR_MODES)}")
+    try:
+        loaders.axes_rotation(up, "x")  # the folder loader's front axis is +x
+    except ValueError as e:
+        raise UsageError(f"--up {up!r}: {e}") from None
+    return Dataset(path, layout, dataset_digest(path, layout), repair, up, size)
+
+
+def dataset_files(root: str, layout: str) -> list[tuple[str, Path]]:
+    """Every mesh file of the dataset (all splits), as (path relative to the root, path),
+    sorted."""
+    from beo_bench.objects import loaders
+
+    out = []
+    for d in loaders._top_dirs(layout, root):
+        for e in loaders._dir_entries(layout, root, d):
+            out.append((e.path.relative_to(root).as_posix(), e.path))
+    return sorted(out)
+
+
+def dataset_digest(root: str | Path, layout: str) -> str:
+    """SHA-256 over the sorted (relative path, file SHA-256) pairs of the dataset's mesh
+    files, :data:`DIGEST_CHARS` hex characters. Per-file hashes are cached (see the module
+    docstring); a file whose size or modification time changed is hashed again."""
+    from beo_bench.objects.cache import cache_root
+
+    root = str(Path(root).resolve())
+    memo_path = (
+        cache_root()
+        / "datasets"
+        / f"{hashlib.sha256(root.encode()).hexdigest()[:16]}-v{DIGEST_CACHE_VERSION}.json"
+    )
+    try:
+        memo: dict[str, list] = json.loads(memo_path.read_text())
+    except (OSError, ValueError):
+        memo = {}
+    fresh: dict[str, list] = {}
+    h = hashlib.sha256(layout.encode())
+    now_ns = time.time_ns()
+    for rel, path in dataset_files(root, layout):
+        st = path.stat()
+        old = memo.get(rel)
+        if old is not None and old[2] is not None and old[:2] == [st.st_size, st.st_mtime_ns]:
+            file_hash = str(old[2])
+        else:
+            file_hash = _file_sha256(path)
+        # a file modified just now may change again within the file system's timestamp
+        # granularity without its size or time changing: hash it again next time
+        recent = now_ns - st.st_mtime_ns < RACY_NS
+        fresh[rel] = [st.st_size, st.st_mtime_ns, None if recent else file_hash]
+        h.update(f"{rel}\0{file_hash}\n".encode())
+    if fresh != memo:
+        try:
+            memo_path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = memo_path.with_name(f".{memo_path.name}.{os.getpid()}.tmp")
+            tmp.write_text(json.dumps(fresh))
+            os.replace(tmp, memo_path)
+        except OSError:
+            pass  # a read-only cache only costs re-hashing next time
+    return h.hexdigest()[:DIGEST_CHARS]
+
+
+def _file_sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def reference_split(dataset: Dataset, categories: Sequence[str]) -> str:
+    """The split a backend derives class statistics from (ICP's mean shapes): ``train``
+    when every class has a model there, else :data:`ALL_SPLIT` (a folder of a few files per
+    class may have none in ``train``; the means then include the scored models, which the
+    user chose by scoring on such a folder)."""
+    train = dataset.objects("train")
+    if all(c in train.categories and train.count(c) > 0 for c in categories):
+        return "train"
+    return ALL_SPLIT
+
+
+_ACTIVE: Dataset | None = None
+
+
+def activate(dataset: Dataset | None) -> None:
+    """Make ``dataset`` the one this process's backends load models for (the runner calls
+    it in the driver and in each worker before a backend is prepared, for every run, so a
+    run on the library resets it; the CLI resets it after each command): a model for a
+    dataset's class list is looked up by its digest, and never trained implicitly."""
+    global _ACTIVE
+    _ACTIVE = dataset
+
+
+def active_dataset() -> Dataset | None:
+    """The dataset set by :func:`activate` (None: the procedural library)."""
+    return _ACTIVE
+
+
+def train_command(model: str, dataset: Dataset) -> str:
+    """The ``beo-bench train`` command that makes ``model``'s default model for
+    ``dataset`` (what errors for a missing model print)."""
+    parts = ["beo-bench", "train", model, "--objects", dataset.root]
+    if dataset.repair != "basic":
+        parts += ["--repair", dataset.repair]
+    if dataset.up != "z":
+        parts += ["--up", dataset.up]
+    if dataset.size is not None:
+        parts += ["--size", str(dataset.size)]
+    return " ".join(parts)
