@@ -123,7 +123,7 @@ def dataset_parent(size_flags: tuple[str, ...] = ("--size", "--object-size")) ->
     files are loaded), shared by every command that reads objects. ``size_flags``: the
     spellings of the object-size option (``train`` has its own ``--size``, the network's,
     so there it is ``--object-size`` only)."""
-    from beo_bench.objects.processing import REPAIR_MODES
+    from beo_bench.objects.loaders import DEFAULT_REPAIR, REPAIR_MODES
 
     p = argparse.ArgumentParser(add_help=False)
     g = p.add_argument_group("your own dataset")
@@ -137,8 +137,9 @@ def dataset_parent(size_flags: tuple[str, ...] = ("--size", "--object-size")) ->
     g.add_argument(
         "--repair",
         choices=list(REPAIR_MODES),
-        default="basic",
-        help="with --objects: how meshes are made watertight (solid: for open surfaces)",
+        default=DEFAULT_REPAIR,
+        help="with --objects: how meshes are made watertight (default solid: a clean-up, "
+        "and a watertight rebuild of what stays open; basic: the clean-up only)",
     )
     g.add_argument(
         "--up",

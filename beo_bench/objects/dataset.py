@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from beo_bench.errors import UsageError
+from beo_bench.objects.loaders import DEFAULT_REPAIR
 from beo_bench.objects.objectset import ObjectSet
 
 DIGEST_CHARS = 16
@@ -49,7 +50,7 @@ class Dataset:
     """``shapenet``, ``modelnet`` or ``folder`` (see ``loaders.detect_layout``)."""
     digest: str
     """Content digest of its mesh files (:func:`dataset_digest`)."""
-    repair: str = "basic"
+    repair: str = DEFAULT_REPAIR
     up: str = "z"
     size: float | str | None = None
     """Largest extent in metres, ``"native"``, or None for the category size."""
@@ -60,7 +61,7 @@ class Dataset:
         characters with the default loading options; with others (``--repair``, ``--up``,
         ``--size``) a digest of content and options, so that the same files loaded two
         ways never share a run directory or a leaderboard page."""
-        if (self.repair, self.up, self.size) == ("basic", "z", None):
+        if (self.repair, self.up, self.size) == (DEFAULT_REPAIR, "z", None):
             return self.digest[:SHORT_CHARS]
         blob = json.dumps(self.identity(), sort_keys=True).encode()
         return hashlib.sha256(blob).hexdigest()[:SHORT_CHARS]
@@ -98,7 +99,7 @@ class Dataset:
 
 def open_dataset(
     root: str | Path,
-    repair: str = "basic",
+    repair: str = DEFAULT_REPAIR,
     up: str = "z",
     size: float | str | None = None,
 ) -> Dataset:
@@ -216,7 +217,7 @@ def train_command(model: str, dataset: Dataset) -> str:
     """The ``beo-bench train`` command that makes ``model``'s default model for
     ``dataset`` (what errors for a missing model print)."""
     parts = ["beo-bench", "train", model, "--objects", dataset.root]
-    if dataset.repair != "basic":
+    if dataset.repair != DEFAULT_REPAIR:
         parts += ["--repair", dataset.repair]
     if dataset.up != "z":
         parts += ["--up", dataset.up]
