@@ -165,11 +165,13 @@ SPLITS_ALL = ["train", "val", "test", "all"]
 def _dataset(args: argparse.Namespace) -> Any:
     """The :class:`~beo_bench.objects.dataset.Dataset` that ``--objects`` names (None
     without it; loading options given without it are a usage error)."""
+    from beo_bench.objects.loaders import DEFAULT_REPAIR
+
     root = getattr(args, "objects", None)
     if root is None:
         given = [
             f"--{k}"
-            for k, default in (("repair", "basic"), ("up", "z"), ("object-size", None))
+            for k, default in (("repair", DEFAULT_REPAIR), ("up", "z"), ("object-size", None))
             if getattr(args, k.replace("-", "_"), default) != default
         ]
         if given or getattr(args, "split", None) == "all":

@@ -104,8 +104,7 @@ def test_builtin_suite_identity_unchanged() -> None:
     on = s.with_dataset(some, "all")
     assert on.name == "pose-1dof.01234567" and on.base_name == "pose-1dof"
     assert on.record()["dataset"] == some.identity() and "root" not in on.record()["dataset"]
-    with pytest.raises(UsageError, match="isolated suites"):
-        get_suite("tabletop").with_dataset(some)
+    assert get_suite("pick").with_dataset(some).name == "pick.01234567"
     with pytest.raises(UsageError, match="--objects"):
         replace(s, split="all")
 
@@ -177,10 +176,7 @@ def test_usage_errors(dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixtu
     # split "all" and loading options need a dataset
     assert main(["run", "--suite", "pose-1dof", "--backend", "oracle", "--split", "all"]) == 2
     assert "--objects" in capsys.readouterr().err
-    assert main(["objects", "--repair", "solid"]) == 2
-    # scene suites render the built-in library only
-    assert main(["all", "--objects", str(dataset), "--suites", "tabletop"]) == 2
-    assert "isolated suites" in capsys.readouterr().err
+    assert main(["objects", "--repair", "basic"]) == 2
     # a split that misses classes of the dataset: say to use --split all
     assert main(["train", "beo", "--objects", str(dataset), "--split", "test"]) == 2
     assert "--split all" in capsys.readouterr().err
@@ -232,3 +228,24 @@ def test_hbeo_trained_on_own_dataset(
     s = _summary(out)
     assert s["n"] == 3 and s["failures"] == 0 and s["model_digest"]
     assert s["suite"] == f"pose-1dof.{open_dataset(dataset).short}"
+
+
+def test_scene_suites_run_on_the_dataset(dataset: Path, tmp_path: Path, capsys) -> None:
+    """``tabletop`` and ``pick`` render BEOPick-v0 scenes of the dataset's objects: the
+    oracle finds every target among them and its views carry the dataset's classes."""
+    runs, board = tmp_path / "runs", tmp_path / "board"
+    argv = ["all", "--objects", str(dataset), "--split", "all", "--suites", "tabletop", "pick",
+            "--backends", "oracle", "--episodes", "3", "--runs", str(runs), "--out", str(board),
+            "--workers", "1"]  # fmt: skip
+    assert main(argv) == 0, capsys.readouterr().err
+    made = sorted(p.parent.name for p in runs.glob("*/summary.json"))
+    assert len(made) == 2 and all(
+        n.split("__")[0].split(".")[0] in ("pick", "tabletop") for n in made
+    )
+    assert all("." in n.split("__")[0] for n in made)  # named by the dataset's digest
+    pick = _summary(runs / next(n for n in made if n.startswith("pick")))
+    assert pick["n"] == 3 and pick["failures"] == 0
+    assert pick["metrics"]["target_found_rate"] == 1.0
+    top = _summary(runs / next(n for n in made if n.startswith("tabletop")))
+    assert top["failures"] == 0 and set(top["per_category"]) <= {"ball", "block", "rod"}
+    assert top["metrics"]["class_acc"] == 1.0 and top["metrics"]["rot_err_deg_mean"] < 1e-6

@@ -228,8 +228,12 @@ class ItemViews:
             from beo_bench.envs.pick import BEOPickEnv
 
             s = self.suite
+            kw: dict[str, Any] = {}
+            if s.dataset is not None:  # scenes of the user's objects (distinct classes each)
+                objects = s.dataset.objects(s.split, s.categories)
+                kw = {"objects": objects, "num_objects": (1, min(4, len(objects.categories)))}
             self._env = BEOPickEnv(
-                split=s.split, image_size=s.image_size, fovy_deg=s.fovy_deg, noise=s.noise
+                split=s.split, image_size=s.image_size, fovy_deg=s.fovy_deg, noise=s.noise, **kw
             )
         return self._env
 

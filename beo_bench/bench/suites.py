@@ -87,12 +87,6 @@ class Suite:
     digest; its identity (digest and loading options, not its path) is part of the run's."""
 
     def __post_init__(self) -> None:
-        if self.dataset is not None and self.kind != "isolated":
-            raise UsageError(
-                f"suite {self.name!r} renders BEOPick-v0 scenes of the built-in library; "
-                "only isolated suites (known-pose, pose-1dof, pose-3dof, ...) run on a user "
-                "dataset (--objects): choose those with --suites/--suite"
-            )
         if self.split == "all" and self.dataset is None:
             raise UsageError(
                 "split 'all' exists for a user dataset only (--objects ROOT); the procedural "
