@@ -14,7 +14,9 @@ The action is a grasp in the world frame, Box(8): TCP position (3), orientation 
 ``beo_bench.scenes.gripper``) and the finger opening (1, metres, 0-0.08). ``step`` executes
 it physically; reward 1 when an object of the target class ends lifted at least 10 cm above
 its rest height, else 0. The episode terminates on success or after ``max_attempts``;
-``step`` after that (or before ``reset``) raises :class:`EnvStateError`.
+``step`` after that (or before ``reset``) raises :class:`EnvStateError`. Its ``info`` holds
+``success`` and ``is_success`` (the same bool: the key Stable-Baselines3 and
+Gymnasium-Robotics read), ``reason`` and what was lifted.
 
 Every episode's target is visible: ``reset`` keeps a scene only when the target object has
 at least ``min_target_pixels`` pixels in the segmentation (default: 50 at 640x480, the
@@ -401,6 +403,8 @@ class BEOPickEnv(gym.Env):
         self._terminated = terminated
         info = {
             "success": success,
+            # the key Stable-Baselines3's Monitor and Gymnasium-Robotics read for success rates
+            "is_success": success,
             "reason": reason,
             "lifted_label": lifted,
             "lifted_category": lifted_cat,

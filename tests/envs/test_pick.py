@@ -182,6 +182,7 @@ def test_grasp_of_the_wrong_class_fails() -> None:
         _, reward, terminated, _, info = e.step(grasps[0].action)
         if info["lifted_label"] == other:
             assert reward == 0.0 and terminated and not info["success"]
+            assert info["is_success"] is info["success"]  # SB3 / Gymnasium-Robotics key
             assert info["reason"] == "wrong_class"
             assert info["lifted_category"] != u.categories[u._obs["target_class"]]
             e.close()
@@ -199,3 +200,23 @@ def test_ground_truth_planner_lifts_the_target_in_90_percent() -> None:
     assert len(result.episodes) == 100
     assert result.success_rate >= 0.90, result.table()
     assert len(result.per_category()) >= 8  # targets span the pickable categories
+
+
+def test_info_carries_is_success_for_rl_libraries() -> None:
+    """``info["is_success"]`` (what Stable-Baselines3's Monitor and Gymnasium-Robotics read)
+    equals ``info["success"]``, on picks that succeed and on ones that fail."""
+    e = gym.make("BEOPick-v0", image_size=(64, 48))
+    u = e.unwrapped
+    seen = set()
+    for seed in range(10):
+        e.reset(seed=seed)
+        grasps = u.ground_truth_grasps()
+        if not grasps:
+            continue
+        _, reward, _, _, info = e.step(grasps[0].action)
+        assert info["is_success"] is info["success"] and reward == float(info["success"])
+        seen.add(info["success"])
+        if seen == {True} and seed > 3:
+            break
+    e.close()
+    assert True in seen
