@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import time
 
-from beo_bench.envs.pick import default_categories
 from harness import median_ms_per_item, report
 
 from beo_bench.backend import get_backend
 from beo_bench.bench.evaluate import Evaluator
 from beo_bench.bench.suites import get_suite
+from beo_bench.envs.pick import default_categories
 
 DIAG_VIEWS = 44
 
@@ -67,11 +67,11 @@ def main() -> None:
 def diagnose(backend, cats: tuple[str, ...]) -> None:
     import numpy as np
     import torch
-    from beo_bench.perception.beo import Hypotheses
-    from beo_bench.perception.beo_observe import Observation
 
     from beo_bench.geometry import yaw_starts
     from beo_bench.metrics import rotation_error
+    from beo_bench.perception.beo import Hypotheses
+    from beo_bench.perception.beo_observe import Observation
 
     model, full, coarse = backend._model(cats)
     ev = Evaluator(get_suite("pose-1dof"), "beo")

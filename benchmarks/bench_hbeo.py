@@ -16,12 +16,12 @@ from __future__ import annotations
 
 import shutil
 
-from beo_bench.envs.pick import default_categories
 from harness import median_ms_per_item, report
 
 from beo_bench.backend import get_backend
 from beo_bench.bench.evaluate import Evaluator
 from beo_bench.bench.suites import get_suite
+from beo_bench.envs.pick import default_categories
 
 VIEWS = 60
 # (backend, samples, target ms, the dissertation's time per view)
@@ -102,9 +102,9 @@ def half_precision_cost(cats: tuple[str, ...]) -> None:
     first ``HALF_VIEWS`` ``pose-3dof`` views: the mean absolute change of the rotation error
     and how many class decisions change."""
     import numpy as np
-    from beo_bench.perception.hbeo_train import load_hbeo, model_path
 
     from beo_bench.metrics import rotation_error
+    from beo_bench.perception.hbeo_train import load_hbeo, model_path
 
     ev = Evaluator(get_suite("pose-3dof"), "oracle")
     pairs = [ev.isolated_view(i) for i in range(HALF_VIEWS)]
@@ -147,10 +147,10 @@ def diagnose(cats: tuple[str, ...]) -> None:
     completion)."""
     import numpy as np
     import torch
-    from beo_bench.perception.hbeo import PRIOR_EPS, sdf_errors, silhouettes
 
     from beo_bench.metrics import rotation_error
     from beo_bench.objects import instance_from_key
+    from beo_bench.perception.hbeo import PRIOR_EPS, sdf_errors, silhouettes
 
     backend = get_backend("hbeo-mdn-posterior", samples=DIAG_SAMPLES)
     ev = Evaluator(get_suite("pose-3dof"), "oracle")

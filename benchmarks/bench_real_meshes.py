@@ -67,7 +67,6 @@ def main() -> None:
         )
         return
     from beo_bench.envs.pickcheck import ground_truth_pick_check
-
     from beo_bench.objects.loaders import load_folder
 
     warnings.simplefilter("ignore")  # unknown-size warnings: the files carry their units

@@ -13,13 +13,13 @@ import time
 from pathlib import Path
 
 import numpy as np
-from beo_bench.scenes import OBJECT_RIG
 from harness import report
 
 from beo_bench.backend import list_backends, register_backend
 from beo_bench.bench.evaluate import Evaluator
 from beo_bench.bench.runner import RunConfig, WorkerPool, read_rows, run
 from beo_bench.bench.suites import get_suite
+from beo_bench.scenes import OBJECT_RIG
 from beo_bench.types import Estimate, View
 
 VIEWS = 1000

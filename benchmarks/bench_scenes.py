@@ -12,12 +12,12 @@ import time
 
 import gymnasium as gym
 import numpy as np
-from beo_bench.scenes import OBJECT_RIG, IsolatedRenderer
-from beo_bench.scenes.layout import rest_pose
 from harness import median_time, report
 
 import beo_bench  # noqa: F401  (registers BEOPick-v0)
 from beo_bench.objects import ObjectSet
+from beo_bench.scenes import OBJECT_RIG, IsolatedRenderer
+from beo_bench.scenes.layout import rest_pose
 
 
 def _pin_one_core() -> str:

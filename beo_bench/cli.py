@@ -763,9 +763,17 @@ def _item_timeout_arg(g: Any) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    import beo_bench
     from beo_bench.bench.suites import TRACKS
 
-    p = argparse.ArgumentParser(prog="beo-bench", description=__doc__)
+    p = argparse.ArgumentParser(
+        prog="beo-bench",
+        description="Benchmark object-centric perception (class, pose and full 3D shape from\n"
+        "one segmented depth image) in simulation, and the grasps planned from it.",
+        epilog=__doc__.split("\n\n", 1)[1],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--version", action="version", version=f"beo-bench {beo_bench.__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
     d = sub.add_parser("demo", help="the main job on the embedded defaults")

@@ -40,6 +40,12 @@ from typing import Any, ClassVar
 import gymnasium as gym
 import numpy as np
 import trimesh
+from gymnasium import spaces
+
+from beo_bench.errors import ActionError, BeoBenchError, EnvConfigError
+from beo_bench.grasping import Grasp, plan_grasps
+from beo_bench.objects import ObjectSet
+from beo_bench.objects import categories as registered_categories
 from beo_bench.scenes.builder import Scene, TableConfig, build_tabletop
 from beo_bench.scenes.camera import CameraRig, Intrinsics
 from beo_bench.scenes.execute import GraspOutcome, execute_grasp, park, release, settle
@@ -47,12 +53,6 @@ from beo_bench.scenes.gripper import MAX_OPENING
 from beo_bench.scenes.layout import ObjectTooLargeError, PlacementError, place_objects
 from beo_bench.scenes.noise import DepthNoise, apply_noise
 from beo_bench.scenes.renderer import Renderer
-from gymnasium import spaces
-
-from beo_bench.errors import ActionError, BeoBenchError, EnvConfigError
-from beo_bench.grasping import Grasp, plan_grasps
-from beo_bench.objects import ObjectSet
-from beo_bench.objects import categories as registered_categories
 from beo_bench.types import ObjectState
 
 FAR_CLIP = 20.0
@@ -110,11 +110,15 @@ class BEOPickEnv(gym.Env):
     image_size: (width, height) ((640, 480)); fovy_deg: vertical field of view (45);
     camera: a ``CameraRig`` or a dict of its fields; noise: False, True (default
     ``DepthNoise``) or a ``DepthNoise``; max_attempts: grasps per episode (1);
-    render_mode: None or "rgb_array"; table: a ``TableConfig``; min_target_pixels: the
-    least visible pixels of the target (default 50 at 640x480, scaled by image area).
+    render_mode: None, "rgb_array" or "depth_array"; table: a ``TableConfig``;
+    min_target_pixels: the least visible pixels of the target (default 50 at 640x480,
+    scaled by image area).
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 4}
+    metadata: ClassVar[dict[str, Any]] = {
+        "render_modes": ["rgb_array", "depth_array"],
+        "render_fps": 4,
+    }
 
     def __init__(self, **kwargs: Any) -> None:
         unknown = sorted(set(kwargs) - set(KWARGS))
@@ -162,8 +166,11 @@ class BEOPickEnv(gym.Env):
         table: TableConfig | None = None,
         min_target_pixels: int | None = None,
     ) -> None:
-        if render_mode not in (None, "rgb_array"):
-            raise EnvConfigError(f"render_mode={render_mode!r}: use None or 'rgb_array'")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise EnvConfigError(
+                f"render_mode={render_mode!r}: use None, 'rgb_array' or 'depth_array' (there "
+                "is no window on a headless machine)"
+            )
         self.render_mode = render_mode
         if categories is not None:
             categories = _category_names(categories)
@@ -423,10 +430,15 @@ class BEOPickEnv(gym.Env):
         return _copy(obs), float(success), terminated, False, info
 
     def render(self) -> np.ndarray | None:
-        if self.render_mode != "rgb_array":
+        """``rgb_array``: (H, W, 3) uint8 colour image of the camera; ``depth_array``: the
+        observation's metric depth (H, W) float32, metres (Gymnasium's own ``depth_array``
+        of MuJoCo envs is not metric); None without a render mode."""
+        if self.render_mode is None:
             return None
-        if self._scene is None or self._renderer is None:
+        if self._scene is None or self._renderer is None or self._obs is None:
             raise EnvStateError("call reset() before render()")
+        if self.render_mode == "depth_array":
+            return np.array(self._obs["depth"], dtype=np.float32, copy=True)
         return self._renderer.render_rgb(self._scene.data, self._cam)
 
     def close(self) -> None:

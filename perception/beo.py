@@ -57,6 +57,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
+
+from beo_bench.backend import as_bool, register_backend
+from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
+from beo_bench.names import check_name
 from beo_bench.perception.beo_model import BEOModel, load_model
 from beo_bench.perception.beo_observe import (
     Observation,
@@ -66,10 +70,6 @@ from beo_bench.perception.beo_observe import (
 )
 from beo_bench.perception.beo_project import Subspace, project
 from beo_bench.perception.digest import state_digest
-
-from beo_bench.backend import as_bool, register_backend
-from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
-from beo_bench.names import check_name
 from beo_bench.types import Estimate, View, ViewpointPrior
 
 PRIOR_MARGIN_DEG = 5.0

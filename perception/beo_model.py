@@ -35,16 +35,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from beo_bench.perception import modeldir
-from beo_bench.perception.digest import state_digest
-from beo_bench.perception.means import training_voxels
-from beo_bench.perception.shrinkage import shrinkage_covariance
-from beo_bench.perception.vbpca import VBPCAConfig, fit_vbpca
 from threadpoolctl import threadpool_limits
 
 from beo_bench.errors import CheckpointError
 from beo_bench.names import inside
 from beo_bench.objects.dataset import Dataset, active_dataset, train_command
+from beo_bench.perception import modeldir
+from beo_bench.perception.digest import state_digest
+from beo_bench.perception.means import training_voxels
+from beo_bench.perception.shrinkage import shrinkage_covariance
+from beo_bench.perception.vbpca import VBPCAConfig, fit_vbpca
 
 FORMAT_VERSION = 1
 DEFAULT_NAME = "default"

@@ -26,6 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import torch
+
 from beo_bench.perception.beo_model import BEOModel
 
 

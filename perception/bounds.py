@@ -5,12 +5,12 @@ from __future__ import annotations
 import hashlib
 
 import numpy as np
-from beo_bench.perception.means import class_means
 from scipy.spatial.transform import Rotation
 
 from beo_bench.backend import as_bool, register_backend
 from beo_bench.errors import ViewError
 from beo_bench.objects import instance_from_key
+from beo_bench.perception.means import class_means
 from beo_bench.types import Estimate, View
 
 

@@ -33,11 +33,6 @@ import cv2
 import numpy as np
 import torch
 import torch.nn.functional as F
-from beo_bench.perception.beo_observe import grid_centres
-from beo_bench.perception.digest import state_digest
-from beo_bench.perception.hbeo_crop import Crop, make_crop
-from beo_bench.perception.hbeo_net import Mixture, Output, point_rotation
-from beo_bench.perception.hbeo_train import HBEOModel, load_hbeo
 from scipy.spatial.transform import Rotation
 from scipy.special import logsumexp
 
@@ -45,6 +40,11 @@ from beo_bench.backend import register_backend
 from beo_bench.errors import UsageError
 from beo_bench.geometry import orthonormalise
 from beo_bench.names import check_name
+from beo_bench.perception.beo_observe import grid_centres
+from beo_bench.perception.digest import state_digest
+from beo_bench.perception.hbeo_crop import Crop, make_crop
+from beo_bench.perception.hbeo_net import Mixture, Output, point_rotation
+from beo_bench.perception.hbeo_train import HBEOModel, load_hbeo
 from beo_bench.types import Estimate, View
 
 Mode = Literal["hbeo", "likelihood", "posterior"]

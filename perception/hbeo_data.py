@@ -39,10 +39,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from beo_bench.perception.hbeo_crop import CROP_SIZE, make_crop
 
 from beo_bench.errors import CorruptDataError
 from beo_bench.objects import cache
+from beo_bench.perception.hbeo_crop import CROP_SIZE, make_crop
 from beo_bench.types import Mat3, Symmetry
 
 if TYPE_CHECKING:

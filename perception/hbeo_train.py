@@ -38,6 +38,9 @@ from typing import Any, Literal
 
 import numpy as np
 import torch
+
+from beo_bench.errors import CheckpointError
+from beo_bench.names import inside
 from beo_bench.perception import modeldir
 from beo_bench.perception.beo_model import BEOModel, load_model
 from beo_bench.perception.digest import state_digest
@@ -49,9 +52,6 @@ from beo_bench.perception.hbeo_net import (
     losses,
     point_rotation,
 )
-
-from beo_bench.errors import CheckpointError
-from beo_bench.names import inside
 
 Kind = Literal["hbeo", "hbeo-mdn"]
 KINDS: tuple[str, ...] = ("hbeo", "hbeo-mdn")
@@ -396,9 +396,8 @@ def default_config(
 
 
 def default_name(config: HBEOConfig) -> str:
-    from beo_bench.perception.hbeo_data import DATA_VERSION
-
     from beo_bench.objects import LIBRARY_VERSION
+    from beo_bench.perception.hbeo_data import DATA_VERSION
 
     cfg = config.to_json()
     if config.dataset.objects is not None:

@@ -62,12 +62,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from beo_bench.perception.means import ClassMeans, class_means
 from scipy.spatial import cKDTree
 
 from beo_bench.backend import as_bool, register_backend
 from beo_bench.errors import ViewError
 from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
+from beo_bench.perception.means import ClassMeans, class_means
 from beo_bench.types import Estimate, Mat3, Points, View
 
 _EZ = np.array([0.0, 0.0, 1.0])

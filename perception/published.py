@@ -200,9 +200,8 @@ def beo_for(
     """The published BEO model when it is the default model for these settings (the
     default training configuration on these categories, resolution and instances), else
     None (the caller trains its own)."""
-    from beo_bench.perception.beo_model import BEOConfig
-
     from beo_bench.objects import LIBRARY_VERSION
+    from beo_bench.perception.beo_model import BEOConfig
 
     want = BEOConfig(categories=tuple(categories), resolution=resolution, per_category=per_category)
     model = _beo()

@@ -16,12 +16,12 @@ from functools import lru_cache
 from typing import Any
 
 import numpy as np
+
+from beo_bench.objects.instance import ObjectInstance
 from beo_bench.scenes.camera import Intrinsics
 from beo_bench.scenes.gl import load_mujoco
 from beo_bench.scenes.gripper import GRIPPER, GripperGeometry
 from beo_bench.scenes.renderer import CAMERA_NAME
-
-from beo_bench.objects.instance import ObjectInstance
 from beo_bench.types import Mat4
 
 mujoco = load_mujoco()

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+
 from beo_bench.scenes.builder import PARK, Scene
 from beo_bench.scenes.gl import load_mujoco
 from beo_bench.scenes.gripper import GripperGeometry

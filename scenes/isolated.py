@@ -13,12 +13,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from beo_bench.objects.instance import ObjectInstance
 from beo_bench.scenes.builder import build_isolated
 from beo_bench.scenes.camera import OBJECT_RIG, CameraRig, Intrinsics
 from beo_bench.scenes.noise import DepthNoise, apply_noise
 from beo_bench.scenes.renderer import Renderer
-
-from beo_bench.objects.instance import ObjectInstance
 from beo_bench.types import Mat3, Mat4, Vec3
 
 

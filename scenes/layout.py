@@ -16,11 +16,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from beo_bench.scenes.gl import load_mujoco
 
 from beo_bench.errors import BeoBenchError
 from beo_bench.objects import cache
 from beo_bench.objects.instance import ObjectInstance
+from beo_bench.scenes.gl import load_mujoco
 from beo_bench.types import Mat4
 
 mujoco = load_mujoco()

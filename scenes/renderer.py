@@ -15,9 +15,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
 from beo_bench.scenes.camera import Intrinsics, opencv_to_mujoco
 from beo_bench.scenes.gl import load_mujoco
-
 from beo_bench.types import Mat4
 
 mujoco = load_mujoco()

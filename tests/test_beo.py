@@ -8,6 +8,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 import torch
+
+from beo_bench.backend import sample_views
+from beo_bench.errors import CheckpointError, InvalidNameError, ViewError
+from beo_bench.geometry import yaw_starts
+from beo_bench.metrics import rotation_error, voxel_iou
+from beo_bench.objects import ObjectSet, instance_from_key
 from beo_bench.perception.beo import BEOBackend, Hypotheses
 from beo_bench.perception.beo_model import (
     BEOConfig,
@@ -18,12 +24,6 @@ from beo_bench.perception.beo_model import (
 )
 from beo_bench.perception.beo_observe import Observation
 from beo_bench.perception.digest import model_digest
-
-from beo_bench.backend import sample_views
-from beo_bench.errors import CheckpointError, InvalidNameError, ViewError
-from beo_bench.geometry import yaw_starts
-from beo_bench.metrics import rotation_error, voxel_iou
-from beo_bench.objects import ObjectSet, instance_from_key
 from beo_bench.types import View
 
 CATS = ("bottle", "bowl", "car", "mug")

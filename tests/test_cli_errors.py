@@ -281,3 +281,18 @@ def test_item_timeout_reaches_the_runner_and_the_campaign(monkeypatch, tmp_path)
     argv = ["all", "--suites", "pose-1dof", "--backends", "random", "--item-timeout", "7"]
     assert main([*argv, "--runs", str(tmp_path / "runs"), "--out", str(tmp_path)]) == 0
     assert seen == {"run": 2.5, "campaign": 7.0}
+
+
+def test_version_and_help_say_what_the_command_is(capsys) -> None:
+    import beo_bench
+    from beo_bench.cli import main
+
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0 and capsys.readouterr().out.strip() == (
+        f"beo-bench {beo_bench.__version__}"
+    )
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    out = capsys.readouterr().out
+    assert "Benchmark object-centric perception" in out and "Exit status" in out

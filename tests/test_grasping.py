@@ -9,11 +9,11 @@ import itertools
 import numpy as np
 import pytest
 import trimesh
-from beo_bench.scenes.gripper import GRIPPER
 from scipy.spatial.transform import Rotation
 
 from beo_bench.errors import BeoBenchError
 from beo_bench.grasping import Grasp, GraspPlanningError, plan_grasps
+from beo_bench.scenes.gripper import GRIPPER
 
 TABLE = 0.7
 BOX_SIZE = (0.05, 0.05, 0.10)

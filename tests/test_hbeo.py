@@ -10,6 +10,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+from scipy import ndimage
+from scipy.spatial.transform import Rotation
+from scipy.stats import multivariate_normal
+
+from beo_bench.backend import check_backend, sample_views
+from beo_bench.errors import CheckpointError, InvalidNameError, ViewError
+from beo_bench.metrics import rotation_error
+from beo_bench.objects import ObjectSet
 from beo_bench.perception.beo_model import BEOConfig, train_beo
 from beo_bench.perception.beo_model import model_path as beo_model_path
 from beo_bench.perception.digest import model_digest
@@ -39,14 +47,6 @@ from beo_bench.perception.hbeo_train import (
     model_path,
     train_hbeo,
 )
-from scipy import ndimage
-from scipy.spatial.transform import Rotation
-from scipy.stats import multivariate_normal
-
-from beo_bench.backend import check_backend, sample_views
-from beo_bench.errors import CheckpointError, InvalidNameError, ViewError
-from beo_bench.metrics import rotation_error
-from beo_bench.objects import ObjectSet
 
 CATS = ("airplane", "bowl", "chair")
 
@@ -409,9 +409,8 @@ def test_variance_weighting_is_the_voxel_space_reconstruction_error() -> None:
 
 
 def test_devices_resolve_and_a_missing_gpu_is_a_clear_error() -> None:
-    from beo_bench.perception.hbeo_train import resolve_device
-
     from beo_bench.errors import UsageError
+    from beo_bench.perception.hbeo_train import resolve_device
 
     assert resolve_device("cpu").type == "cpu"
     assert resolve_device("auto").type == ("cuda" if torch.cuda.is_available() else "cpu")
@@ -476,9 +475,8 @@ def test_per_category_networks_are_chosen_by_the_hint_and_never_trained_in_a_run
     inside a run), and a view without the hint is refused."""
     from dataclasses import replace as dc_replace
 
-    from beo_bench.perception import hbeo_train
-
     from beo_bench.errors import UsageError
+    from beo_bench.perception import hbeo_train
 
     def refuse(*a: object, **k: object) -> None:
         raise AssertionError("a per-category network was trained inside a run")

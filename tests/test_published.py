@@ -8,11 +8,11 @@ import shutil
 from pathlib import Path
 
 import pytest
+
 from beo_bench.envs.pick import default_categories
+from beo_bench.errors import CheckpointError
 from beo_bench.perception import beo_model, hbeo_train, published
 from beo_bench.perception.digest import state_digest
-
-from beo_bench.errors import CheckpointError
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -79,9 +79,8 @@ def test_an_altered_published_file_is_reported_not_used(tmp_path, monkeypatch) -
 def test_a_suite_on_some_classes_is_answered_by_the_published_network(no_training) -> None:
     """``pose-3dof-percat`` holds three of the eleven classes: the published network answers
     it (nothing trains), its class scores read at those three classes."""
-    from beo_bench.perception.hbeo import HBEOBackend
-
     from beo_bench.backend import sample_views
+    from beo_bench.perception.hbeo import HBEOBackend
 
     cats = ("airplane", "car", "sofa")
     m = hbeo_train.load_hbeo(None, "hbeo", cats)

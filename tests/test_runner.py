@@ -57,9 +57,8 @@ def test_oracle_on_tabletop_scores_every_visible_object(tmp_path) -> None:
 def test_oracle_picks_exactly_like_the_ground_truth_planner(tmp_path) -> None:
     """Episode by episode, the oracle's pick (its exact mesh, the other objects' true
     surfaces as obstacles) does what ``pick-check``'s ground-truth planner does."""
-    from beo_bench.envs.pickcheck import ground_truth_pick_check
-
     from beo_bench.bench.evaluate import episode_seed
+    from beo_bench.envs.pickcheck import ground_truth_pick_check
 
     n = 10
     s = _run(tmp_path, "pick", "oracle", n)

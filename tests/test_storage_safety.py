@@ -16,6 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+
+from beo_bench.backend import get_backend
+from beo_bench.errors import CheckpointError, CorruptDataError, InvalidNameError, UsageError
+from beo_bench.objects import LIBRARY_VERSION, cache
 from beo_bench.perception.beo import BEOBackend
 from beo_bench.perception.beo_model import BEOConfig, BEOModel, load_model
 from beo_bench.perception.beo_model import model_path as beo_path
@@ -38,10 +42,6 @@ from beo_bench.perception.hbeo_train import (
     train_hbeo,
 )
 from beo_bench.perception.hbeo_train import model_path as hbeo_path
-
-from beo_bench.backend import get_backend
-from beo_bench.errors import CheckpointError, CorruptDataError, InvalidNameError, UsageError
-from beo_bench.objects import LIBRARY_VERSION, cache
 
 CATS = ("bowl", "can")
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
-from beo_bench.envs.pick import parse_action
 
 import beo_bench  # noqa: F401  (registers the ids)
+from beo_bench.envs.pick import parse_action
 from beo_bench.errors import ActionError, EnvConfigError
 
 SMALL = {"image_size": (96, 72)}
@@ -159,6 +159,15 @@ def test_render_rgb(env) -> None:
     e.reset(seed=4)
     img = e.render()
     assert img.shape == (72, 96, 3) and img.dtype == np.uint8 and img.std() > 5
+    e.close()
+
+
+def test_render_depth_is_the_metric_observation() -> None:
+    e = gym.make("BEOPick-v0", render_mode="depth_array", **SMALL)
+    obs, _ = e.reset(seed=4)
+    depth = e.render()
+    assert depth.shape == obs["depth"].shape and depth.dtype == np.float32
+    np.testing.assert_array_equal(depth, obs["depth"])  # metres, as observed
     e.close()
 
 

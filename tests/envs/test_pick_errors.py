@@ -7,13 +7,13 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
-from beo_bench.envs.pick import EnvStateError, parse_action
-from beo_bench.scenes.camera import MAX_IMAGE_SIDE
-from beo_bench.scenes.gripper import MAX_OPENING
 from gymnasium.error import ResetNeeded
 
 import beo_bench  # noqa: F401  (registers the ids)
+from beo_bench.envs.pick import EnvStateError, parse_action
 from beo_bench.errors import ActionError, BeoBenchError, EnvConfigError
+from beo_bench.scenes.camera import MAX_IMAGE_SIDE
+from beo_bench.scenes.gripper import MAX_OPENING
 
 SMALL = {"image_size": (64, 48), "num_objects": 1}
 DOWN = [0.0, 1.0, 0.0, 0.0]  # wxyz: gripper +z = world -z

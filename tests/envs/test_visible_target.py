@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from beo_bench.envs.pick import BEOPickEnv, NoVisibleTargetError
 from beo_bench.scenes.builder import TableConfig
 from beo_bench.scenes.layout import ObjectTooLargeError

@@ -10,8 +10,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from beo_bench.scenes.builder import TableConfig
-from beo_bench.scenes.gripper import GRIPPER
 
 from beo_bench.errors import ImplausibleSizeError, MeshError
 from beo_bench.objects import categories as library_categories
@@ -26,6 +24,8 @@ from beo_bench.objects.loaders import (
     detect_units,
     procedural_size,
 )
+from beo_bench.scenes.builder import TableConfig
+from beo_bench.scenes.gripper import GRIPPER
 
 # a lemon as YCB measures it: 54 x 54 x 68 mm (an ellipsoid, largest extent along z)
 LEMON_MM = (54.0, 54.0, 68.0)

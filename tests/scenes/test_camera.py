@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from beo_bench.scenes.camera import (
     OBJECT_RIG,
     ROLL_SIGMA_DEG,

@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
+from beo_bench.objects import ObjectSet
 from beo_bench.scenes import IsolatedRenderer, look_at
 from beo_bench.scenes.camera import Intrinsics, backproject
 from beo_bench.scenes.gl import GLUnavailableError, choose_platform, load_mujoco
 from beo_bench.scenes.noise import DepthNoise, apply_noise
-
-from beo_bench.objects import ObjectSet
 
 mujoco = load_mujoco()
 

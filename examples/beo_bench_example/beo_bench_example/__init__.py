@@ -18,9 +18,9 @@ It is deliberately simple: it shows the contract (``name``, ``predict``, an opti
 from __future__ import annotations
 
 import numpy as np
-from beo_bench.perception.means import ClassMeans, class_means
 
 from beo_bench.errors import ViewError
+from beo_bench.perception.means import ClassMeans, class_means
 from beo_bench.types import Estimate, View
 
 __all__ = ["BoxFitBackend"]
