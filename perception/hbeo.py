@@ -61,7 +61,8 @@ class HBEOBackend:
     - ``samples`` (25, MDN modes): N, the rotation samples drawn per view;
     - ``seed`` (0): with the crop's bytes, seeds the sampling (same view, same estimate);
     - ``size`` (``small``): with no ``model``, the default network's size: ``small`` or
-      ``dissertation`` (Figure 4.2's widths; the published one was trained on a GPU);
+      ``dissertation`` (Figure 4.2's widths: the ``reference`` recipe's, trained once on a GPU
+      into the cache, never here; a missing one is an error naming the command);
     - ``per_category`` (False): chapter 5's protocol (Tables 5.1/5.2): one network per
       category, chosen by the view's class hint, so the backend runs in the class-given
       track only. Each class's network is the ``per-category`` recipe's (``beo-bench train

@@ -845,12 +845,17 @@ def load_hbeo(
     makes it when there is none)."""
     from beo_bench.objects import LIBRARY_VERSION
 
-    if name is None and recipe == "default" and not any(v is not None for v in small.values()):
+    quick = any(v is not None for v in small.values())
+    if name is None and recipe == "default" and size == "small" and not quick:
         from beo_bench.perception import published
 
-        model = published.hbeo_for(kind, tuple(categories), size)
+        model = published.hbeo_for(kind, tuple(categories))
         if model is not None:  # the published reference model: nothing to train
             return model
+    if name is None and size != "small" and recipe == "default" and not quick:
+        # the larger networks are the reference recipe's, trained once on a GPU and kept in
+        # the cache (not published: too large for the repository); never trained here
+        recipe = "reference"
     path = model_dir(name, kind, categories, size, recipe, **small)
     from beo_bench.objects.dataset import active_dataset, train_command
 
@@ -870,7 +875,7 @@ def load_hbeo(
         if not train_default or recipe != "default":
             how = (
                 f"beo-bench train {kind} --categories {' '.join(categories)} --recipe {recipe}"
-                + ("" if size == "small" else f" --size {size}")
+                + ("" if size == "small" else f" --size {size} --device cuda")
             )
             raise CheckpointError(
                 f"no {recipe} {kind} model for {', '.join(categories)} at {path}: train it "

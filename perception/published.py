@@ -12,16 +12,14 @@ every file. The stems:
   from one CPU to another;
 - ``hbeo`` and ``hbeo-mdn``: the small networks of the ``reference`` recipe
   (:data:`~beo_bench.perception.hbeo_train.RECIPES`), weights stored in float16 (they are
-  used in float32; ``make bench`` measures what the rounding costs: nothing measurable);
-- ``hbeo-dissertation`` and ``hbeo-mdn-dissertation``: the same recipe with Figure 4.2's
-  widths (``--size dissertation``), trained on a GPU (``--device cuda``; about 3 minutes
-  each on one H200, hours on 2 CPU cores), float16. The backends load them with
-  ``--opt size=dissertation``.
+  used in float32; ``make bench`` measures what the rounding costs: nothing measurable).
 
 A file whose SHA-256 does not match the manifest is refused with :class:`CheckpointError`
 (never used silently), saying how to restore or retrain it. ``beo-bench publish`` writes
 these files from trained models (``beo-bench train hbeo --recipe reference --name N``
-reproduces the networks; see docs/reference-models.md).
+reproduces the networks; see docs/reference-models.md). Larger networks (``--size
+dissertation``, trained on a GPU) are not published: they stay in the asset cache, where
+``beo-bench train ... --recipe reference --size dissertation --device cuda`` puts them.
 """
 
 from __future__ import annotations
@@ -37,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from beo_bench.errors import CheckpointError
+from beo_bench.errors import CheckpointError, UsageError
 
 if TYPE_CHECKING:
     from beo_bench.perception.beo_model import BEOModel
@@ -45,27 +43,10 @@ if TYPE_CHECKING:
 
 PUBLISHED_DIR = Path(__file__).resolve().parent / "published"
 MANIFEST = "MANIFEST.json"
-STEMS: tuple[str, ...] = (
-    "beo",
-    "hbeo",
-    "hbeo-mdn",
-    "hbeo-dissertation",
-    "hbeo-mdn-dissertation",
-)
-SIZES: tuple[str, ...] = ("small", "dissertation")
+STEMS: tuple[str, ...] = ("beo", "hbeo", "hbeo-mdn")
 NET_PREFIX = "net."
 SPLIT: dict[str, tuple[str, ...]] = {"beo": ("basis",)}
 """Arrays stored in a file of their own (``beo-basis.npz``): no published file passes 10 MB."""
-
-
-def hbeo_stem(kind: str, size: str = "small") -> str:
-    """The published stem of the ``kind`` network of ``size`` (``hbeo``,
-    ``hbeo-mdn-dissertation``, ...)."""
-    if size not in SIZES:
-        raise ValueError(f"network size {size!r}: use one of {SIZES}")
-    return kind if size == "small" else f"{kind}-{size}"
-
-
 PLANES, SHAPE, DTYPE = "__planes", "__shape", "__dtype"
 
 
@@ -111,8 +92,8 @@ def read(stem: str, root: Path | None = None) -> tuple[dict[str, Any], dict[str,
             raise CheckpointError(
                 f"the published {root / name} has SHA-256 {got[:16]}..., the manifest says "
                 f"{want[:16]}...: it was altered or is a Git LFS pointer. Restore it with "
-                "`git checkout -- perception/published`, or train your own with "
-                f"`{_train_command(stem)} --name NAME` and pass `--opt model=NAME`"
+                "`git checkout -- perception/published`, or train your own with `beo-bench "
+                f"train {stem} --recipe reference --name NAME` and pass `--opt model=NAME`"
             )
         out[name] = data
     try:
@@ -168,19 +149,10 @@ def _unpack(data: bytes) -> dict[str, np.ndarray]:
     return out
 
 
-def _train_command(stem: str) -> str:
-    """The ``beo-bench train`` command that reproduces the published ``stem``."""
-    if stem == "beo":
-        return "beo-bench train beo"
-    kind = stem.removesuffix("-dissertation")
-    extra = " --size dissertation --device cuda" if kind != stem else ""
-    return f"beo-bench train {kind} --recipe reference{extra}"
-
-
 def _restore(stem: str) -> str:
     return (
-        "restore it with `git checkout -- perception/published` (or retrain: "
-        f"`{_train_command(stem)}`)"
+        f"restore it with `git checkout -- perception/published` (or retrain: `beo-bench train "
+        f"{stem}{' --recipe reference' if stem != 'beo' else ''}`)"
     )
 
 
@@ -213,24 +185,23 @@ def beo_for(
 
 
 @cache
-def _hbeo(kind: str, size: str = "small") -> HBEOModel | None:
+def _hbeo(kind: str) -> HBEOModel | None:
     from beo_bench.perception.hbeo_train import HBEOConfig, HBEOModel
 
-    stem = hbeo_stem(kind, size)
-    if f"{stem}.npz" not in manifest():
+    if f"{kind}.npz" not in manifest():
         return None
-    meta, arrays = read(stem)
+    meta, arrays = read(kind)
     try:
         cfg = HBEOConfig.from_json(meta["config"])
     except Exception as e:
-        raise CheckpointError(f"the published {stem} model's config is unreadable ({e})") from e
-    if cfg.kind != kind or meta.get("kind") != kind or cfg.size != size:
+        raise CheckpointError(f"the published {kind} model's config is unreadable ({e})") from e
+    if cfg.kind != kind or meta.get("kind") != kind:
         raise CheckpointError(
-            f"the published {stem}.json holds a {cfg.size} {cfg.kind} model; {_restore(stem)}"
+            f"the published {kind}.json holds a {cfg.kind} model; {_restore(kind)}"
         )
     state = _state(arrays)
     beo = _beo()
-    return HBEOModel.from_stored(meta, cfg, state, f"{PUBLISHED_DIR}/{stem}", _restore(stem), beo)
+    return HBEOModel.from_stored(meta, cfg, state, f"{PUBLISHED_DIR}/{kind}", _restore(kind), beo)
 
 
 def _state(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
@@ -250,13 +221,13 @@ def _state(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     return state
 
 
-def hbeo_for(kind: str, categories: tuple[str, ...], size: str = "small") -> HBEOModel | None:
-    """The published ``kind`` model of network ``size`` when it was trained for
-    ``categories`` or a superset of them (a suite on some of the classes is answered by the
-    network that knows them all, its class scores restricted to them), else None."""
+def hbeo_for(kind: str, categories: tuple[str, ...]) -> HBEOModel | None:
+    """The published ``kind`` model when it was trained for ``categories`` or a superset of
+    them (a suite on some of the classes is answered by the network that knows them all, its
+    class scores restricted to them), else None."""
     from beo_bench.objects import LIBRARY_VERSION
 
-    model = _hbeo(kind, size)
+    model = _hbeo(kind)
     if model is None or not set(categories) <= set(model.categories):
         return None
     if model.info.get("library_version") != LIBRARY_VERSION:
@@ -316,6 +287,12 @@ def publish_beo(model: BEOModel, root: Path | None = None) -> str:
 
 
 def publish_hbeo(model: HBEOModel, root: Path | None = None, half: bool = True) -> str:
+    if model.config.size != "small":
+        raise UsageError(
+            f"only the small networks are published (the published set stays under 20 MB); "
+            f"this is a {model.config.size} one: keep it in the cache and load it with "
+            "--opt model=NAME"
+        )
     meta = model.stored_meta()
     meta["stored_dtype"] = "float16" if half else "float32"
     from beo_bench.perception.digest import state_digest
@@ -323,8 +300,7 @@ def publish_hbeo(model: HBEOModel, root: Path | None = None, half: bool = True) 
     arrays = hbeo_arrays(model, half)
     # the digest is of the weights as used (float32 after widening): what a run records
     meta["digest"] = state_digest(_state(arrays))
-    stem = hbeo_stem(model.config.kind, model.config.size)
-    return write(stem, meta, arrays, root or PUBLISHED_DIR)
+    return write(model.config.kind, meta, arrays, root or PUBLISHED_DIR)
 
 
 def files_table(root: Path | None = None) -> list[tuple[str, int, str]]:

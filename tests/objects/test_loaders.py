@@ -48,13 +48,7 @@ REAL_SPLITS = ("train", "val", "test")
 CHAIR, MUG, UNKNOWN = "03001627", "03797390", "09999999"
 
 
-@pytest.fixture(autouse=True)
-def _isolated(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Cache in tmp_path, no dataset roots from the user's environment or earlier tests."""
-    monkeypatch.setenv("BEO_BENCH_CACHE", str(tmp_path / "cache"))
-    for var in loaders.ROOT_ENV.values():
-        monkeypatch.delenv(var, raising=False)
-    monkeypatch.setattr(loaders, "_ROOTS", {})
+pytestmark = pytest.mark.usefixtures("isolated_loaders")
 
 
 # ----------------------------------------------------------------------------- fixtures

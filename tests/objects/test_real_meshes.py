@@ -15,20 +15,14 @@ import trimesh
 from PIL import Image
 
 from beo_bench.errors import MeshLoadError, NonFiniteMeshError, TruncatedMeshError
-from beo_bench.objects import load_folder, loaders
+from beo_bench.objects import load_folder
 from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.processing import MAX_FACES, repair, simplify, voxelize
 
 MODES = ("basic", "solid", "voxel")
 
 
-@pytest.fixture(autouse=True)
-def _isolated(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Cache in tmp_path, no dataset roots from the user's environment or earlier tests."""
-    monkeypatch.setenv("BEO_BENCH_CACHE", str(tmp_path / "cache"))
-    for var in loaders.ROOT_ENV.values():
-        monkeypatch.delenv(var, raising=False)
-    monkeypatch.setattr(loaders, "_ROOTS", {})
+pytestmark = pytest.mark.usefixtures("isolated_loaders")
 
 
 def _load_one(path: Path, root: Path, **kw: object) -> ObjectInstance:

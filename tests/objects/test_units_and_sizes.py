@@ -31,12 +31,7 @@ from beo_bench.scenes.gripper import GRIPPER
 LEMON_MM = (54.0, 54.0, 68.0)
 
 
-@pytest.fixture(autouse=True)
-def _isolated(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("BEO_BENCH_CACHE", str(tmp_path / "cache"))
-    for var in loaders.ROOT_ENV.values():
-        monkeypatch.delenv(var, raising=False)
-    monkeypatch.setattr(loaders, "_ROOTS", {})
+pytestmark = pytest.mark.usefixtures("isolated_loaders")
 
 
 def _ellipsoid(extents: tuple[float, float, float]) -> trimesh.Trimesh:
