@@ -1,5 +1,6 @@
-"""Scenes and BEOPick-v0 figures (issue 3): reset beside one raw depth + segmentation
-render of the same scene, one full grasp execution, and isolated-instance views at 128x128.
+"""Scenes and BEOPick-v0 figures: reset beside one raw depth + segmentation render of the
+same scene, that render against a plain ``mujoco.Renderer`` depth render, one full grasp
+execution, and isolated-instance views at 128x128.
 
 Pinned to one core (``sched_setaffinity``) because the targets are per core: the benchmark
 parallelises over worker processes, each owning one renderer.
@@ -8,7 +9,9 @@ parallelises over worker processes, each owning one renderer.
 from __future__ import annotations
 
 import os
+import statistics
 import time
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -17,7 +20,11 @@ from harness import median_time, report
 import beo_bench  # noqa: F401  (registers BEOPick-v0)
 from beo_bench.objects import ObjectSet
 from beo_bench.scenes import OBJECT_RIG, IsolatedRenderer
+from beo_bench.scenes.gl import load_mujoco
 from beo_bench.scenes.layout import rest_pose
+from beo_bench.scenes.renderer import CAMERA_NAME
+
+mujoco = load_mujoco()
 
 
 def _pin_one_core() -> str:
@@ -69,6 +76,8 @@ def main() -> None:
         note=f"reset / render = {t_reset / t_render:.1f}x",
     )
 
+    render_vs_mujoco(u)
+
     # step: one full scripted grasp (approach, close, lift 15 cm, hold 1 s) with the
     # ground-truth planner's best grasp; planning is timed separately (it is not the env's)
     plans: list[np.ndarray] = []
@@ -116,4 +125,53 @@ def main() -> None:
         ">= 500 views/s per core",
         rate >= 500,
         "50 views per instance, 8 instances",
+    )
+
+
+def render_vs_mujoco(u: Any, rounds: int = 60) -> None:
+    """Our depth + segmentation render against ``mujoco.Renderer``'s depth-only render of
+    the same scene and camera at 640x480: the cost of everything the benchmark adds on top
+    of MuJoCo's own image path (labels, float32 depth, its reused GL context). The two are
+    interleaved, alternating which goes first, so that load from other processes falls on
+    both alike; the ratio is of the medians."""
+    ours = u._renderer
+    data, cam = u.scene.data, u._cam
+    ours.render(data, cam)  # writes the camera pose and fovy the raw renderer reads
+    h, w = int(ours.intrinsics.height), int(ours.intrinsics.width)
+    raw = mujoco.Renderer(u.model, h, w)
+    raw.enable_depth_rendering()
+
+    def raw_render() -> None:
+        raw.update_scene(data, camera=CAMERA_NAME)
+        raw.render()
+
+    def our_render() -> None:
+        ours.render(data, cam)
+
+    t_raw: list[float] = []
+    t_ours: list[float] = []
+    for fn in (raw_render, our_render):  # warm both contexts
+        fn()
+    for k in range(rounds):
+        pair = ((raw_render, t_raw), (our_render, t_ours))
+        for fn, times in pair if k % 2 else pair[::-1]:
+            t0 = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t0)
+    raw.close()
+    m_raw, m_ours = statistics.median(t_raw), statistics.median(t_ours)
+    ratio = m_ours / m_raw
+    report(
+        "  mujoco.Renderer depth render 640x480, same scene/camera",
+        1000 * m_raw,
+        "ms",
+        note=f"median of {rounds}, interleaved",
+    )
+    report(
+        "  Renderer.render (depth + labels) / mujoco.Renderer depth",
+        ratio,
+        "x",
+        "<= 1.15",
+        ratio <= 1.15,
+        f"ours {1000 * m_ours:.2f} ms, median of {rounds}",
     )

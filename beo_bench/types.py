@@ -7,6 +7,7 @@ origin at the centre of its axis-aligned bounding box (see ``beo_bench.objects``
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, TypedDict
 
@@ -191,8 +192,10 @@ class View:
     - ``K``: (3, 3) OpenCV intrinsics (pixels); ``cam_to_world``: (4, 4), OpenCV camera axes
       (x right, y down, z forward), world +z up;
     - ``categories``: the class list that ``Estimate.class_probs`` indexes;
-    - ``segmentation``: optional (H, W) int32 instance labels of the whole image (0 =
-      background), for backends that use context;
+    - ``segmentation``: optional (H, W) instance labels of the whole image (0 = background
+      and table, 1..k objects), for backends that use context; uint8 when the scene's
+      labels are below 255 (every BEOPick-v0 scene), int32 otherwise (see
+      ``scenes.renderer.Frame``): widen it before arithmetic such as ``seg - 1``;
     - ``class_hint``: optional index of the true class, given in the ``class-given`` track
       of a pose suite (``Suite.track``) to backends that declare ``wants_class_hint``; a
       backend that can use it uses it whenever a view carries it (the dissertation's pose
@@ -207,6 +210,9 @@ class View:
       a pose prior; None where no such distribution is published (tabletop scenes, views
       a user makes);
     - ``ground_truth``: filled only for privileged backends (see ``GroundTruth``).
+
+    Making one: :meth:`from_observation` for an object of a BEOPick-v0 observation,
+    ``scenes.IsolatedView.to_view`` for a rendered isolated instance.
     """
 
     depth: FloatArray
@@ -214,7 +220,7 @@ class View:
     K: Mat3
     cam_to_world: Mat4
     categories: tuple[str, ...]
-    segmentation: NDArray[np.int32] | None = None
+    segmentation: NDArray[np.integer[Any]] | None = None
     class_hint: int | None = None
     up_hint: Vec3 | None = None
     pose_hint: tuple[Mat3, Vec3, Vec3] | None = None
@@ -234,6 +240,58 @@ class View:
             raise ViewError("View.K must be (3, 3) and View.cam_to_world (4, 4)")
         if not self.categories:
             raise ViewError("View.categories is empty: give the class list to predict over")
+
+    @classmethod
+    def from_observation(
+        cls, obs: Mapping[str, Any], label: int, categories: Sequence[str]
+    ) -> View:
+        """The view of the object labelled ``label`` in a BEOPick-v0 observation (the dict
+        ``reset()`` and ``step()`` return), built as the tabletop and pick suites build
+        theirs: its ``depth``, ``mask = segmentation == label``, ``K`` from
+        ``intrinsics``, ``cam_to_world``, and the whole ``segmentation`` for context.
+        ``categories`` is the class list the estimate's ``class_probs`` index (the env's
+        ``env.unwrapped.categories``). Objects are labelled 1..k
+        (``env.unwrapped.ground_truth()`` lists them; ``env.unwrapped.target_label`` is the
+        one asked for). Raises :class:`~beo_bench.errors.ViewError` for an observation
+        without those keys, a label that is not an object's, or one that shows no pixel
+        (hidden or out of view)."""
+        from beo_bench.errors import ViewError
+
+        keys = ("depth", "segmentation", "intrinsics", "cam_to_world")
+        missing = [k for k in keys if k not in obs]
+        if missing:
+            raise ViewError(
+                f"the observation has no {', '.join(repr(k) for k in missing)}: pass the dict "
+                "that BEOPick-v0's reset() or step() returns"
+            )
+        if isinstance(categories, str):
+            raise ViewError(
+                f"categories={categories!r} is one string: give the sequence of class names "
+                "(env.unwrapped.categories)"
+            )
+        if isinstance(label, bool) or not isinstance(label, int | np.integer):
+            raise ViewError(f"label must be an integer object label (1..k), got {label!r}")
+        seg = np.asarray(obs["segmentation"])
+        present = [int(x) for x in np.unique(seg) if x > 0]
+        if label < 1:
+            raise ViewError(
+                f"label {label} is not an object: 0 is the background and table, objects are "
+                f"1..k (in this image: {present})"
+            )
+        mask = seg == label
+        if not mask.any():
+            raise ViewError(
+                f"label {label} shows no pixel in this observation (hidden or out of view); "
+                f"the objects in the image are {present}"
+            )
+        return cls(
+            depth=np.asarray(obs["depth"]),
+            mask=mask,
+            K=np.asarray(obs["intrinsics"], dtype=np.float64),
+            cam_to_world=np.asarray(obs["cam_to_world"], dtype=np.float64),
+            categories=tuple(categories),
+            segmentation=seg,
+        )
 
     def unit_up(self) -> Vec3 | None:
         """``up_hint`` as a unit vector, or None without one; raises ``ViewError`` for a

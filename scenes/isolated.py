@@ -9,7 +9,8 @@ that many views of one instance cost one render each.
 from __future__ import annotations
 
 from collections import OrderedDict
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -19,7 +20,7 @@ from beo_bench.scenes.builder import build_isolated
 from beo_bench.scenes.camera import OBJECT_RIG, CameraRig, Intrinsics
 from beo_bench.scenes.noise import DepthNoise, apply_noise
 from beo_bench.scenes.renderer import Renderer
-from beo_bench.types import Mat3, Mat4, Vec3
+from beo_bench.types import Mat3, Mat4, Vec3, View, ViewpointPrior
 
 
 @dataclass
@@ -28,7 +29,10 @@ class IsolatedView:
 
     ``depth``: (H, W) float32 metric z-depth, 0 = no surface; ``mask``: (H, W) bool, the
     object's pixels; ``K``: OpenCV intrinsics; ``cam_to_world``: 4x4, OpenCV camera axes;
-    ``R_cam``, ``t_cam``: the object's canonical frame in the camera frame (ground truth).
+    ``R_cam``, ``t_cam``: the object's canonical frame in the camera frame (ground truth);
+    ``viewpoint_prior``: the distribution the camera pose was drawn from when the renderer's
+    rig drew it (``IsolatedRenderer.sample_views``), None for a pose the caller chose.
+    A perception backend takes :meth:`to_view`.
     """
 
     depth: np.ndarray
@@ -39,6 +43,44 @@ class IsolatedView:
     t_cam: Vec3
     key: str
     category: str
+    viewpoint_prior: ViewpointPrior | None = None
+
+    def to_view(self, categories: Sequence[str] | None = None) -> View:
+        """What a perception backend's ``predict`` takes: the fields an isolated suite gives
+        (depth, mask, ``K``, ``cam_to_world``, the class list and, for rig-drawn views, the
+        viewpoint prior), and nothing of the truth. ``categories``: the classes the
+        estimate's ``class_probs`` index, default the built-in library's
+        (``beo_bench.objects.categories()``); they must include this instance's category.
+        Suites' protocol hints are left out (``dataclasses.replace(view, class_hint=...,
+        up_hint=...)`` adds them); unlike the 3-DOF suites, ``cam_to_world`` is not
+        re-randomised, so the world's +z is the object's up. Raises
+        :class:`~beo_bench.errors.ViewError` for a class list without the instance's
+        category."""
+        from beo_bench.errors import ViewError
+
+        if categories is None:
+            from beo_bench.objects import categories as library_categories
+
+            cats = library_categories()
+        elif isinstance(categories, str):
+            raise ViewError(
+                f"categories={categories!r} is one string: give a sequence of class names"
+            )
+        else:
+            cats = tuple(categories)
+        if self.category not in cats:
+            raise ViewError(
+                f"this view shows a {self.category!r}, which is not among categories {cats}: "
+                "pass the class list it belongs to (e.g. a dataset's categories)"
+            )
+        return View(
+            depth=self.depth,
+            mask=self.mask,
+            K=self.K,
+            cam_to_world=self.cam_to_world,
+            categories=cats,
+            viewpoint_prior=self.viewpoint_prior,
+        )
 
 
 class IsolatedRenderer:
@@ -106,9 +148,14 @@ class IsolatedRenderer:
     def sample_views(
         self, instance: ObjectInstance, rng: np.random.Generator, n: int
     ) -> list[IsolatedView]:
-        """``n`` views from cameras sampled by this renderer's rig around the origin."""
+        """``n`` views from cameras sampled by this renderer's rig around the origin, each
+        carrying the rig's ``viewpoint_prior``."""
         origin = np.zeros(3)
-        return [self.render(instance, self.rig.sample(rng, origin)) for _ in range(n)]
+        prior = ViewpointPrior.of_rig(self.rig)
+        return [
+            replace(self.render(instance, self.rig.sample(rng, origin)), viewpoint_prior=prior)
+            for _ in range(n)
+        ]
 
     def close(self) -> None:
         """Free the GL context and the cached models."""
