@@ -41,7 +41,7 @@ def test_env_checker_passes() -> None:
 def test_observation_contract(env) -> None:
     obs, info = env.reset(seed=3)
     assert env.observation_space.contains(obs)
-    assert obs["depth"].dtype == np.float32 and obs["segmentation"].dtype == np.int32
+    assert obs["depth"].dtype == np.float32 and obs["segmentation"].dtype == np.uint8
     u = env.unwrapped
     assert u.categories[obs["target_class"]] in {g.category for g in u.ground_truth()}
     assert 1 <= info["num_objects"] <= 4
