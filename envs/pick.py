@@ -1,37 +1,20 @@
 """BEOPick-v0: pick the object of a target class from one segmented depth image.
 
-On reset, 1-k objects of distinct categories from a split are placed on a table in their
-rest poses with random yaw, settled by physics, and seen by a depth camera sampled around
-the table. The observation (docs/design.md "Environments"):
+The environment's reference is :class:`BEOPickEnv`'s docstring (Gymnasium's layout:
+description, action and observation spaces, rewards, starting state, episode end, arguments,
+version history) and, in prose with examples, docs/env.md.
 
-- ``depth``: (H, W) float32, metric z-depth in metres, 0 where nothing was hit;
-- ``segmentation``: (H, W) int32, 0 background and table, 1..k objects;
-- ``target_class``: Discrete over ``env.unwrapped.categories`` ("pick the mug");
-- ``intrinsics``: (3, 3) OpenCV K; ``cam_to_world``: (4, 4), OpenCV camera axes.
-
-The action is a grasp in the world frame, Box(8): TCP position (3), orientation quaternion
-(4, w x y z, normalised by the env) of the gripper frame (+z approach, +y closing axis; see
-``beo_bench.scenes.gripper``) and the finger opening (1, metres, 0-0.08). ``step`` executes
-it physically; reward 1 when an object of the target class ends lifted at least 10 cm above
-its rest height, else 0. The episode terminates on success or after ``max_attempts``;
-``step`` after that (or before ``reset``) raises :class:`EnvStateError`. Its ``info`` holds
-``success`` and ``is_success`` (the same bool: the key Stable-Baselines3 and
-Gymnasium-Robotics read), ``reason`` and what was lifted.
-
-Every episode's target is visible: ``reset`` keeps a scene only when the target object has
-at least ``min_target_pixels`` pixels in the segmentation (default: 50 at 640x480, the
-suites' ``min_pixels``, scaled with the image area). Otherwise it draws another camera pose
-(up to :data:`CAMERA_DRAWS`), then another scene (up to :data:`SCENE_DRAWS`), and finally
-raises :class:`NoVisibleTargetError`; an object too large for the table raises
-:class:`~beo_bench.scenes.layout.ObjectTooLargeError` at once. Seeds whose first draw was
-fine give the same episodes as before this guarantee.
-
-Bad settings raise :class:`~beo_bench.errors.EnvConfigError` at ``gym.make`` and bad
-actions :class:`~beo_bench.errors.ActionError` at ``step``, each saying what to change.
+``gym.make("BEOPick-v0")`` goes through :func:`make_pick_env` (bad or unknown keywords become
+an :class:`~beo_bench.errors.EnvConfigError` naming the valid ones) and ends with
+:func:`follow_time_limit`, which keeps ``max_attempts`` and gymnasium's ``TimeLimit``
+(``max_episode_steps``) equal.
 """
 
 from __future__ import annotations
 
+import copy
+import difflib
+import inspect
 import math
 import numbers
 from collections import Counter
@@ -41,19 +24,21 @@ import gymnasium as gym
 import numpy as np
 import trimesh
 from gymnasium import spaces
+from gymnasium.wrappers import TimeLimit
 
+from beo_bench.envs import RegisteredSteps
 from beo_bench.errors import ActionError, BeoBenchError, EnvConfigError
 from beo_bench.grasping import Grasp, plan_grasps
 from beo_bench.objects import ObjectSet
 from beo_bench.objects import categories as registered_categories
 from beo_bench.scenes.builder import Scene, TableConfig, build_tabletop
-from beo_bench.scenes.camera import CameraRig, Intrinsics
+from beo_bench.scenes.camera import CameraRig, Intrinsics, backproject
 from beo_bench.scenes.execute import GraspOutcome, execute_grasp, park, release, settle
 from beo_bench.scenes.gripper import MAX_OPENING
 from beo_bench.scenes.layout import ObjectTooLargeError, PlacementError, place_objects
 from beo_bench.scenes.noise import DepthNoise, apply_noise
-from beo_bench.scenes.renderer import Renderer
-from beo_bench.types import ObjectState
+from beo_bench.scenes.renderer import Renderer, mujoco
+from beo_bench.types import Mat4, ObjectState
 
 FAR_CLIP = 20.0
 """Largest depth a scene can report (the far clip plane, metres)."""
@@ -74,20 +59,21 @@ MIN_TARGET_PIXELS_640x480 = 50
 """Default least number of target pixels at 640x480 (the suites' ``min_pixels``: a
 scored view needs at least as many), scaled by image area for other sizes."""
 
-KWARGS = (
-    "split",
-    "num_objects",
-    "categories",
-    "objects",
-    "image_size",
-    "fovy_deg",
-    "camera",
-    "noise",
-    "max_attempts",
-    "render_mode",
-    "table",
-    "min_target_pixels",
-)
+OBS_MODES = ("image", "pointcloud")
+"""The observation modes: ``image`` (depth + segmentation images) and ``pointcloud``
+(segmented camera-frame points sampled from the depth image)."""
+
+RENDER_MODES = ("rgb_array", "depth_array")
+"""``render_mode`` values besides None. There is no ``human`` mode: the env is made for
+headless machines, and gymnasium's pygame window wrapper fails there at the first reset."""
+
+DEFAULT_NUM_POINTS = 4096
+"""Points per observation in ``obs_mode="pointcloud"`` when ``num_points`` is not given
+(ManiSkill's and PointNet's usual size)."""
+
+_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+"""What a copy of the env restores of the physics: everything ``mj_step`` reads (time,
+qpos, qvel, actuator state, warm start, controls, applied forces, mocap poses)."""
 
 
 class NoVisibleTargetError(BeoBenchError, RuntimeError):
@@ -102,57 +88,123 @@ class EnvStateError(BeoBenchError, RuntimeError):
 
 
 class BEOPickEnv(gym.Env):
-    """See the module docstring. Keyword arguments (all optional):
+    """Pick the object of a target class from one segmented depth image.
 
-    split: object split ("test"); num_objects: int or (min, max) range ((1, 4)), of
-    distinct categories; categories: names to draw from (default: every pickable
-    category); objects: an ``ObjectSet`` to draw from instead (e.g. a loaded ShapeNet);
-    image_size: (width, height) ((640, 480)); fovy_deg: vertical field of view (45);
-    camera: a ``CameraRig`` or a dict of its fields; noise: False, True (default
-    ``DepthNoise``) or a ``DepthNoise``; max_attempts: grasps per episode (1);
-    render_mode: None, "rgb_array" or "depth_array"; table: a ``TableConfig``;
-    min_target_pixels: the least visible pixels of the target (default 50 at 640x480,
-    scaled by image area).
+    ## Description
+
+    On ``reset``, 1-k objects of distinct categories from an object split are placed on a
+    table in their rest poses with a random yaw, settled by physics, and seen by one depth
+    camera sampled around the table (docs/design.md "Environments"). The observation names
+    the category to pick (``target_class``, "pick the mug"); the agent answers with one
+    parallel-jaw grasp, which ``step`` executes physically with a free-floating gripper.
+
+    ## Action Space
+
+    ``Box(8,)`` float32, a grasp in the **world frame** (z up, the table top at
+    ``table.table_height`` = 0.72 m):
+
+    | index | meaning | unit / range |
+    |---|---|---|
+    | 0-2 | TCP position x y z | metres; x, y within the table, z in [0, 2] |
+    | 3-6 | gripper orientation, quaternion **w x y z** | any non-zero norm (normalised) |
+    | 7 | finger opening | metres, [0, 0.08] |
+
+    The gripper frame approaches along its +z axis and closes along +y (see
+    ``beo_bench.scenes.gripper``). The space is not normalised to [-1, 1]: positions are in
+    metres so that a planner's grasp (``Grasp.action``) is an action as it is. A wrong
+    shape, NaN/inf, a zero quaternion or an opening outside [0, 0.08] raises
+    :class:`~beo_bench.errors.ActionError`.
+
+    ## Observation Space
+
+    A ``Dict``; H, W = ``image_size[1]``, ``image_size[0]``; k = ``max_objects``.
+
+    ``obs_mode="image"`` (default):
+
+    - ``depth``: (H, W) float32, metric z-depth in metres, 0 where nothing was hit;
+    - ``segmentation``: (H, W) uint8 (int32 when k >= 255), 0 background and table, 1..k
+      objects;
+    - ``target_class``: ``Discrete(len(categories))``, an index into
+      ``env.unwrapped.categories``;
+    - ``intrinsics``: (3, 3) float64 OpenCV K; ``cam_to_world``: (4, 4) float64, OpenCV
+      camera axes (x right, y down, z forward).
+
+    ``obs_mode="pointcloud"``: ``points`` (N, 3) float32, camera frame (OpenCV axes),
+    metres; ``point_labels`` (N,) with the segmentation's dtype and labels; and
+    ``target_class``, ``intrinsics``, ``cam_to_world`` as above. N = ``num_points``
+    (default 4096) pixels with depth > 0 are drawn from the env's RNG without replacement
+    and back-projected with K; when fewer than N pixels have depth, all of them come first
+    and the rest are repeats drawn with replacement, so every point is a real surface point
+    (no zero padding); an image without any depth gives N zero points labelled 0.
+
+    ## Rewards
+
+    1.0 when an object of the target class ends lifted at least 10 cm above its rest
+    height, else 0.0 (sparse). ``info`` holds ``success`` and ``is_success`` (the same
+    bool; the key Stable-Baselines3 and Gymnasium-Robotics read), ``reason`` ("success",
+    "wrong_class", "nothing_lifted", "inside_table", ...), ``lifted_label``,
+    ``lifted_category``, ``lift_height``, ``finger_contacts``, ``colliding_label`` and
+    ``attempt``.
+
+    ## Starting State
+
+    Drawn from ``np_random`` (``reset(seed=...)`` makes it reproducible): how many objects,
+    their categories, instances, positions and yaws, the camera pose from ``camera``, and
+    the target among the placed objects. The target always shows at least
+    ``min_target_pixels`` pixels: ``reset`` draws another camera pose (up to
+    :data:`CAMERA_DRAWS`), then another scene (up to :data:`SCENE_DRAWS`), and otherwise
+    raises :class:`NoVisibleTargetError`; an object too large for the table raises
+    :class:`~beo_bench.scenes.layout.ObjectTooLargeError`. ``info`` holds ``num_objects``,
+    ``attempt`` (0) and ``target_pixels``.
+
+    ## Episode End
+
+    Terminated on success or after ``max_attempts`` grasps; there is no other truncation.
+    ``gym.make`` adds a ``TimeLimit`` of ``max_episode_steps`` = ``max_attempts`` steps (the
+    two follow each other: give either, or both equal), so it never cuts an episode short;
+    on the last allowed attempt it also reports ``truncated=True`` beside
+    ``terminated=True``, which RL libraries treat as terminal. ``step`` after termination
+    (or before ``reset``) raises :class:`EnvStateError`.
+
+    ## Arguments
+
+    All keyword-only and optional; bad values raise
+    :class:`~beo_bench.errors.EnvConfigError` at construction (``gym.make``).
+
+    - ``split``: object split, "train", "val" or "test" ("test");
+    - ``num_objects``: a count or a (min, max) range of objects per scene ((1, 4));
+    - ``categories``: category names to draw from and to index ``target_class`` with
+      (default: every pickable category);
+    - ``objects``: an ``ObjectSet`` to draw from instead (e.g. a loaded dataset);
+    - ``image_size``: (width, height) in pixels ((640, 480));
+    - ``fovy_deg``: vertical field of view in degrees (45);
+    - ``camera``: a ``CameraRig`` or a dict of its fields (where cameras are sampled);
+    - ``noise``: False, True (the default ``DepthNoise``) or a ``DepthNoise``;
+    - ``max_attempts``: grasps per episode (default: ``max_episode_steps`` through
+      ``gym.make``, else 1);
+    - ``render_mode``: None, "rgb_array" or "depth_array" (metric depth, metres);
+    - ``table``: a ``TableConfig``;
+    - ``min_target_pixels``: the least visible pixels of the target (50 at 640x480,
+      scaled with the image area);
+    - ``obs_mode``: "image" or "pointcloud";
+    - ``num_points``: points per observation (pointcloud mode only; 4096).
+
+    ## Version History
+
+    - v0: initial version (depth + segmentation observation, one grasp per episode by
+      default, the visible-target guarantee, ``info["is_success"]``, ``depth_array``
+      rendering, ``obs_mode="pointcloud"``, uint8 segmentation, ``max_attempts`` tied to
+      ``max_episode_steps``).
     """
 
     metadata: ClassVar[dict[str, Any]] = {
-        "render_modes": ["rgb_array", "depth_array"],
+        "render_modes": list(RENDER_MODES),
         "render_fps": 4,
     }
 
-    def __init__(self, **kwargs: Any) -> None:
-        unknown = sorted(set(kwargs) - set(KWARGS))
-        if unknown:
-            raise EnvConfigError(
-                f"BEOPick-v0 got unknown keyword arguments {unknown}; valid ones are {list(KWARGS)}"
-            )
-        self._configure(**kwargs)
-        w, h = self.intrinsics.width, self.intrinsics.height
-        n_cat = len(self.categories)
-        self.observation_space = spaces.Dict(
-            {
-                "depth": spaces.Box(0.0, FAR_CLIP, (h, w), np.float32),
-                "segmentation": spaces.Box(0, self.max_objects, (h, w), np.int32),
-                "target_class": spaces.Discrete(n_cat),
-                "intrinsics": spaces.Box(0.0, 1e6, (3, 3), np.float64),
-                "cam_to_world": spaces.Box(-100.0, 100.0, (4, 4), np.float64),
-            }
-        )
-        half = np.array(self.table.table_half)
-        low = np.array([-half[0], -half[1], 0.0, -1, -1, -1, -1, 0.0], np.float32)
-        high = np.array([half[0], half[1], 2.0, 1, 1, 1, 1, MAX_OPENING], np.float32)
-        self.action_space = spaces.Box(low, high, dtype=np.float32)
-        self._renderer: Renderer | None = None
-        self._scene: Scene | None = None
-        self._cam = np.eye(4)
-        self._obs: dict[str, Any] | None = None
-        self._target = 0
-        self._attempts = 0
-        self._terminated = False
-
-    # -- configuration -----------------------------------------------------------------------
-    def _configure(
+    def __init__(
         self,
+        *,
         split: str = "test",
         num_objects: int | tuple[int, int] = (1, 4),
         categories: list[str] | tuple[str, ...] | None = None,
@@ -161,15 +213,21 @@ class BEOPickEnv(gym.Env):
         fovy_deg: float = 45.0,
         camera: CameraRig | dict[str, Any] | None = None,
         noise: bool | DepthNoise = False,
-        max_attempts: int = 1,
+        max_attempts: int | None = None,
         render_mode: str | None = None,
         table: TableConfig | None = None,
         min_target_pixels: int | None = None,
+        obs_mode: str = "image",
+        num_points: int | None = None,
     ) -> None:
-        if render_mode not in (None, *self.metadata["render_modes"]):
+        # what a copy rebuilds the env from (see __getstate__)
+        self._config: dict[str, Any] = {
+            k: v for k, v in locals().items() if k not in ("self", "__class__")
+        }
+        if render_mode is not None and render_mode not in RENDER_MODES:
             raise EnvConfigError(
                 f"render_mode={render_mode!r}: use None, 'rgb_array' or 'depth_array' (there "
-                "is no window on a headless machine)"
+                "is no window on a headless machine: save 'rgb_array' frames instead)"
             )
         self.render_mode = render_mode
         if categories is not None:
@@ -213,9 +271,11 @@ class BEOPickEnv(gym.Env):
         self.noise = DepthNoise() if noise is True else (noise or None)
         if self.noise is not None and not isinstance(self.noise, DepthNoise):
             raise EnvConfigError(f"noise={noise!r}: use False, True or a DepthNoise")
-        if _whole(max_attempts, "max_attempts") < 1:
+        # None: not chosen here, so gym.make's max_episode_steps may set it (follow_time_limit)
+        self.max_attempts_given = max_attempts is not None
+        if max_attempts is not None and _whole(max_attempts, "max_attempts") < 1:
             raise EnvConfigError(f"max_attempts={max_attempts}: allow at least one attempt")
-        self.max_attempts = int(max_attempts)
+        self.max_attempts = 1 if max_attempts is None else int(max_attempts)
         self.table = table or TableConfig()
         if min_target_pixels is None:
             area = width * height / (640 * 480)
@@ -226,6 +286,65 @@ class BEOPickEnv(gym.Env):
                 "visible target)"
             )
         self.min_target_pixels = int(min_target_pixels)
+        if obs_mode not in OBS_MODES:
+            raise EnvConfigError(f"obs_mode={obs_mode!r}: use 'image' or 'pointcloud'")
+        self.obs_mode = obs_mode
+        if num_points is not None and obs_mode != "pointcloud":
+            raise EnvConfigError(
+                f"num_points={num_points} only applies to obs_mode='pointcloud'; pass "
+                "obs_mode='pointcloud' or drop num_points"
+            )
+        if num_points is not None and _whole(num_points, "num_points") < 1:
+            raise EnvConfigError(f"num_points={num_points}: give at least 1 point")
+        self.num_points = DEFAULT_NUM_POINTS if num_points is None else int(num_points)
+        # labels 0..k: one byte per pixel while they fit (a 640x480 observation 2.46 -> 1.54 MB)
+        self.seg_dtype = np.dtype(np.uint8 if self.max_objects < 255 else np.int32)
+        self.observation_space = self._observation_space()
+        half = np.array(self.table.table_half)
+        low = np.array([-half[0], -half[1], 0.0, -1, -1, -1, -1, 0.0], np.float32)
+        high = np.array([half[0], half[1], 2.0, 1, 1, 1, 1, MAX_OPENING], np.float32)
+        self.action_space = spaces.Box(low, high, dtype=np.float32)
+        self._renderer: Renderer | None = None
+        self._bound: Scene | None = None  # the scene the renderer holds
+        self._scene: Scene | None = None
+        self._draw: tuple[list[tuple[str, int]], list[Mat4]] | None = None
+        self._cam = np.eye(4)
+        self._image: dict[str, np.ndarray] | None = None  # depth + segmentation, either mode
+        self._obs: dict[str, Any] | None = None
+        self._rest = np.zeros(0)
+        self._target = 0
+        self._attempts = 0
+        self._terminated = False
+
+    def _observation_space(self) -> spaces.Dict:
+        w, h = self.intrinsics.width, self.intrinsics.height
+        common = {
+            "target_class": spaces.Discrete(len(self.categories)),
+            "intrinsics": spaces.Box(0.0, 1e6, (3, 3), np.float64),
+            "cam_to_world": spaces.Box(-100.0, 100.0, (4, 4), np.float64),
+        }
+        if self.obs_mode == "image":
+            return spaces.Dict(
+                {
+                    "depth": spaces.Box(0.0, FAR_CLIP, (h, w), np.float32),
+                    "segmentation": spaces.Box(0, self.max_objects, (h, w), self.seg_dtype),
+                    **common,
+                }
+            )
+        # the view frustum up to the far plane bounds every back-projected point
+        K = self.intrinsics.K
+        x_max = FAR_CLIP * max(K[0, 2], w - 1 - K[0, 2]) / K[0, 0]
+        y_max = FAR_CLIP * max(K[1, 2], h - 1 - K[1, 2]) / K[1, 1]
+        n = self.num_points
+        high = np.tile(np.array([x_max, y_max, FAR_CLIP], np.float32), (n, 1))
+        low = -high * np.array([1, 1, 0], np.float32)  # z >= 0: in front of the camera
+        return spaces.Dict(
+            {
+                "points": spaces.Box(low, high, (n, 3), np.float32),
+                "point_labels": spaces.Box(0, self.max_objects, (n,), self.seg_dtype),
+                **common,
+            }
+        )
 
     # -- public state --------------------------------------------------------------------------
     @property
@@ -250,10 +369,10 @@ class BEOPickEnv(gym.Env):
     def ground_truth(self) -> list[ObjectState]:
         """Per object: label, category, key, symmetry, size, pose in camera and world frames,
         visible pixels in the current observation. Never part of the observation."""
-        if self._scene is None or self._obs is None:
+        if self._scene is None or self._image is None:
             raise EnvStateError("call reset() before ground_truth()")
         world_to_cam = np.linalg.inv(self._cam)
-        seg = self._obs["segmentation"]
+        seg = self._image["segmentation"]
         counts = np.bincount(seg.ravel(), minlength=len(self._scene.instances) + 1)
         out = []
         for i, inst in enumerate(self._scene.instances):
@@ -310,8 +429,6 @@ class BEOPickEnv(gym.Env):
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         super().reset(seed=seed)
         rng = self.np_random
-        if self._renderer is None:
-            self._renderer = Renderer(self.intrinsics)
         placed, best = 0, (-1, "")
         look_at = np.array([0.0, 0.0, self.table.table_height])
         # Draws happen in the order they always did, so a seed whose first scene and camera
@@ -319,7 +436,8 @@ class BEOPickEnv(gym.Env):
         for _ in range(SCENE_DRAWS):
             k = int(rng.integers(self.num_objects[0], self.num_objects[1] + 1))
             cats = [self.categories[j] for j in rng.choice(len(self.categories), k, replace=False)]
-            insts = [self.objects.get(c, int(rng.integers(self.objects.count(c)))) for c in cats]
+            drawn = [(c, int(rng.integers(self.objects.count(c)))) for c in cats]
+            insts = [self.objects.get(c, i) for c, i in drawn]
             try:
                 poses = place_objects(
                     insts,
@@ -334,15 +452,15 @@ class BEOPickEnv(gym.Env):
                 continue  # these did not fit: draw another set (deterministic under the seed)
             placed += 1
             self._scene = build_tabletop(insts, poses, self.intrinsics, self.table)
+            self._draw = (drawn, [np.array(T, dtype=np.float64) for T in poses])
             park(self._scene)
             settle(self._scene)
-            self._renderer.bind(self._scene.model, self._scene.geom_labels)
             self._cam = self.rig.sample(rng, look_at)
             self._target = int(rng.integers(k)) + 1
             for view in range(CAMERA_DRAWS):
                 if view:
                     self._cam = self.rig.sample(rng, look_at)
-                frame = self._renderer.render(self._scene.data, self._cam)
+                frame = self._render_frame()
                 pixels = int(np.count_nonzero(frame.segmentation == self._target))
                 if pixels >= self.min_target_pixels:
                     break
@@ -368,25 +486,61 @@ class BEOPickEnv(gym.Env):
         obs = self._observe(frame)
         return _copy(obs), {"num_objects": k, "attempt": 0, "target_pixels": pixels}
 
+    def _render_frame(self) -> Any:
+        """Depth and segmentation of the current scene, (re)creating the renderer when there is
+        none (first reset, after ``close`` or in a copy) and binding it to a new scene."""
+        assert self._scene is not None
+        if self._renderer is None:
+            self._renderer = Renderer(self.intrinsics)
+            self._bound = None
+        if self._bound is not self._scene:
+            self._renderer.bind(self._scene.model, self._scene.geom_labels)
+            self._bound = self._scene
+        return self._renderer.render(self._scene.data, self._cam)
+
     def _observe(self, frame: Any = None) -> dict[str, Any]:
         """The observation of the current scene; ``frame``: its rendering if reset has just
         made it (rendering twice would cost a second pass)."""
-        assert self._scene is not None and self._renderer is not None
+        assert self._scene is not None
         if frame is None:
-            frame = self._renderer.render(self._scene.data, self._cam)
+            frame = self._render_frame()
         depth = frame.depth
         if self.noise is not None:
             depth = apply_noise(depth, self.np_random, self.noise)
+        # the renderer may already give uint8 labels: then this is no copy
+        seg = frame.segmentation.astype(self.seg_dtype, copy=False)
+        self._image = {"depth": depth, "segmentation": seg}
         target_cat = self._scene.instances[self._target - 1].category
         self._rest = self._scene.object_heights()
-        self._obs = {
-            "depth": depth,
-            "segmentation": frame.segmentation,
+        common = {
             "target_class": int(self.categories.index(target_cat)),
             "intrinsics": self.intrinsics.K,
             "cam_to_world": self._cam.copy(),
         }
+        if self.obs_mode == "image":
+            self._obs = {"depth": depth, "segmentation": seg, **common}
+        else:
+            points, labels = self._sample_points(depth, seg)
+            self._obs = {"points": points, "point_labels": labels, **common}
         return self._obs
+
+    def _sample_points(self, depth: np.ndarray, seg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``num_points`` camera-frame points of pixels with depth, drawn from ``np_random``,
+        and their labels (see the class docstring for how few valid pixels are padded)."""
+        n = self.num_points
+        valid = depth > 0
+        count = int(np.count_nonzero(valid))
+        if count == 0:
+            return np.zeros((n, 3), np.float32), np.zeros(n, self.seg_dtype)
+        rng = self.np_random
+        if count >= n:
+            idx = rng.choice(count, n, replace=False)
+        else:  # every valid pixel once, then repeats: all points stay on surfaces
+            idx = np.concatenate([np.arange(count), rng.choice(count, n - count, replace=True)])
+        # backproject and np.nonzero both list the valid pixels in row-major order
+        points = backproject(depth, self.intrinsics.K)[idx].astype(np.float32)
+        labels = seg[valid][idx]
+        return points, labels
 
     def step(self, action: Any) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
         if self._scene is None or self._obs is None:
@@ -435,18 +589,162 @@ class BEOPickEnv(gym.Env):
         of MuJoCo envs is not metric); None without a render mode."""
         if self.render_mode is None:
             return None
-        if self._scene is None or self._renderer is None or self._obs is None:
+        if self._scene is None or self._image is None:
             raise EnvStateError("call reset() before render()")
         if self.render_mode == "depth_array":
-            return np.array(self._obs["depth"], dtype=np.float32, copy=True)
+            return np.array(self._image["depth"], dtype=np.float32, copy=True)
+        self._render_frame()  # creates and binds the renderer when needed (e.g. in a copy)
+        assert self._renderer is not None
         return self._renderer.render_rgb(self._scene.data, self._cam)
 
     def close(self) -> None:
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+        self._bound = None
         self._scene = None
+        self._draw = None
+        self._image = None
+        self._obs = None
         super().close()
+
+    # -- copy and pickle -------------------------------------------------------------------------
+    # A GL context cannot be copied, and a scene holds ctypes-backed MuJoCo structures, so a
+    # copy is rebuilt from what made it: the constructor's arguments and the episode's state
+    # (which objects, where they were placed, the physics state, camera, target, attempts and
+    # the RNG). The renderer is not copied; the copy makes its own when it next renders.
+    def __getstate__(self) -> dict[str, Any]:
+        episode = None
+        if self._scene is not None and self._draw is not None and self._obs is not None:
+            model, data = self._scene.model, self._scene.data
+            physics = np.empty(mujoco.mj_stateSize(model, _STATE))
+            mujoco.mj_getState(model, data, physics, _STATE)
+            assert self._image is not None
+            episode = {
+                "drawn": list(self._draw[0]),
+                "poses": [T.copy() for T in self._draw[1]],
+                "physics": physics,
+                "cam": self._cam.copy(),
+                "target": self._target,
+                "attempts": self._attempts,
+                "terminated": self._terminated,
+                "rest": self._rest.copy(),
+                "image": _copy(self._image),
+                "obs": _copy(self._obs),
+            }
+        return {
+            "config": self._config,
+            "max_attempts": self.max_attempts,
+            "spec": self.spec,
+            "np_random": self._np_random,
+            "np_random_seed": self._np_random_seed,
+            "episode": episode,
+        }
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__init__(**state["config"])  # type: ignore[misc]
+        self.max_attempts = state["max_attempts"]
+        self.spec = state["spec"]
+        self._np_random = state["np_random"]
+        self._np_random_seed = state["np_random_seed"]
+        episode = state["episode"]
+        if episode is None:
+            return
+        insts = [self.objects.get(c, i) for c, i in episode["drawn"]]
+        self._scene = build_tabletop(insts, episode["poses"], self.intrinsics, self.table)
+        self._draw = (episode["drawn"], episode["poses"])
+        model, data = self._scene.model, self._scene.data
+        mujoco.mj_setState(model, data, episode["physics"], _STATE)
+        mujoco.mj_forward(model, data)
+        self._cam = episode["cam"]
+        self._target = episode["target"]
+        self._attempts = episode["attempts"]
+        self._terminated = episode["terminated"]
+        self._rest = episode["rest"]
+        self._image = episode["image"]
+        self._obs = episode["obs"]
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> BEOPickEnv:
+        # the object set is read-only and may hold a whole dataset: share it, copy the rest
+        objects = self._config.get("objects")
+        if objects is not None:
+            memo[id(objects)] = objects
+        new = type(self).__new__(type(self))
+        memo[id(self)] = new
+        new.__setstate__(copy.deepcopy(self.__getstate__(), memo))
+        return new
+
+
+def make_pick_env(**kwargs: Any) -> BEOPickEnv:
+    """``gym.make("BEOPick-v0", ...)``'s entry point: :class:`BEOPickEnv` with ``kwargs``.
+
+    Two reasons it is a function rather than the class. ``gym.make`` reads the entry point's
+    ``metadata`` and, for ``render_mode="human"``, silently swaps in its pygame
+    ``HumanRendering`` wrapper (which fails at the first reset without a display); without a
+    ``metadata`` attribute the mode reaches the env, which refuses it with the supported
+    ones. And ``gym.make`` rewraps a ``TypeError`` from the constructor, so a misspelt keyword
+    is reported here as an :class:`EnvConfigError` naming the valid keywords.
+    """
+    valid = list(KEYWORDS)
+    unknown = sorted(set(kwargs) - set(valid))
+    if unknown:
+        hints = [
+            f"{u!r}: did you mean {close[0]!r}?"
+            for u in unknown
+            if (close := difflib.get_close_matches(u, valid, n=1))
+        ]
+        hint = f" ({'; '.join(hints)})" if hints else ""
+        raise EnvConfigError(
+            f"BEOPick-v0 got unknown keyword arguments {unknown}{hint}; valid ones are {valid}"
+        )
+    return BEOPickEnv(**kwargs)
+
+
+KEYWORDS: tuple[str, ...] = tuple(inspect.signature(BEOPickEnv.__init__).parameters)[1:]
+"""The constructor's keywords (what ``gym.make("BEOPick-v0", ...)`` accepts)."""
+
+
+def _time_limit(env: gym.Env) -> TimeLimit | None:
+    while isinstance(env, gym.Wrapper):
+        if isinstance(env, TimeLimit):
+            return env
+        env = env.env
+    return None
+
+
+def follow_time_limit(env: gym.Env) -> gym.Env:
+    """``gym.make``'s last step for BEOPick-v0 (registered as an additional wrapper that
+    returns ``env`` unchanged): make ``max_attempts`` and the ``TimeLimit`` agree.
+
+    ``gym.make`` adds the ``TimeLimit`` after building the env and never tells the env, so
+    they are reconciled here: ``max_attempts`` not given follows ``max_episode_steps``
+    (registered 1, or the caller's); ``max_attempts`` given sets the limit unless the caller
+    also passed a different ``max_episode_steps``, which is an :class:`EnvConfigError`. The
+    registered default is a :class:`~beo_bench.envs.RegisteredSteps`, which is how an explicit
+    ``max_episode_steps=1`` is told from the default. ``max_episode_steps=-1`` (no limit)
+    leaves ``max_attempts`` alone.
+    """
+    pick = env.unwrapped
+    limit = _time_limit(env)
+    if not isinstance(pick, BEOPickEnv) or limit is None:
+        return env
+    steps = limit._max_episode_steps
+    if not pick.max_attempts_given:
+        pick.max_attempts = int(steps)
+    elif isinstance(steps, RegisteredSteps):
+        steps = pick.max_attempts
+    elif steps != pick.max_attempts:
+        env.close()
+        raise EnvConfigError(
+            f"max_attempts={pick.max_attempts} and max_episode_steps={steps} disagree: an "
+            "episode ends after max_attempts grasps, so the time limit would cut it short or "
+            "never apply; give one of them (the other follows) or both equal"
+        )
+    limit._max_episode_steps = int(steps)
+    limit._cached_spec = None  # env.spec reports the limit as it is now
+    if pick.spec is not None:  # so that gym.make(env.spec) rebuilds this very env
+        pick.spec.kwargs["max_attempts"] = pick.max_attempts
+    return env
 
 
 def _whole(value: Any, what: str) -> int:

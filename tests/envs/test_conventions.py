@@ -1,0 +1,345 @@
+"""BEOPick-v0 follows gymnasium's and the RL libraries' conventions: the time limit agrees
+with ``max_attempts``, copies and pickles continue the episode, unsupported render modes and
+misspelt keywords fail at ``gym.make``, the point-cloud mode, and the env checkers."""
+
+from __future__ import annotations
+
+import copy
+import inspect
+import os
+import pickle
+import re
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.wrappers import TimeLimit
+
+import beo_bench  # noqa: F401  (registers the ids)
+from beo_bench.envs.pick import BEOPickEnv
+from beo_bench.errors import EnvConfigError
+from beo_bench.objects import ObjectSet
+from beo_bench.scenes.camera import backproject, project
+
+SMALL = {"image_size": (64, 48), "num_objects": 1}
+AIR = [0.4, 0.3, 0.9, 0.0, 1.0, 0.0, 0.0, 0.08]  # above a table corner: lifts nothing
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "env.md"
+
+
+def _time_limit(env: gym.Env) -> TimeLimit | None:
+    while isinstance(env, gym.Wrapper):
+        if isinstance(env, TimeLimit):
+            return env
+        env = env.env
+    return None
+
+
+# -- max_episode_steps and max_attempts ----------------------------------------------------------
+@pytest.mark.parametrize(
+    "kwargs, attempts",
+    [
+        ({}, 1),
+        ({"max_attempts": 3}, 3),
+        ({"max_episode_steps": 3}, 3),
+        ({"max_attempts": 3, "max_episode_steps": 3}, 3),
+        ({"max_episode_steps": 1}, 1),
+    ],
+)
+def test_time_limit_and_max_attempts_agree_through_make(kwargs, attempts) -> None:
+    assert gym.spec("BEOPick-v0").max_episode_steps == 1  # registered: one grasp
+    e = gym.make("BEOPick-v0", **SMALL, **kwargs)
+    try:
+        assert e.unwrapped.max_attempts == attempts
+        assert e.spec.max_episode_steps == attempts
+        e.reset(seed=0)
+        for attempt in range(1, attempts + 1):
+            _, _, terminated, truncated, info = e.step(AIR)
+            assert info["attempt"] == attempt
+            # never truncated before the last attempt the env allows
+            assert terminated == truncated == (attempt == attempts)
+    finally:
+        e.close()
+
+
+@pytest.mark.parametrize("attempts, steps", [(2, 3), (3, 1), (1, 2)])
+def test_disagreeing_max_attempts_and_max_episode_steps_fail_at_make(attempts, steps) -> None:
+    with pytest.raises(EnvConfigError, match=f"max_attempts={attempts} and max_episode_steps="):
+        gym.make("BEOPick-v0", max_attempts=attempts, max_episode_steps=steps, **SMALL)
+
+
+def test_no_time_limit_keeps_max_attempts() -> None:
+    e = gym.make("BEOPick-v0", max_attempts=2, max_episode_steps=-1, **SMALL)
+    assert _time_limit(e) is None and e.unwrapped.max_attempts == 2
+    e.close()
+
+
+def test_make_from_the_spec_rebuilds_the_same_limits() -> None:
+    e = gym.make("BEOPick-v0", max_episode_steps=3, **SMALL)
+    again = gym.make(e.spec)
+    assert again.unwrapped.max_attempts == 3 and again.spec.max_episode_steps == 3
+    e.close()
+    again.close()
+
+
+def test_vector_envs_get_the_limit_too() -> None:
+    envs = gym.make_vec(
+        "BEOPick-v0", num_envs=2, vectorization_mode="sync", max_attempts=2, **SMALL
+    )
+    assert all(sub.unwrapped.max_attempts == 2 for sub in envs.envs)
+    assert all(_time_limit(sub)._max_episode_steps == 2 for sub in envs.envs)
+    envs.close()
+
+
+# -- copy and pickle ---------------------------------------------------------------------------
+def _assert_same_obs(a: dict, b: dict) -> None:
+    assert a.keys() == b.keys()
+    for k in a:
+        np.testing.assert_array_equal(a[k], b[k])
+
+
+@pytest.mark.parametrize("obs_mode", ["image", "pointcloud"])
+def test_copies_continue_the_episode_exactly(obs_mode) -> None:
+    """A deep copy and a pickled copy, made mid-episode through gym.make's wrappers, give the
+    same next step (physics, observation, reward) and the same next unseeded reset (RNG)."""
+    kw = {"num_points": 512} if obs_mode == "pointcloud" else {}
+    e = gym.make(
+        "BEOPick-v0", image_size=(96, 72), max_attempts=3, noise=True, obs_mode=obs_mode, **kw
+    )
+    e.reset(seed=3)
+    grasps = e.unwrapped.ground_truth_grasps()
+    assert grasps
+    e.step(AIR)  # a miss: the scene settles again and is observed anew
+    copies = [copy.deepcopy(e), pickle.loads(pickle.dumps(e))]
+    try:
+        for c in copies:
+            assert c.unwrapped._renderer is None  # never copied: made when next needed
+            assert c.unwrapped.max_attempts == 3 and _time_limit(c)._elapsed_steps == 1
+        results = [env.step(grasps[0].action) for env in (e, *copies)]
+        assert results[0][4]["success"]  # the step exercises the physics of a real lift
+        for r in results[1:]:
+            _assert_same_obs(results[0][0], r[0])
+            assert r[1:4] == results[0][1:4]
+            assert r[4]["lift_height"] == results[0][4]["lift_height"]
+        resets = [env.reset()[0] for env in (e, *copies)]
+        for r in resets[1:]:
+            _assert_same_obs(resets[0], r)
+    finally:
+        for env in (e, *copies):
+            env.close()
+
+
+def test_copy_before_reset_and_after_close() -> None:
+    e = BEOPickEnv(**SMALL)
+    c = copy.deepcopy(e)
+    assert c.scene is None and c.intrinsics == e.intrinsics
+    obs_c, _ = c.reset(seed=4)
+    obs_e, _ = e.reset(seed=4)
+    _assert_same_obs(obs_e, obs_c)
+    e.close()
+    assert pickle.loads(pickle.dumps(e)).scene is None
+    c.close()
+
+
+def test_no_traceback_at_exit_after_copies_and_unclosed_envs() -> None:
+    code = (
+        "import copy, pickle, gymnasium as gym, beo_bench\n"
+        "e = gym.make('BEOPick-v0', image_size=(64, 48), num_objects=1, render_mode='rgb_array')\n"
+        "e.reset(seed=0); e.render()\n"
+        "c = copy.deepcopy(e); p = pickle.loads(pickle.dumps(e))\n"
+        "c.step([0.4, 0.3, 0.9, 0, 1, 0, 0, 0.08]); p.render()\n"
+        "print('done')\n"  # nothing closed: interpreter exit cleans up
+    )
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
+    )
+    assert out.returncode == 0 and out.stdout.strip() == "done", out.stderr
+    assert out.stderr == ""
+
+
+# -- render modes and keywords -----------------------------------------------------------------
+@pytest.mark.parametrize("mode", ["human", "rgb_array_list", "ansi"])
+def test_unsupported_render_modes_fail_at_make(mode) -> None:
+    with pytest.raises(EnvConfigError, match="use None, 'rgb_array' or 'depth_array'"):
+        gym.make("BEOPick-v0", render_mode=mode, **SMALL)
+
+
+@pytest.mark.parametrize("mode", ["rgb_array", "depth_array"])
+def test_supported_render_modes_are_not_wrapped(mode) -> None:
+    e = gym.make("BEOPick-v0", render_mode=mode, **SMALL)
+    assert e.render_mode == mode and e.unwrapped.render_mode == mode
+    e.reset(seed=0)
+    assert e.render().shape[:2] == (48, 64)
+    e.close()
+
+
+def test_constructor_is_explicit_and_typed() -> None:
+    params = list(inspect.signature(BEOPickEnv.__init__).parameters.values())[1:]
+    assert len(params) == 14
+    for p in params:
+        assert p.kind is inspect.Parameter.KEYWORD_ONLY and p.annotation is not p.empty, p.name
+    doc = inspect.getdoc(BEOPickEnv)
+    for section in (
+        "Description",
+        "Action Space",
+        "Observation Space",
+        "Rewards",
+        "Starting State",
+        "Episode End",
+        "Arguments",
+        "Version History",
+    ):
+        assert f"## {section}\n" in doc
+    for p in params:
+        assert f"``{p.name}``" in doc  # every argument is documented
+
+
+def test_misspelt_keyword_is_named_with_a_suggestion() -> None:
+    with pytest.raises(EnvConfigError, match=r"'max_atempts': did you mean 'max_attempts'"):
+        gym.make("BEOPick-v0", max_atempts=2)
+    with pytest.raises(TypeError, match="max_atempts"):  # Python's own error, unwrapped
+        BEOPickEnv(max_atempts=2)
+    with pytest.raises(EnvConfigError, match=r"num_points=.* only applies to obs_mode"):
+        gym.make("BEOPick-v0", num_points=100)
+    with pytest.raises(EnvConfigError, match="obs_mode='depth'"):
+        gym.make("BEOPick-v0", obs_mode="depth")
+
+
+def test_make_with_the_module_prefix_needs_no_import() -> None:
+    code = (
+        "import gymnasium as gym\n"
+        "try:\n"
+        "    gym.make('BEOPick-v0')\n"
+        "except gym.error.NameNotFound as e:\n"
+        "    print('NameNotFound')\n"
+        "e = gym.make('beo_bench:BEOPick-v0', image_size=(32, 24), num_objects=1)\n"
+        "obs, _ = e.reset(seed=0)\n"
+        "print(obs['depth'].shape)\n"
+        "e.close()\n"
+    )
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["NameNotFound", "(24,", "32)"]
+
+
+# -- segmentation dtype ------------------------------------------------------------------------
+def test_segmentation_is_one_byte_while_labels_fit() -> None:
+    e = gym.make("BEOPick-v0", image_size=(64, 48))
+    assert e.observation_space["segmentation"].dtype == np.uint8
+    obs, _ = e.reset(seed=0)
+    assert obs["segmentation"].dtype == np.uint8 and e.observation_space.contains(obs)
+    e.close()
+    # 255 object labels do not fit a byte beside the background: int32
+    base = ObjectSet("test", ["mug"])
+    many = {f"c{i:03d}": [base.get("mug", 0)] for i in range(255)}
+    big = BEOPickEnv(objects=ObjectSet.from_instances("test", many, "test"), num_objects=255)
+    assert big.max_objects == 255 and big.observation_space["segmentation"].dtype == np.int32
+
+
+# -- point clouds ------------------------------------------------------------------------------
+def test_pointcloud_points_lie_on_the_rendered_surfaces() -> None:
+    img = gym.make("BEOPick-v0", image_size=(96, 72), num_objects=3)
+    pc = gym.make("BEOPick-v0", image_size=(96, 72), num_objects=3, obs_mode="pointcloud")
+    try:
+        obs_i, _ = img.reset(seed=7)
+        obs_p, _ = pc.reset(seed=7)  # same scene and camera: the draws before sampling match
+        assert pc.observation_space.contains(obs_p)
+        assert set(obs_p) == {
+            "points",
+            "point_labels",
+            "target_class",
+            "intrinsics",
+            "cam_to_world",
+        }
+        pts, labels = obs_p["points"], obs_p["point_labels"]
+        assert pts.shape == (4096, 3) and pts.dtype == np.float32
+        assert labels.shape == (4096,) and labels.dtype == np.uint8
+        K, depth, seg = obs_p["intrinsics"], obs_i["depth"], obs_i["segmentation"]
+        np.testing.assert_array_equal(obs_p["cam_to_world"], obs_i["cam_to_world"])
+        uv = np.rint(project(pts, K)).astype(int)
+        assert np.all(pts[:, 2] > 0)
+        np.testing.assert_allclose(pts[:, 2], depth[uv[:, 1], uv[:, 0]], rtol=1e-6)
+        np.testing.assert_array_equal(labels, seg[uv[:, 1], uv[:, 0]])
+        # distinct pixels (no repeats while enough have depth), all on the depth's surface
+        assert len(np.unique(uv, axis=0)) == 4096 <= np.count_nonzero(depth)
+        # each point is its pixel's back-projection (row of backproject's row-major output)
+        valid = depth > 0
+        row = np.cumsum(valid.ravel()) - 1
+        surface = backproject(depth, K)[row[uv[:, 1] * depth.shape[1] + uv[:, 0]]]
+        np.testing.assert_allclose(pts, surface, rtol=1e-6, atol=1e-7)
+        assert set(np.unique(labels)) <= set(np.unique(seg))
+        assert obs_p["target_class"] == obs_i["target_class"]
+        assert np.any(labels == pc.unwrapped.target_label)
+    finally:
+        img.close()
+        pc.close()
+
+
+def test_pointcloud_is_deterministic_and_pads_with_repeats() -> None:
+    kw = {"image_size": (16, 12), "num_objects": 1, "obs_mode": "pointcloud"}
+    a = gym.make("BEOPick-v0", num_points=500, **kw)  # 192 pixels: fewer than 500
+    b = gym.make("BEOPick-v0", num_points=500, **kw)
+    try:
+        oa, _ = a.reset(seed=1)
+        ob, _ = b.reset(seed=1)
+        _assert_same_obs(oa, ob)
+        valid = np.count_nonzero(a.unwrapped._image["depth"] > 0)
+        first = oa["points"][:valid]
+        assert len(np.unique(first, axis=0)) == valid  # every valid pixel once, first
+        rest = {tuple(p) for p in oa["points"][valid:]}
+        assert rest <= {tuple(p) for p in first}  # then repeats of real points, no zeros
+        assert np.all(oa["points"][:, 2] > 0)
+        oc, _ = a.reset(seed=2)
+        assert not np.array_equal(oc["points"], oa["points"])
+    finally:
+        a.close()
+        b.close()
+
+
+# -- env checkers ------------------------------------------------------------------------------
+def _documented_warnings() -> dict[str, str]:
+    """The warnings docs/env.md explains: its lines ``- checker: `message start` ...``."""
+    found = re.findall(r"^- (gymnasium|sb3): `([^`]+)`", DOCS.read_text(), flags=re.M)
+    return {text: checker for checker, text in found}
+
+
+@pytest.mark.parametrize("obs_mode", ["image", "pointcloud"])
+def test_env_checkers_pass_with_only_the_documented_warnings(obs_mode) -> None:
+    from gymnasium.utils.env_checker import check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    documented = _documented_warnings()
+    assert documented, "docs/env.md lists no checker warnings"
+    seen: set[tuple[str, str]] = set()
+    kw = {"num_points": 256} if obs_mode == "pointcloud" else {}
+    for checker, check in (("gymnasium", check_env), ("sb3", sb3_check_env)):
+        for render_mode in (None, "rgb_array", "depth_array"):
+            e = gym.make("BEOPick-v0", obs_mode=obs_mode, render_mode=render_mode, **SMALL, **kw)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                check(e.unwrapped)
+            e.close()
+            for w in caught:
+                text = re.sub(r"^WARN: ", "", re.sub(r"\x1b\[[0-9;]*m", "", str(w.message)))
+                match = [d for d in documented if text.startswith(d)]
+                assert match, f"{checker} warned something docs/env.md does not explain: {text}"
+                assert documented[match[0]] == checker, text
+                seen.add((checker, match[0]))
+    expected = {
+        ("gymnasium", "For Box action spaces, we recommend using a symmetric and normalized"),
+        ("sb3", "We recommend you to use a symmetric and normalized Box action space"),
+    }
+    names = ["cam_to_world", "intrinsics"]
+    names += ["depth", "segmentation"] if obs_mode == "image" else ["points"]
+    expected |= {
+        ("sb3", f"Your observation {n} has an unconventional shape (neither an image, nor a 1D")
+        for n in names
+    }
+    assert seen == expected
