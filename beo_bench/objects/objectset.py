@@ -130,6 +130,17 @@ def instance_from_key(key: str) -> ObjectInstance:
     return _RESOLVERS[prefix](rest)
 
 
+class _InstanceLists:
+    """``(category, index) -> instance`` over given lists: ``ObjectSet.from_instances``'
+    lookup."""
+
+    def __init__(self, instances: dict[str, list[ObjectInstance]]) -> None:
+        self.instances = instances
+
+    def __call__(self, category: str, index: int) -> ObjectInstance:
+        return self.instances[category][index]
+
+
 class ObjectSet:
     """One split of an object library.
 
@@ -173,7 +184,9 @@ class ObjectSet:
         self.split = split
         self.source = source
         self._counts = {c: len(v) for c, v in sorted(instances.items())}
-        self._get = lambda c, i: instances[c][i]
+        # a picklable lookup (not a lambda), so that an env drawing from a loaded dataset
+        # can be pickled for worker processes
+        self._get = _InstanceLists(instances)
         return self
 
     @property

@@ -3,6 +3,7 @@ symmetry estimation, and the CoACD cache of loaded meshes."""
 
 from __future__ import annotations
 
+import pickle
 import re
 import time
 from collections.abc import Callable
@@ -290,6 +291,16 @@ def test_folder_round_trip_and_splits(folder_root: Path) -> None:
         assert instance_from_key(inst.key).content_hash == inst.content_hash
     with pytest.raises(UnknownSplitError):
         load_folder(folder_root, "ood")
+
+
+def test_a_loaded_set_pickles_for_worker_processes(folder_root: Path) -> None:
+    # an env drawing from a loaded dataset is pickled when it goes to a subprocess vector env
+    s = load_folder(folder_root, "all")
+    back = pickle.loads(pickle.dumps(s))
+    assert back.categories == s.categories
+    c = s.categories[0]
+    assert back.get(c, 0).key == s.get(c, 0).key
+    assert back.get(c, 0).content_hash == s.get(c, 0).content_hash
 
 
 def test_folder_axes_option(folder_root: Path) -> None:
