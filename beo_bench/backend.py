@@ -45,6 +45,8 @@ class PerceptionBackend(Protocol):
       backends that set it (the ``oracle`` bound);
     - ``wants_class_hint`` (default False): the backend can use ``View.class_hint``, which
       views carry only in a suite's ``class-given`` track (``Suite.track``);
+    - ``description``: one line saying what it is, for listings (``beo-bench --help``;
+      default: the first sentence of its docstring);
     - ``prepare(categories)``: build or load what is slow (trained models, class means) for
       that class list, caching it on disk; the runner calls it once in its own process before
       workers start, so they do not all build it at once.
@@ -170,6 +172,19 @@ def list_backends(diagnostic: bool = True) -> list[str]:
         for name, (f, _) in _REGISTRY.items()
         if diagnostic or not getattr(f, "diagnostic", False)
     )
+
+
+def describe_backend(name: str) -> str:
+    """One line saying what backend ``name`` is, for listings (``beo-bench --help``): its
+    factory's ``description`` attribute (in-tree backends and plugins may set one), else the
+    first sentence of the factory's docstring, else ``""``. Builds nothing."""
+    _ensure_in_tree()
+    if name not in _REGISTRY:
+        raise _unknown_backend(name)
+    factory = _REGISTRY[name][0]
+    text = getattr(factory, "description", None) or inspect.getdoc(factory) or ""
+    first = " ".join(str(text).split("\n\n", 1)[0].split())
+    return first.split(". ", 1)[0].rstrip(".")
 
 
 def get_backend(name: str, **kwargs: Any) -> PerceptionBackend:

@@ -17,8 +17,6 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from beo_bench.bench.columns import brief_columns
 from beo_bench.errors import BeoBenchError, UsageError
 
@@ -118,7 +116,9 @@ def size_option(text: str) -> float | str:
     return "native" if text == "native" else positive_float(text)
 
 
-def dataset_parent(size_flags: tuple[str, ...] = ("--size", "--object-size")) -> Any:
+def dataset_parent(
+    size_flags: tuple[str, ...] = ("--size", "--object-size"),
+) -> argparse.ArgumentParser:
     """The options that point a command at a user's dataset (``--objects`` and how its
     files are loaded), shared by every command that reads objects. ``size_flags``: the
     spellings of the object-size option (``train`` has its own ``--size``, the network's,
@@ -183,163 +183,65 @@ def _dataset(args: argparse.Namespace) -> Any:
     return open_dataset(root, repair=args.repair, up=args.up, size=args.object_size)
 
 
-def _fmt_bytes(n: float) -> str:
-    for unit in ("B", "KB", "MB", "GB"):
-        if n < 1024 or unit == "GB":
-            return f"{n:.1f} {unit}"
-        n /= 1024
-    return f"{n:.1f} GB"
-
-
-def library_table(stats: list, split: str, split_counts: dict[str, str] | None = None) -> str:
-    """A plain-text summary of the object library from per-instance statistics.
-    ``split_counts``: per category, its models per split (a user's dataset; default: the
-    procedural library's split sizes)."""
-    from beo_bench.objects import DEFAULT_SPLIT_SIZES, get_category
-
-    by_cat: dict[str, list] = {}
-    for s in stats:
-        by_cat.setdefault(s.category, []).append(s)
-    splits = "train/val/test" if split_counts is not None else "train/val/test/ood"
-    head = (
-        f"{'category':<10} {splits:>18} {'params':>6} {'pick':>4}  "
-        f"{'symmetry (' + split + ' split)':<52} {'largest extent cm':>17} "
-        f"{'parts':>5} {'gen ms':>6} {'proc ms':>7}"
-    )
-    lines = [head, "-" * len(head)]
-    sizes = "/".join(str(DEFAULT_SPLIT_SIZES[k]) for k in ("train", "val", "test", "ood"))
-    for cat, ss in sorted(by_cat.items()):
-        spec = get_category(cat) if cat in _registered() else None
-        labels, counts = np.unique([s.symmetry for s in ss], return_counts=True)
-        order = np.argsort(-counts)
-        sym = ", ".join(f"{labels[i]} {100 * counts[i] / len(ss):.0f}%" for i in order)
-        ext = np.array([max(s.extents) for s in ss]) * 100
-        counts = split_counts.get(cat, "") if split_counts is not None else sizes
-        lines.append(
-            f"{cat:<10} {counts:>18} {len(spec.params) if spec else 0:>6} "
-            f"{'yes' if spec is None or spec.pickable else 'no':>4}  {sym:<52} "
-            f"{f'{ext.min():.1f}-{ext.max():.1f}':>17} "
-            f"{np.mean([s.parts for s in ss]):>5.0f} "
-            f"{1000 * np.median([s.generate_s for s in ss]):>6.1f} "
-            f"{1000 * np.median([s.process_s for s in ss]):>7.1f}"
-        )
-    return "\n".join(lines)
-
-
-def _registered() -> tuple[str, ...]:
-    from beo_bench.objects import categories
-
-    return categories()
-
-
 def cmd_objects(args: argparse.Namespace) -> int:
-    from beo_bench.objects import ObjectSet
-    from beo_bench.objects.prepare import prepare
-    from beo_bench.objects.sheet import contact_sheet
+    from beo_bench import reports
 
     dataset = _dataset(args)
     if dataset is not None and args.root is not None:
         raise UsageError("give the dataset once: --objects ROOT (--root is its older spelling)")
-    split_counts = None
     if dataset is not None:
-        objects = dataset.objects(args.split, args.categories, args.per_category)
         print(f"dataset {dataset.root}: {dataset.layout} layout, digest {dataset.digest}")
-        per_split = [dataset.objects(s, objects.categories) for s in ("train", "val", "test")]
-        split_counts = {c: "/".join(str(o.count(c)) for o in per_split) for c in objects.categories}
-    else:
-        objects = ObjectSet(
-            args.split, args.categories, root=args.root, per_category=args.per_category
-        )
-    t0 = time.perf_counter()
-    stats = prepare(objects, D=args.resolution, workers=args.workers)
-    wall = time.perf_counter() - t0
-    print()
-    print(library_table(stats, args.split, split_counts))
-    print(
-        f"\n{len(stats)} instances processed in {wall:.1f} s with {args.workers} "
-        f"workers ({len(stats) / wall:.1f} instances/s; voxels {args.resolution}^3, "
-        f"surface samples, collision parts)"
+    objects, counts = reports.select_objects(
+        args.split, args.categories, args.per_category, dataset=dataset, root=args.root
     )
-    if args.sheet:
-        path = contact_sheet(args.sheet, objects, per_category=6)
-        print(f"contact sheet: {path}")
+    report = reports.summarise_objects(
+        objects,
+        args.split,
+        resolution=args.resolution,
+        workers=args.workers,
+        sheet=args.sheet,
+        split_counts=counts,
+    )
+    print()
+    print(report.text())
     return 0
 
 
 def cmd_cache(args: argparse.Namespace) -> int:
+    from beo_bench import reports
     from beo_bench.objects import cache
 
     if args.action == "clear":
         freed = cache.clear(args.kind)
-        print(f"cleared {_fmt_bytes(freed)} from {cache.cache_root()}")
+        print(f"cleared {reports.format_bytes(freed)} from {cache.cache_root()}")
         return 0
-    info = cache.info()
-    print(f"cache: {info['root']} ({_fmt_bytes(info['bytes'])})")
-    for kind, k in info["kinds"].items():
-        print(f"  {kind:<10} {k['entries']:>7} entries  {_fmt_bytes(k['bytes']):>10}")
-    _print_models(cache.cache_root() / "models")
+    print(reports.cache_report().text())
     return 0
-
-
-def _print_models(root: Path) -> None:
-    """Each trained model with its content digest (equal digests: bitwise-equal models)."""
-    from beo_bench.errors import CheckpointError
-    from beo_bench.perception.digest import model_digest
-
-    # hidden siblings are a save in progress (.NAME.*.tmp) or a replaced model (.old)
-    dirs = (
-        sorted(d for d in root.glob("*/*") if d.is_dir() and not d.name.startswith("."))
-        if root.exists()
-        else []
-    )
-    if dirs:
-        print("models (content digest):")
-    for d in dirs:
-        try:
-            digest = model_digest(d)
-        except CheckpointError as e:
-            digest = f"unusable: {e}"
-        print(f"  {d.parent.name}/{d.name}  {digest}")
 
 
 def cmd_view(args: argparse.Namespace) -> int:
     from beo_bench.view import view_scene
 
-    kwargs: dict[str, Any] = {"split": args.split, "image_size": tuple(args.image_size)}
     dataset = _dataset(args)
-    if dataset is not None:
-        kwargs["objects"] = objects = dataset.objects(args.split)
-        # scenes hold distinct classes: a small dataset caps the default 1-4
-        kwargs["num_objects"] = (1, min(4, len(objects.categories)))
-    if args.num_objects is not None:
-        kwargs["num_objects"] = args.num_objects
-    r = view_scene(args.seed, args.out, rrd=not args.no_rrd, **kwargs)
-    print(
-        f"seed {args.seed}: objects {', '.join(r.objects)}; target {r.target}; "
-        f"{r.grasps} ground-truth grasps of the target"
+    r = view_scene(
+        args.seed,
+        args.out,
+        rrd=not args.no_rrd,
+        split=args.split,
+        image_size=tuple(args.image_size),
+        num_objects=args.num_objects,
+        objects=dataset.objects(args.split) if dataset is not None else None,
     )
-    print(f"image:     {r.png}")
-    if r.rrd is not None:
-        print(f"recording: {r.rrd}  (open with `rerun {r.rrd}`)")
+    print(r.text())
     return 0
 
 
 def cmd_pick_check(args: argparse.Namespace) -> int:
-    from beo_bench.envs.pickcheck import ground_truth_pick_check
+    from beo_bench import reports
 
-    t0 = time.perf_counter()
-    r = ground_truth_pick_check(
-        episodes=args.episodes, seed=args.seed, progress=True, split=args.split
-    )
-    wall = time.perf_counter() - t0
-    print(
-        f"\nBEOPick-v0, split {args.split}, seeds {args.seed}..{args.seed + args.episodes - 1}: "
-        "the ground-truth planner's best grasp of the target, executed once\n"
-    )
-    print(r.table())
-    reasons = ", ".join(f"{k} {v}" for k, v in sorted(r.failure_reasons().items()))
-    per = 1000 * wall / max(args.episodes, 1)
-    print(f"\nfailures: {reasons or 'none'}; {wall:.0f} s ({per:.0f} ms per episode)")
+    report = reports.pick_check(args.episodes, args.seed, args.split)
+    print()
+    print(report.text())
     return 0
 
 
@@ -490,73 +392,16 @@ def cmd_leaderboard(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from beo_bench.bench.runner import default_workers
+    from beo_bench.demo import run_demo
 
-    out = Path(args.out)
-    workers = args.workers or default_workers()
-    print("beo-bench demo: the object library (test split)\n")
-    ns = argparse.Namespace(
-        split="test",
-        categories=None,
-        root=None,
-        per_category=args.per_category,
-        resolution=32,
-        workers=workers,
-        sheet=out / "objects.png",
-    )
-    cmd_objects(ns)
-    print("\nbeo-bench demo: one BEOPick-v0 scene\n")
-    cmd_view(
-        argparse.Namespace(
-            seed=0, out=out, split="test", image_size=[640, 480], num_objects=None, no_rrd=False
-        )
-    )
-    print("\nbeo-bench demo: the ground-truth grasp ceiling on 20 episodes\n")
-    cmd_pick_check(argparse.Namespace(episodes=20, seed=0, split="test"))
-    demo_suites(out, workers)
-    return cmd_cache(argparse.Namespace(action="info", kind=None))
-
-
-DEMO_SIZES = {"known-pose": 44, "pose-1dof": 44, "pose-3dof": 44, "tabletop": 6, "pick": 10}
-"""Items per suite in ``make demo`` (a multiple of the 11 categories for isolated suites)."""
-
-
-def _default_backends() -> list[str]:
-    """Every registered backend (in-tree and plugins), bounds included; diagnostic tools
-    that wrap another backend (``swap``) are run by name only."""
-    from beo_bench.backend import list_backends, load_plugins
-
-    load_plugins()
-    return list_backends(diagnostic=False)
-
-
-def _print_leaderboard(written: list[Path], where: Path) -> None:
-    print()
-    for p in written:
-        print(p.read_text().split("\n![")[0])
-    print(f"leaderboards: {where}/ (plots and per-category tables beside the summaries)")
-
-
-def demo_suites(out: Path, workers: int | None) -> None:
-    """Every suite, shortened, with every registered backend; then the leaderboard.
-    Re-running resumes the finished runs (nothing is recomputed)."""
-    from beo_bench.bench.campaign import Campaign, run_campaign
-
-    backends = _default_backends()
-    print(f"\nbeo-bench demo: short suites with {', '.join(backends)}\n")
-    c = Campaign(
-        dict(DEMO_SIZES),
-        [(b, {}) for b in backends],
-        runs=out / "runs",
-        leaderboards=out / "leaderboards",
-        workers=workers,
-    )
-    _print_leaderboard(run_campaign(c), c.leaderboards)
+    run_demo(args.out, per_category=args.per_category, workers=args.workers)
+    return 0
 
 
 def cmd_all(args: argparse.Namespace) -> int:
     from beo_bench.bench.campaign import Campaign, parse_backend_spec, run_campaign
     from beo_bench.bench.suites import list_suites
+    from beo_bench.reports import every_backend, leaderboard_text
 
     dataset = _dataset(args)
     _split_needs_dataset(args, dataset)
@@ -565,7 +410,7 @@ def cmd_all(args: argparse.Namespace) -> int:
         suite = _suite(s)  # an unknown name fails before any run starts
         if dataset is not None:
             suite.with_dataset(dataset, args.split)  # so does a scene suite on a dataset
-    specs = args.backends or _default_backends()
+    specs = args.backends or every_backend()
     c = Campaign(
         {s: args.episodes for s in suites},
         [parse_backend_spec(b) for b in specs],
@@ -578,7 +423,7 @@ def cmd_all(args: argparse.Namespace) -> int:
         split=args.split,
         **_timeout(args),
     )
-    _print_leaderboard(run_campaign(c), c.leaderboards)
+    print(leaderboard_text(run_campaign(c), c.leaderboards))
     return 0
 
 
@@ -741,19 +586,75 @@ def cmd_render_dataset(args: argparse.Namespace) -> int:
     return 0
 
 
-def _dataset_args(g: Any) -> None:
-    g.add_argument("--images", type=positive_int, default=None, help="training crops")
-    g.add_argument(
-        "--val-images", type=nonneg_int, default=None, help="validation crops (val split)"
-    )
-    g.add_argument("--seed", type=seed_int, default=None, help="seeds rendering and training")
-    g.add_argument(
-        "--workers", type=positive_int, default=None, help="render processes (default: cores)"
-    )
+# -- shared options: one parent parser per option that several commands declare alike ------
+# Each factory takes what differs between commands (the default and the help text), so a
+# command's `--help` reads as before while the option's flag, type and checks live here once.
+def _option_parent(*flags: str, title: str | None = None, **kwargs: Any) -> argparse.ArgumentParser:
+    """A parent parser (``parents=[...]``) holding one option; in argument group ``title``
+    when given (parents whose groups share a title fill one group of the command)."""
+    p = argparse.ArgumentParser(add_help=False)
+    (p.add_argument_group(title) if title else p).add_argument(*flags, **kwargs)
+    return p
 
 
-def _item_timeout_arg(g: Any) -> None:
-    g.add_argument(
+def seed_parent(
+    default: int | None = None, help: str | None = None, title: str | None = None
+) -> argparse.ArgumentParser:
+    """``--seed``: a non-negative numpy seed."""
+    return _option_parent("--seed", type=seed_int, default=default, help=help, title=title)
+
+
+def workers_parent(
+    default: int | None = None, help: str | None = "default: one per core", title: str | None = None
+) -> argparse.ArgumentParser:
+    """``--workers``: processes, at least one."""
+    return _option_parent("--workers", type=positive_int, default=default, help=help, title=title)
+
+
+def episodes_parent(default: int | None = None, help: str | None = None) -> argparse.ArgumentParser:
+    """``--episodes``: items or episodes, at least one."""
+    return _option_parent("--episodes", type=positive_int, default=default, help=help)
+
+
+def per_category_parent(
+    default: int | None = None, help: str | None = None
+) -> argparse.ArgumentParser:
+    """``--per-category``: instances per class, at least one."""
+    return _option_parent("--per-category", type=positive_int, default=default, help=help)
+
+
+def split_parent(
+    choices: Sequence[str], default: str | None, help: str | None = None
+) -> argparse.ArgumentParser:
+    """``--split``: one of ``choices``."""
+    return _option_parent("--split", choices=list(choices), default=default, help=help)
+
+
+def categories_parent(help: str | None = None) -> argparse.ArgumentParser:
+    """``--categories C [C ...]``: class names (checked where they are used)."""
+    return _option_parent("--categories", nargs="+", default=None, help=help)
+
+
+def out_parent(
+    default: Any, help: str | None = None, type: Callable[[str], Any] | None = None
+) -> argparse.ArgumentParser:
+    """``--out``: where a command writes (``type``: e.g. ``Path``; default: the string)."""
+    return _option_parent("--out", type=type, default=default, help=help)
+
+
+def runs_parent(help: str | None = None) -> argparse.ArgumentParser:
+    """``--runs``: the directory of run directories."""
+    return _option_parent("--runs", default="runs", help=help)
+
+
+def ray_parent() -> argparse.ArgumentParser:
+    """``--ray``: items as Ray tasks instead of worker processes."""
+    return _option_parent("--ray", action="store_true", help="run the items as Ray tasks")
+
+
+def item_timeout_parent() -> argparse.ArgumentParser:
+    """``--item-timeout``: seconds one item may take (a finite number > 0)."""
+    return _option_parent(
         "--item-timeout",
         type=positive_float,
         default=None,
@@ -762,69 +663,147 @@ def _item_timeout_arg(g: Any) -> None:
     )
 
 
+def model_parent() -> argparse.ArgumentParser:
+    """The positional ``model``: which kind of perception model."""
+    return _option_parent("model", choices=MODELS)
+
+
+def model_name_parent(help: str) -> argparse.ArgumentParser:
+    """``--name``: a trained model's plain name (never a path)."""
+    return _option_parent("--name", type=model_name, default=None, help=help)
+
+
+def render_parents(title: str) -> list[argparse.ArgumentParser]:
+    """The options of rendering HBEO's training crops (``train`` and ``render-dataset``),
+    in one argument group ``title``."""
+    return [
+        _option_parent(
+            "--images", type=positive_int, default=None, help="training crops", title=title
+        ),
+        _option_parent(
+            "--val-images",
+            type=nonneg_int,
+            default=None,
+            help="validation crops (val split)",
+            title=title,
+        ),
+        seed_parent(help="seeds rendering and training", title=title),
+        workers_parent(help="render processes (default: cores)", title=title),
+    ]
+
+
+MODELS = ["beo", "hbeo", "hbeo-mdn"]
+"""The perception models ``train`` and ``publish`` know."""
+SCENE_SPLITS = ["train", "val", "test", "ood", "all"]
+"""Splits of a scene's objects: the library's four, or ``all`` of a user's dataset."""
+RENDER_GROUP = "rendering the training crops (hbeo and hbeo-mdn)"
+
+
+# -- what the registries hold, for `beo-bench --help` --------------------------------------
+def _fit(name: str, text: str, name_width: int, width: int) -> str:
+    """``  NAME  text`` on one line of at most ``width`` characters (cut at a word)."""
+    text = " ".join(text.replace("`", "").split())
+    line = f"  {name:<{name_width}}  {text}"
+    if len(line) <= width:
+        return line
+    return line[: width - 3].rsplit(" ", 1)[0].rstrip(",;:") + "..."
+
+
+def registry_listing(width: int | None = None) -> str:
+    """The suites, backends (plugins included) and cache kinds, one line each with what it
+    is, read from their registries; ``width``: the line length (default: the terminal's,
+    as argparse's)."""
+    import shutil
+
+    from beo_bench.backend import describe_backend, list_backends, load_plugins
+    from beo_bench.bench.suites import SUITES
+    from beo_bench.objects.cache import KINDS
+
+    width = width or max(60, shutil.get_terminal_size().columns - 2)
+    load_plugins()  # a broken plugin is one warning, and is left out
+    backends = {n: describe_backend(n) for n in list_backends()}
+    sections = [
+        ("suites (run --suite NAME)", {n: s.description for n, s in sorted(SUITES.items())}),
+        # plugins: packages' entry points in the group ENTRY_POINT_GROUP
+        ("backends (run --backend NAME; installed plugins included)", backends),
+        ("cache kinds (cache clear --kind KIND)", KINDS),
+    ]
+    out = []
+    for head, entries in sections:
+        w = max(map(len, entries))
+        out += [f"{head}:", *(_fit(n, d, w, width) for n, d in entries.items()), ""]
+    return "\n".join(out).rstrip()
+
+
+class _MainParser(argparse.ArgumentParser):
+    """The top-level parser: its help lists the registries (read only when help is shown,
+    so that a command never pays for importing every backend)."""
+
+    def format_help(self) -> str:
+        self.epilog = registry_listing() + "\n\n" + EXIT_STATUS
+        return super().format_help()
+
+
+EXIT_STATUS = __doc__.split("\n\n", 1)[1]
+
+
 def build_parser() -> argparse.ArgumentParser:
     import beo_bench
     from beo_bench.bench.suites import TRACKS
+    from beo_bench.objects.cache import KINDS
 
-    p = argparse.ArgumentParser(
+    p = _MainParser(
         prog="beo-bench",
         description="Benchmark object-centric perception (class, pose and full 3D shape from\n"
         "one segmented depth image) in simulation, and the grasps planned from it.",
-        epilog=__doc__.split("\n\n", 1)[1],
+        epilog=EXIT_STATUS,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--version", action="version", version=f"beo-bench {beo_bench.__version__}")
-    sub = p.add_subparsers(dest="command", required=True)
+    # the commands' parsers are plain ones: only the top-level help lists the registries
+    sub = p.add_subparsers(dest="command", required=True, parser_class=argparse.ArgumentParser)
+    data = dataset_parent()
 
-    d = sub.add_parser("demo", help="the main job on the embedded defaults")
-    d.add_argument("--out", default="out/demo", help="where images and results go")
-    d.add_argument(
-        "--per-category",
-        type=positive_int,
-        default=20,
-        help="test-split instances per category to process and summarise",
+    d = sub.add_parser(
+        "demo",
+        help="the main job on the embedded defaults",
+        parents=[
+            out_parent("out/demo", "where images and results go"),
+            per_category_parent(20, "test-split instances per category to process and summarise"),
+            workers_parent(),
+        ],
     )
-    d.add_argument("--workers", type=positive_int, default=None, help="default: one per core")
     d.set_defaults(func=cmd_demo)
 
     o = sub.add_parser(
-        "objects", help="process and summarise an object set", parents=[dataset_parent()]
+        "objects",
+        help="process and summarise an object set",
+        parents=[
+            data,
+            split_parent(SCENE_SPLITS, "test", "all: every model of a --objects dataset"),
+            categories_parent(),
+            per_category_parent(None, "instances per category (default: the split's size)"),
+            workers_parent(2, None),
+        ],
     )
-    o.add_argument(
-        "--split",
-        default="test",
-        choices=["train", "val", "test", "ood", "all"],
-        help="all: every model of a --objects dataset",
-    )
-    o.add_argument("--categories", nargs="+", default=None)
     o.add_argument(
         "--root", default=None, help="a ShapeNetCore v2, ModelNet or per-category mesh folder"
     )
     o.add_argument(
-        "--per-category",
-        type=positive_int,
-        default=None,
-        help="instances per category (default: the split's size)",
-    )
-    o.add_argument(
         "--resolution", type=resolution_int, default=32, help="voxel grid size D (8-128)"
     )
-    o.add_argument("--workers", type=positive_int, default=2)
     o.add_argument("--sheet", type=Path, default=None, help="write a contact sheet PNG")
     o.set_defaults(func=cmd_objects)
 
     v = sub.add_parser(
         "view",
         help="write a BEOPick-v0 scene to a rerun .rrd and a PNG",
-        parents=[dataset_parent()],
-    )
-    v.add_argument("--seed", type=seed_int, default=0)
-    v.add_argument("--out", type=Path, default=Path("out/view"))
-    v.add_argument(
-        "--split",
-        default="test",
-        choices=["train", "val", "test", "ood", "all"],
-        help="all: every model of a --objects dataset",
+        parents=[
+            data,
+            seed_parent(0),
+            out_parent(Path("out/view"), type=Path),
+            split_parent(SCENE_SPLITS, "test", "all: every model of a --objects dataset"),
+        ],
     )
     v.add_argument("--num-objects", type=positive_int, default=None, help="default: 1-4")
     v.add_argument(
@@ -834,26 +813,36 @@ def build_parser() -> argparse.ArgumentParser:
     v.set_defaults(func=cmd_view)
 
     pc = sub.add_parser(
-        "pick-check", help="pick success of the ground-truth grasp planner (the ceiling)"
+        "pick-check",
+        help="pick success of the ground-truth grasp planner (the ceiling)",
+        parents=[
+            episodes_parent(100),
+            seed_parent(0, "first episode seed"),
+            split_parent(["train", "val", "test", "ood"], "test"),
+        ],
     )
-    pc.add_argument("--episodes", type=positive_int, default=100)
-    pc.add_argument("--seed", type=seed_int, default=0, help="first episode seed")
-    pc.add_argument("--split", default="test", choices=["train", "val", "test", "ood"])
     pc.set_defaults(func=cmd_pick_check)
 
-    r = sub.add_parser("run", help="score a backend on a suite", parents=[dataset_parent()])
-    r.add_argument(
-        "--split",
-        choices=SPLITS_ALL,
-        default=None,
-        help="with --objects: the dataset's split to score on (default: the suite's, test)",
+    r = sub.add_parser(
+        "run",
+        help="score a backend on a suite",
+        parents=[
+            data,
+            split_parent(
+                SPLITS_ALL,
+                None,
+                "with --objects: the dataset's split to score on (default: the suite's, test)",
+            ),
+            episodes_parent(None, "items (default: the suite's)"),
+            seed_parent(None, "replace the suite's base seed"),
+            workers_parent(None, "worker processes (default: one per core)"),
+            out_parent(None, "default: runs/SUITE[@TRACK]__BACKEND"),
+            ray_parent(),
+            item_timeout_parent(),
+        ],
     )
     r.add_argument("--suite", required=True)
     r.add_argument("--backend", required=True)
-    r.add_argument(
-        "--episodes", type=positive_int, default=None, help="items (default: the suite's)"
-    )
-    r.add_argument("--seed", type=seed_int, default=None, help="replace the suite's base seed")
     r.add_argument(
         "--track",
         choices=list(TRACKS),
@@ -861,15 +850,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="pose suites: whether backends that can use the true class are given it "
         "(default: class-free; suites without tracks refuse it)",
     )
-    r.add_argument(
-        "--workers",
-        type=positive_int,
-        default=None,
-        help="worker processes (default: one per core)",
-    )
-    r.add_argument("--out", default=None, help="default: runs/SUITE[@TRACK]__BACKEND")
     r.add_argument("--resume", action="store_true", help="continue a killed run in --out")
-    r.add_argument("--ray", action="store_true", help="run the items as Ray tasks")
     r.add_argument("--rerun", default=None, help="also write a rerun .rrd of the first views")
     r.add_argument(
         "--opt",
@@ -879,25 +860,32 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="KEY=VALUE",
         help="backend option",
     )
-    _item_timeout_arg(r)
     r.set_defaults(func=cmd_run)
 
     al = sub.add_parser(
         "all",
         help="run every suite with every backend (resuming), then regenerate leaderboards/",
-        parents=[dataset_parent()],
+        parents=[
+            data,
+            split_parent(
+                SPLITS_ALL,
+                None,
+                "with --objects: the dataset's split to score on (default: the suites', test)",
+            ),
+            episodes_parent(None, "items per suite (default: its own)"),
+            seed_parent(None, "replace the suites' base seeds"),
+            workers_parent(),
+            item_timeout_parent(),
+            ray_parent(),
+            runs_parent("where the runs go (resumed when present)"),
+            out_parent("leaderboards"),
+        ],
     )
     al.add_argument(
         "--suites",
         nargs="+",
         default=None,
         help="default: every suite (with --objects: every isolated suite that a dataset has)",
-    )
-    al.add_argument(
-        "--split",
-        choices=SPLITS_ALL,
-        default=None,
-        help="with --objects: the dataset's split to score on (default: the suites', test)",
     )
     al.add_argument(
         "--backends",
@@ -907,15 +895,6 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME[:K=V,...]",
         help="default: every registered backend; options after a colon",
     )
-    al.add_argument(
-        "--episodes", type=positive_int, default=None, help="items per suite (default: its own)"
-    )
-    al.add_argument("--seed", type=seed_int, default=None, help="replace the suites' base seeds")
-    al.add_argument("--workers", type=positive_int, default=None, help="default: one per core")
-    _item_timeout_arg(al)
-    al.add_argument("--ray", action="store_true", help="run the items as Ray tasks")
-    al.add_argument("--runs", default="runs", help="where the runs go (resumed when present)")
-    al.add_argument("--out", default="leaderboards")
     al.set_defaults(func=cmd_all)
 
     cp = sub.add_parser(
@@ -934,42 +913,38 @@ def build_parser() -> argparse.ArgumentParser:
     )
     cp.set_defaults(func=cmd_compare)
 
-    lb = sub.add_parser("leaderboard", help="regenerate leaderboards/ from run summaries")
-    lb.add_argument("--runs", default="runs")
-    lb.add_argument("--out", default="leaderboards")
+    lb = sub.add_parser(
+        "leaderboard",
+        help="regenerate leaderboards/ from run summaries",
+        parents=[runs_parent(), out_parent("leaderboards")],
+    )
     lb.set_defaults(func=cmd_leaderboard)
 
     tr = sub.add_parser(
         "train",
         help="train a perception model (beo, hbeo, hbeo-mdn)",
-        parents=[dataset_parent(("--object-size",))],
-    )
-    tr.add_argument("model", choices=["beo", "hbeo", "hbeo-mdn"])
-    tr.add_argument(
-        "--split",
-        choices=SPLITS_ALL,
-        default=None,
-        help="with --objects: the dataset's split to train on (default train; all: every "
-        "model, for folders too small for a hash split, which then also validates on it)",
-    )
-    tr.add_argument("--categories", nargs="+", default=None, help="default: the 11 built-in")
-    tr.add_argument(
-        "--name",
-        type=model_name,
-        default=None,
-        help="model name, a plain name (default: the default model's name)",
+        parents=[
+            dataset_parent(("--object-size",)),
+            model_parent(),
+            split_parent(
+                SPLITS_ALL,
+                None,
+                "with --objects: the dataset's split to train on (default train; all: every "
+                "model, for folders too small for a hash split, which then also validates on it)",
+            ),
+            categories_parent("default: the 11 built-in"),
+            model_name_parent("model name, a plain name (default: the default model's name)"),
+            per_category_parent(
+                None,
+                "train instances per class (hbeo: for the crops and the default BEO subspace)",
+            ),
+            *render_parents(RENDER_GROUP),
+        ],
     )
     tb = tr.add_argument_group("beo")
     tb.add_argument("--resolution", type=resolution_int, default=32, help="voxels per edge (D)")
-    tr.add_argument(
-        "--per-category",
-        type=positive_int,
-        default=None,
-        help="train instances per class (hbeo: for the crops and the default BEO subspace)",
-    )
     tb.add_argument("--variance-fraction", type=fraction, default=0.6, help="in (0, 1]")
     th = tr.add_argument_group("hbeo and hbeo-mdn (defaults: the default small model's)")
-    _dataset_args(th)
     th.add_argument("--epochs", type=positive_int, default=None)
     th.add_argument("--batch-size", type=positive_int, default=None)
     th.add_argument("--size", choices=["small", "dissertation"], default=None)
@@ -1004,34 +979,34 @@ def build_parser() -> argparse.ArgumentParser:
     tr.set_defaults(func=cmd_train)
 
     pb = sub.add_parser(
-        "publish", help="write a trained model into the published models the backends load"
+        "publish",
+        help="write a trained model into the published models the backends load",
+        parents=[
+            model_parent(),
+            model_name_parent("the trained model (beo: default model)"),
+            categories_parent("beo: default the 11 built-in"),
+            out_parent(None, "default: the package's perception/published"),
+        ],
     )
-    pb.add_argument("model", choices=["beo", "hbeo", "hbeo-mdn"])
-    pb.add_argument(
-        "--name", type=model_name, default=None, help="the trained model (beo: default model)"
-    )
-    pb.add_argument("--categories", nargs="+", default=None, help="beo: default the 11 built-in")
-    pb.add_argument("--out", default=None, help="default: the package's perception/published")
     pb.add_argument("--float32", action="store_true", help="keep float32 weights (default fp16)")
     pb.set_defaults(func=cmd_publish)
 
     rd = sub.add_parser(
         "render-dataset",
         help="render HBEO's training crops (cached shards)",
-        parents=[dataset_parent()],
+        parents=[
+            data,
+            split_parent(
+                SPLITS_ALL,
+                None,
+                "with --objects: the dataset's split to render (default train; all: every model)",
+            ),
+            categories_parent("default: the 11 built-in"),
+            per_category_parent(None, "instances per class"),
+            *render_parents(RENDER_GROUP),
+        ],
     )
-    rd.add_argument(
-        "--split",
-        choices=SPLITS_ALL,
-        default=None,
-        help="with --objects: the dataset's split to render (default train; all: every model)",
-    )
-    rd.add_argument("--categories", nargs="+", default=None, help="default: the 11 built-in")
-    rd.add_argument("--per-category", type=positive_int, default=None, help="instances per class")
-    _dataset_args(rd)
     rd.set_defaults(func=cmd_render_dataset)
-
-    from beo_bench.objects.cache import KINDS
 
     c = sub.add_parser("cache", help="inspect or clear the asset cache")
     c.add_argument("action", choices=["info", "clear"])
@@ -1060,9 +1035,10 @@ RESUME_HINTS = {
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line ``argv``; returns the exit status (argparse's own usage errors
     exit 2 through ``SystemExit``)."""
-    args = build_parser().parse_args(argv)
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning
+        # inside: `--help` loads the backend plugins, and a broken one is a warning line
+        args = build_parser().parse_args(argv)
         try:
             return int(args.func(args))
         except BeoBenchError as e:

@@ -3,7 +3,8 @@
 Writes a rerun recording (``.rrd``: world-frame object meshes, the camera with its frustum,
 depth and segmentation images, the depth back-projected to world points, the table plane
 and the ground-truth planner's best grasp as the gripper's boxes) and a PNG with depth,
-segmentation and RGB side by side. Open the recording with ``rerun FILE.rrd``.
+segmentation and RGB side by side, the planner's best grasp outlined on the RGB panel. Open
+the recording with ``rerun FILE.rrd``.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
@@ -20,6 +21,9 @@ from beo_bench.errors import BeoBenchError
 from beo_bench.scenes.builder import OBJECT_COLOURS
 from beo_bench.scenes.camera import backproject
 from beo_bench.scenes.gripper import GRIPPER
+
+if TYPE_CHECKING:
+    from beo_bench.objects import ObjectSet
 
 # label 0 black, label i the colour the scene gives object i - 1 (so the PNG's segmentation
 # and RGB panels agree)
@@ -35,6 +39,19 @@ class ViewResult:
     target: str
     objects: tuple[str, ...]
     grasps: int
+    """How many grasps of the target the ground-truth planner found (the best is drawn)."""
+    seed: int
+
+    def text(self) -> str:
+        """What ``beo-bench view`` prints: the scene, then where the files are."""
+        lines = [
+            f"seed {self.seed}: objects {', '.join(self.objects)}; target {self.target}; "
+            f"{self.grasps} ground-truth grasps of the target",
+            f"image:     {self.png}",
+        ]
+        if self.rrd is not None:
+            lines.append(f"recording: {self.rrd}  (open with `rerun {self.rrd}`)")
+        return "\n".join(lines)
 
 
 def colour_segmentation(seg: np.ndarray) -> np.ndarray:
@@ -62,7 +79,29 @@ def _atomic_target(path: Path) -> Path:
     return path.with_name(f".{path.name}.{os.getpid()}.tmp")
 
 
-def _write_png(path: Path, obs: dict[str, Any], rgb: np.ndarray, title: str) -> None:
+# the 12 edges of a box, as pairs of corner indices (corner i has sign bits of i on x, y, z)
+_BOX_EDGES = [(a, a | 1 << k) for a in range(8) for k in range(3) if not a & 1 << k]
+
+
+def grasp_outline(grasp: Any, obs: dict[str, Any]) -> list[np.ndarray]:
+    """The gripper of ``grasp`` (palm and fingers at its opening) as image polylines: one
+    (2, 2) array of pixel (u, v) per box edge in front of the camera of ``obs``."""
+    P, T, K = grasp.pose, obs["cam_to_world"], obs["intrinsics"]
+    signs = np.array([[(i >> k & 1) * 2 - 1 for k in range(3)] for i in range(8)], float)
+    lines = []
+    for centre, half in GRIPPER.boxes(grasp.opening / 2):
+        world = (centre + signs * half) @ P[:3, :3].T + P[:3, 3]
+        cam = (world - T[:3, 3]) @ T[:3, :3]  # world -> camera: R^T (x - t)
+        for a, b in _BOX_EDGES:
+            if cam[a, 2] > 0 and cam[b, 2] > 0:
+                uvw = cam[[a, b]] @ K.T
+                lines.append(uvw[:, :2] / uvw[:, 2:])
+    return lines
+
+
+def _write_png(
+    path: Path, obs: dict[str, Any], rgb: np.ndarray, title: str, grasp: Any = None
+) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -74,7 +113,15 @@ def _write_png(path: Path, obs: dict[str, Any], rgb: np.ndarray, title: str) -> 
     fig.colorbar(im, ax=axes[0], label="depth (m); white = no hit", shrink=0.85)
     axes[1].imshow(colour_segmentation(obs["segmentation"]), interpolation="nearest")
     axes[2].imshow(rgb)
-    for ax, t in zip(axes, ("depth", "segmentation (0 = background/table)", "RGB"), strict=True):
+    if grasp is not None:
+        h, w = rgb.shape[:2]
+        for line in grasp_outline(grasp, obs):
+            axes[2].plot(line[:, 0], line[:, 1], color="#ffc800", linewidth=1.2)
+        axes[2].set_xlim(-0.5, w - 0.5)  # edges leaving the image do not widen the panel
+        axes[2].set_ylim(h - 0.5, -0.5)
+    rgb_title = "RGB" if grasp is None else "RGB; yellow: the planner's best grasp"
+    titles = ("depth", "segmentation (0 = background/table)", rgb_title)
+    for ax, t in zip(axes, titles, strict=True):
         ax.set_title(t)
         ax.set_axis_off()
     fig.suptitle(title)
@@ -154,10 +201,28 @@ def _log_rerun(path: Path, env: Any, obs: dict[str, Any], grasp: Any) -> None:
 
 
 def view_scene(
-    seed: int, out: Path | str = "out/view", rrd: bool = True, **env_kwargs: Any
+    seed: int,
+    out: Path | str = "out/view",
+    rrd: bool = True,
+    *,
+    split: str = "test",
+    image_size: tuple[int, int] = (640, 480),
+    num_objects: int | tuple[int, int] | None = None,
+    objects: ObjectSet | None = None,
+    **env_kwargs: Any,
 ) -> ViewResult:
-    """Reset BEOPick-v0 with ``seed`` and write ``scene_{seed}.png`` (and ``.rrd``) to ``out``."""
+    """Reset BEOPick-v0 with ``seed`` and write ``scene_{seed}.png`` (and ``.rrd``) to ``out``.
+
+    ``objects``: the object set to draw scenes from (a user's dataset's split); the scenes
+    then hold 1 to min(4, its classes) objects unless ``num_objects`` says otherwise (a
+    scene's objects are of distinct classes). Other keyword arguments go to the env."""
     out = Path(out)
+    env_kwargs.update(split=split, image_size=tuple(image_size))
+    if objects is not None:
+        env_kwargs["objects"] = objects
+        env_kwargs["num_objects"] = (1, min(4, len(objects.categories)))
+    if num_objects is not None:
+        env_kwargs["num_objects"] = num_objects
     env = gym.make("BEOPick-v0", render_mode="rgb_array", **env_kwargs)
     try:
         obs, _ = env.reset(seed=seed)
@@ -166,16 +231,16 @@ def view_scene(
         best = grasps[0] if grasps else None
         rgb = env.render()
         target = u.categories[obs["target_class"]]
-        objects = tuple(g.category for g in u.ground_truth())
+        names = tuple(g.category for g in u.ground_truth())
         title = (
-            f"BEOPick-v0 seed {seed}: {len(objects)} objects ({', '.join(objects)}); "
+            f"BEOPick-v0 seed {seed}: {len(names)} objects ({', '.join(names)}); "
             f"target: {target}; {len(grasps)} ground-truth grasps"
         )
         png = out / f"scene_{seed}.png"
-        _write_png(png, obs, rgb, title)
+        _write_png(png, obs, rgb, title, best)
         rrd_path = out / f"scene_{seed}.rrd" if rrd else None
         if rrd_path is not None:
             _log_rerun(rrd_path, env, obs, best)
     finally:
         env.close()
-    return ViewResult(rrd_path, png, target, objects, len(grasps))
+    return ViewResult(rrd_path, png, target, names, len(grasps), seed)

@@ -33,6 +33,7 @@ PARTS = ("class", "pose", "shape")
 @register_backend("swap")
 class SwapBackend:
     name = "swap"
+    description = "diagnostic: a base backend with some of its estimate replaced by the truth"
     privileged = True
     diagnostic = True  # not one of "every backend": `beo-bench all` and the demo skip it
 

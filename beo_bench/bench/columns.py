@@ -4,6 +4,9 @@
 Markdown tables, and ``compare`` and the leaderboard's paired verdicts say whether a
 difference is an improvement: all of them read a metric's label, scale, format and
 direction from :data:`METRICS`, so a metric added or relabelled here changes every table.
+Which metrics the narrower tables show (the per-category tables, the paired verdicts, the
+out-of-distribution degradation) is chosen here too, by key, checked against
+:data:`METRICS` on import.
 """
 
 from __future__ import annotations
@@ -33,6 +36,9 @@ class MetricSpec:
     """A column of the leaderboard's suite tables."""
     brief: bool = False
     """A column of the plain-text table of ``run`` and ``compare`` (kept narrow)."""
+    paired: bool = True
+    """A mean over views, so ``compare`` can pair it item by item (medians and timings
+    cannot be)."""
 
     def format(self, value: float | None) -> str:
         """The value as the tables show it; ``-`` when absent or not finite."""
@@ -51,7 +57,8 @@ class MetricSpec:
 METRICS: tuple[MetricSpec, ...] = (
     MetricSpec("rot_err_deg_mean", "rot. error mean (deg)", "rot mean", 1, "{:.1f}", False,
                brief=True),
-    MetricSpec("rot_err_deg_median", "median (deg)", "rot med", 1, "{:.1f}", False, brief=True),
+    MetricSpec("rot_err_deg_median", "median (deg)", "rot med", 1, "{:.1f}", False, brief=True,
+               paired=False),
     MetricSpec("gross_err_rate", "> 15 deg", ">15deg", 100, "{:.1f}%", False, brief=True),
     MetricSpec("acc_10deg5cm", "10deg5cm", "10deg5cm", 100, "{:.1f}%", True),
     MetricSpec("trans_err_cm_mean", "transl. (cm)", "trans cm", 1, "{:.2f}", False, brief=True),
@@ -68,11 +75,42 @@ METRICS: tuple[MetricSpec, ...] = (
     MetricSpec("pick_success", "pick success", "pick", 100, "{:.1f}%", True, brief=True),
     MetricSpec("target_found_rate", "target found", "found", 100, "{:.1f}%", True),
     MetricSpec("failure_rate", "failed", "failed", 100, "{:.1f}%", False, board=False),
-    MetricSpec("ms_per_view_median", "ms/view", "ms/view", 1, "{:.1f}", False, brief=True),
+    MetricSpec("ms_per_view_median", "ms/view", "ms/view", 1, "{:.1f}", False, brief=True,
+               paired=False),
 )  # fmt: skip
 """Every metric a table shows, in the order of the columns."""
 
 BY_KEY: dict[str, MetricSpec] = {m.key: m for m in METRICS}
+
+
+def _keys(*keys: str) -> tuple[str, ...]:
+    """``keys``, each of which must have a spec in :data:`METRICS` (a typo fails on import,
+    not in a table that silently lacks the column)."""
+    missing = [k for k in keys if k not in BY_KEY]
+    if missing:
+        raise KeyError(f"no MetricSpec for {missing}: add them to METRICS")
+    return keys
+
+
+SUMMARY_PER_CATEGORY: tuple[str, ...] = _keys(
+    "pick_success", "class_acc", "rot_err_deg_mean", "rot_err_deg_median", "gross_err_rate",
+    "iou_mean", "fscore_mean", "failure_rate",
+)  # fmt: skip
+"""The metrics of a summary's per-category entries (``summary["per_category"]``)."""
+BOARD_PER_CATEGORY: dict[str, tuple[str, ...]] = {
+    "pick": _keys("pick_success"),
+    "known-pose": _keys("class_acc"),
+}
+"""The leaderboard's per-category tables' metrics per suite (default:
+:data:`BOARD_PER_CATEGORY_DEFAULT`)."""
+BOARD_PER_CATEGORY_DEFAULT: tuple[str, ...] = _keys("rot_err_deg_mean", "gross_err_rate")
+"""Mean rotation error and the gross error rate, as the dissertation's Tables 5.1 and 5.2."""
+VERDICT_KEYS: tuple[str, ...] = _keys("rot_err_deg_mean", "gross_err_rate")
+"""The metrics of the leaderboard's paired-verdicts tables."""
+DEGRADATION_KEYS: tuple[str, ...] = _keys(
+    "rot_err_deg_mean", "gross_err_rate", "class_acc", "iou_mean"
+)
+"""The metrics of an ``-ood`` suite's in -> out of distribution table."""
 
 
 def spec(key: str) -> MetricSpec:
@@ -88,3 +126,8 @@ def board_columns() -> tuple[MetricSpec, ...]:
 def brief_columns() -> tuple[MetricSpec, ...]:
     """The plain-text table's columns."""
     return tuple(m for m in METRICS if m.brief)
+
+
+def paired_keys() -> frozenset[str]:
+    """The keys ``compare`` pairs item by item (:attr:`MetricSpec.paired`)."""
+    return frozenset(m.key for m in METRICS if m.paired)

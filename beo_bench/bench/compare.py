@@ -28,21 +28,14 @@ from typing import Any
 
 import numpy as np
 
-from beo_bench.bench.columns import METRICS, MetricSpec, spec
+from beo_bench.bench.columns import METRICS, MetricSpec, paired_keys, spec
 from beo_bench.errors import CorruptDataError, UsageError
 
 RESULTS_NAME = "results.jsonl"
 SUMMARY_NAME = "summary.json"
 CLASS_FREE = "class-free"
 VERDICTS = ("better", "worse", "no difference")
-PAIRED = frozenset(
-    {
-        "rot_err_deg_mean", "gross_err_rate", "acc_10deg5cm", "trans_err_cm_mean",
-        "size_err_pct_mean", "mssd_cm_mean", "mspd_px_mean", "class_acc", "iou_mean",
-        "iou_cam_mean", "edt_err_mean", "chamfer_l1_mean", "fscore_mean", "pick_success",
-        "target_found_rate", "failure_rate",
-    }
-)  # fmt: skip
+PAIRED = paired_keys()
 """The summary means that are paired (means over views; medians and timings are not)."""
 
 

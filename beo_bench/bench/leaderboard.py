@@ -37,7 +37,15 @@ import numpy as np
 
 from beo_bench.bench import compare
 from beo_bench.bench.campaign import backend_label
-from beo_bench.bench.columns import MetricSpec, board_columns, spec
+from beo_bench.bench.columns import (
+    BOARD_PER_CATEGORY,
+    BOARD_PER_CATEGORY_DEFAULT,
+    DEGRADATION_KEYS,
+    VERDICT_KEYS,
+    MetricSpec,
+    board_columns,
+    spec,
+)
 from beo_bench.bench.runner import write_atomic
 from beo_bench.errors import UsageError
 
@@ -47,8 +55,6 @@ BASELINES: tuple[str, ...] = ("icp-plain", "icp")
 dissertation's plain ICP and this benchmark's multi-start ICP."""
 DIAGNOSTIC = ("swap",)
 """Backends that are analysis tools, not methods (never paired)."""
-VERDICT_KEYS: tuple[str, ...] = ("rot_err_deg_mean", "gross_err_rate")
-"""The metrics of the paired-verdicts tables."""
 TRACK_ORDER: tuple[str | None, ...] = ("class-given", "class-free", None)
 TRACK_NOTES = {
     "class-given": "The true class is given to every backend that can use it (the "
@@ -58,19 +64,10 @@ TRACK_NOTES = {
 }
 HINT_UNUSED = "hint not used"
 
-PER_CATEGORY: dict[str, tuple[str, ...]] = {
-    "pick": ("pick_success",),
-    "known-pose": ("class_acc",),
-}
-"""The per-category tables' metrics per suite (default: mean rotation error and the gross
-error rate, as the dissertation's Tables 5.1 and 5.2)."""
-PER_CATEGORY_DEFAULT: tuple[str, ...] = ("rot_err_deg_mean", "gross_err_rate")
 TABLE_5_1_CATEGORIES: tuple[str, ...] = ("car", "airplane", "sofa")
 """The categories of the dissertation's Tables 5.1 and 5.2 (car, plane, couch)."""
 TABLE_5_1_SUITES: tuple[str, ...] = ("pose-3dof", "pose-3dof-percat")
 """The suites whose pages carry a table in the form of Tables 5.1/5.2."""
-DEGRADATION: tuple[str, ...] = ("rot_err_deg_mean", "gross_err_rate", "class_acc", "iou_mean")
-"""The metrics of an ``-ood`` suite's in -> out of distribution table."""
 OOD_SUFFIX = "-ood"
 DIGEST_CHARS = 8
 
@@ -192,11 +189,11 @@ def suite_table(rows: list[Row] | list[dict[str, Any]]) -> str:
 
 
 def category_table(suite: str, rows: list[Row] | list[dict[str, Any]]) -> str:
-    """Per metric of ``PER_CATEGORY``: categories as rows, backends as columns."""
+    """Per metric of ``BOARD_PER_CATEGORY``: categories as rows, backends as columns."""
     ordered = _ordered([r if isinstance(r, Row) else Row(r) for r in rows])
     summaries = [r.summary for r in ordered]
     tables = []
-    for key in PER_CATEGORY.get(suite, PER_CATEGORY_DEFAULT):
+    for key in BOARD_PER_CATEGORY.get(suite, BOARD_PER_CATEGORY_DEFAULT):
         if any(key in d for s in summaries for d in s.get("per_category", {}).values()):
             tables.append(_category_table(summaries, spec(key)))
     if not tables:
@@ -548,7 +545,7 @@ def degradation_table(base: str, base_rows: list[Any], suite: str, rows: list[An
     ood = [r if isinstance(r, Row) else Row(r) for r in rows]
     by_label = {label(s): s for s in base_s}
     both = [r for r in ood if label(r.summary) in by_label]
-    cols = [spec(k) for k in DEGRADATION]
+    cols = [spec(k) for k in DEGRADATION_KEYS]
     lines = [
         f"In distribution (`{base}`) -> out of distribution (`{suite}`):",
         "",

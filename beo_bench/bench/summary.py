@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from beo_bench import metrics
+from beo_bench.bench.columns import SUMMARY_PER_CATEGORY
 from beo_bench.bench.suites import Suite
 
 WORST_ROTATION_DEG = 180.0
@@ -239,8 +240,7 @@ def _collect(suite: Suite, rows: list[dict[str, Any]], intervals: bool = True) -
     return M
 
 
-PER_CATEGORY = ("pick_success", "class_acc", "rot_err_deg_mean", "rot_err_deg_median",
-                "gross_err_rate", "iou_mean", "fscore_mean", "failure_rate")  # fmt: skip
+PER_CATEGORY = SUMMARY_PER_CATEGORY
 """The metrics of the per-category table (without intervals)."""
 
 

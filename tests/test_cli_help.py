@@ -1,0 +1,169 @@
+"""``beo-bench --help`` lists what a user can name (suites, backends, cache kinds), from
+the registries; the shared options keep each command's defaults and checks."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from beo_bench.backend import describe_backend, list_backends, load_plugins
+from beo_bench.bench.suites import SUITES
+from beo_bench.cli import build_parser, main, registry_listing
+from beo_bench.errors import BackendError
+from beo_bench.objects.cache import KINDS
+
+
+def _help(capsys, argv: list[str]) -> str:
+    with pytest.raises(SystemExit) as e:
+        main(argv)
+    assert e.value.code == 0
+    return capsys.readouterr().out
+
+
+def _entry(out: str, name: str) -> str:
+    """The one help line that lists ``name``."""
+    lines = [ln for ln in out.splitlines() if ln.startswith(f"  {name} ")]
+    assert len(lines) == 1, (name, lines)
+    return lines[0]
+
+
+def test_help_lists_every_suite_backend_and_cache_kind_one_line_each(capsys) -> None:
+    out = _help(capsys, ["--help"])
+    load_plugins()
+    for name, suite in SUITES.items():
+        assert suite.description.split()[0] in _entry(out, name)
+    for name in list_backends():
+        assert describe_backend(name) and describe_backend(name)[:20] in _entry(out, name)
+    for kind, text in KINDS.items():
+        assert text in _entry(out, kind)
+    # the sections come before the exit statuses, which stay last
+    assert out.index("suites (") < out.index("backends (") < out.index("cache kinds (")
+    assert out.index("cache kinds (") < out.index("Exit status")
+
+
+def test_listing_fits_the_width_it_is_given() -> None:
+    text = registry_listing(width=60)
+    assert max(len(line) for line in text.splitlines()) <= 60
+    assert "..." in text  # long suite descriptions are cut at a word, and say so
+
+
+@pytest.fixture
+def plugin(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
+    """An installed third-party backend with a ``description`` attribute."""
+    from beo_bench import backend as B
+
+    site = tmp_path / "site"
+    site.mkdir()
+    (site / "beo_help_plugin_mod.py").write_text(
+        "class Backend:\n"
+        "    name = 'help-plugin'\n"
+        "    description = 'a third-party backend, listed from its entry point'\n"
+        "    def predict(self, view):\n"
+        "        raise NotImplementedError\n"
+    )
+    dist = site / "beo_help_plugin-0.1.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: beo-help-plugin\nVersion: 0.1\n")
+    (dist / "entry_points.txt").write_text(
+        "[beo_bench.backends]\nhelp-plugin = beo_help_plugin_mod:Backend\n"
+    )
+    monkeypatch.syspath_prepend(str(site))
+    yield
+    B._REGISTRY.pop("help-plugin", None)
+    sys.modules.pop("beo_help_plugin_mod", None)
+
+
+def test_help_lists_a_plugin_backend_with_its_description(capsys, plugin) -> None:
+    out = _help(capsys, ["--help"])
+    assert "a third-party backend, listed from its entry point" in _entry(out, "help-plugin")
+
+
+def test_a_backend_without_description_is_described_by_its_docstring() -> None:
+    from beo_bench import backend as B
+
+    @B.register_backend("help-doc-only")
+    class DocOnly:
+        """Guesses the mean shape. Everything after the first sentence is left out."""
+
+        name = "help-doc-only"
+
+        def predict(self, view):
+            raise NotImplementedError
+
+    try:
+        assert describe_backend("help-doc-only") == "Guesses the mean shape"
+    finally:
+        B._REGISTRY.pop("help-doc-only")
+    with pytest.raises(BackendError, match="help-doc-only"):
+        describe_backend("help-doc-only")
+
+
+def test_help_builds_nothing_and_commands_do_not_import_the_backends(tmp_path) -> None:
+    """``--help`` leaves an empty cache empty; a command's parser (``run --help``) never
+    imports torch (only the top-level help lists the backends)."""
+    cache = tmp_path / "cache"
+    env = {**os.environ, "BEO_BENCH_CACHE": str(cache), "MUJOCO_GL": "egl"}
+    code = (
+        "import sys\n"
+        "from beo_bench.cli import main\n"
+        "for argv in (['run', '--help'], ['view', '--help']):\n"
+        "    try:\n"
+        "        main(argv)\n"
+        "    except SystemExit as e:\n"
+        "        assert e.code == 0\n"
+        "assert 'torch' not in sys.modules, 'a command parser imported torch'\n"
+        "try:\n"
+        "    main(['--help'])\n"
+        "except SystemExit as e:\n"
+        "    assert e.code == 0\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr
+    assert "backends (" in done.stdout
+    assert not cache.exists() or not any(cache.rglob("*.npz"))
+
+
+@pytest.mark.parametrize(
+    "argv, expected",
+    [
+        (["view"], {"seed": 0, "out": Path("out/view"), "split": "test"}),
+        (["pick-check"], {"seed": 0, "episodes": 100, "split": "test"}),
+        (["objects"], {"workers": 2, "per_category": None, "split": "test"}),
+        (["demo"], {"workers": None, "per_category": 20, "out": "out/demo"}),
+        (
+            ["run", "--suite", "s", "--backend", "b"],
+            {"seed": None, "episodes": None, "workers": None, "out": None, "ray": False},
+        ),
+        (["all"], {"out": "leaderboards", "runs": "runs", "item_timeout": None}),
+        (["leaderboard"], {"out": "leaderboards", "runs": "runs"}),
+        (["render-dataset"], {"seed": None, "workers": None, "images": None}),
+        (["train", "hbeo"], {"seed": None, "categories": None, "name": None}),
+    ],
+)
+def test_shared_options_keep_each_commands_defaults(argv, expected) -> None:
+    args = vars(build_parser().parse_args(argv))
+    for key, value in expected.items():
+        assert args.get(key) == value, (argv, key, args.get(key))
+
+
+@pytest.mark.parametrize(
+    "command, text",
+    [
+        (["run"], "replace the suite's base seed"),
+        (["all"], "replace the suites' base seeds"),
+        (["pick-check"], "first episode seed"),
+        (["render-dataset"], "seeds rendering and training"),
+        (["run"], "worker processes (default: one per core)"),
+        (["objects"], "instances per category (default: the split's size)"),
+        (["train", "beo"], "seeds rendering and training"),
+    ],
+)
+def test_shared_options_keep_each_commands_help(capsys, command, text) -> None:
+    out = _help(capsys, [*command, "--help"])
+    assert text in " ".join(out.split())
