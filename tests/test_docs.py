@@ -174,8 +174,7 @@ def test_shell_blocks_run_or_parse(page: Path, tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("page", PAGES, ids=IDS)
 def test_toml_blocks_parse(page: Path) -> None:
-    import tomllib
-
+    tomllib = pytest.importorskip("tomllib", reason="tomllib is in the standard library from 3.11")
     for b in blocks(page):
         if b.lang == "toml":
             tomllib.loads(b.code)
