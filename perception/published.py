@@ -304,6 +304,6 @@ def publish_hbeo(model: HBEOModel, root: Path | None = None, half: bool = True) 
 
 
 def files_table(root: Path | None = None) -> list[tuple[str, int, str]]:
-    """(file, bytes, SHA-256) of every published file, for the README's table."""
+    """(file, bytes, SHA-256) of every published file (docs/reference-models.md lists them)."""
     root = PUBLISHED_DIR if root is None else root
     return [(n, os.path.getsize(root / n), h) for n, h in sorted(manifest(root).items())]

@@ -1,6 +1,6 @@
 """``swap``: a backend's estimate with some components replaced by the truth, to measure
 how much of its gap to the oracle each component causes (docs/design.md "Pick"; the pick gap
-analysis in the README).
+analysis in docs/results.md).
 
 ``get_backend("swap", base="hbeo", truth="class")`` runs ``hbeo`` on the view *without*
 its ground truth, then replaces

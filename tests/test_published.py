@@ -1,5 +1,5 @@
 """The published reference models: the backends' defaults load them without training,
-each file is checked against its digest, and the README lists the digests."""
+each file is checked against its digest, and docs/reference-models.md lists the digests."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from beo_bench.errors import CheckpointError
 from beo_bench.perception import beo_model, hbeo_train, published
 from beo_bench.perception.digest import state_digest
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+README = Path(__file__).resolve().parents[1] / "docs" / "reference-models.md"
 
 
 @pytest.fixture
@@ -36,7 +36,9 @@ def test_every_published_model_is_listed_with_its_digest() -> None:
     text = README.read_text()
     for name, sha in files.items():
         if name.endswith(".npz"):
-            assert re.search(rf"`{re.escape(name)}`.*{sha}", text), f"README lacks {name} {sha}"
+            assert re.search(rf"`{re.escape(name)}`.*{sha}", text), (
+                f"docs/reference-models.md lacks {name} {sha}"
+            )
 
 
 def test_the_default_models_are_the_published_ones(no_training) -> None:
