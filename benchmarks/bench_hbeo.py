@@ -10,7 +10,7 @@
 
 Accuracy (Tables 5.1 and 5.2, the error-against-N plot of Figure 5.3) is in
 ``leaderboards/pose-3dof.md``, from ``beo-bench run --suite pose-3dof --backend B`` runs
-listed in the README."""
+listed in docs/results.md."""
 
 from __future__ import annotations
 

@@ -33,11 +33,6 @@ from tests.docs_blocks import (
 PAGES = pages()
 IDS = [str(p.relative_to(ROOT)) for p in PAGES]
 
-NOT_YET_MERGED = {"docs/env.md"}
-"""Pages the docs already link to that another branch of the same change adds (the
-BEOPick-v0 reference); remove a name once its page is in the tree."""
-
-
 def _env(tmp: Path) -> dict[str, str]:
     env = dict(os.environ)
     env["MUJOCO_GL"] = env.get("MUJOCO_GL", "egl")
@@ -206,7 +201,7 @@ def test_relative_links_resolve(page: Path) -> None:
             rel = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
             if not path.is_relative_to(ROOT):
                 missing.append(f"{page.name}:{i}: {target} points outside the repository")
-            elif not path.exists() and str(rel) not in NOT_YET_MERGED:
+            elif not path.exists():
                 missing.append(f"{page.name}:{i}: {target} does not exist")
     assert not missing, "\n".join(missing)
 
