@@ -33,6 +33,7 @@ from tests.docs_blocks import (
 PAGES = pages()
 IDS = [str(p.relative_to(ROOT)) for p in PAGES]
 
+
 def _env(tmp: Path) -> dict[str, str]:
     env = dict(os.environ)
     env["MUJOCO_GL"] = env.get("MUJOCO_GL", "egl")
@@ -198,7 +199,6 @@ def test_relative_links_resolve(page: Path) -> None:
             if re.match(r"^[a-z]+:", target) or target.startswith("#"):
                 continue  # a web address or an anchor on the same page
             path = (page.parent / target.split("#", 1)[0]).resolve()
-            rel = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
             if not path.is_relative_to(ROOT):
                 missing.append(f"{page.name}:{i}: {target} points outside the repository")
             elif not path.exists():

@@ -201,8 +201,8 @@ def test_grasp_of_the_wrong_class_fails() -> None:
 
 
 def test_ground_truth_planner_lifts_the_target_in_90_percent() -> None:
-    """The grasp pipeline's ceiling (docs/objects.md, "Pick ceiling"): 100 seeded test-split episodes,
-    each grasped with the planner's best grasp from the true mesh and pose."""
+    """The grasp pipeline's ceiling (docs/objects.md, "Pick ceiling"): 100 seeded test-split
+    episodes, each grasped with the planner's best grasp from the true mesh and pose."""
     from beo_bench.envs.pickcheck import ground_truth_pick_check
 
     result = ground_truth_pick_check(episodes=100, seed=0, image_size=(64, 48))
