@@ -1,4 +1,4 @@
-"""BEO figures (issue 5), the dissertation's values beside ours: training the default model,
+"""BEO figures, the dissertation's values beside ours: training the default model,
 and the median time per view of known-pose classification + completion, 1-DOF and 3-DOF
 joint pose + class + completion (one process, torch on both cores). Accuracy is in the
 leaderboards (``beo-bench all --suites known-pose pose-1dof pose-3dof --backends beo``).

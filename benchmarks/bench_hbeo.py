@@ -1,4 +1,4 @@
-"""HBEO and HBEO-MDN figures (issue 6), the dissertation's values beside ours:
+"""HBEO and HBEO-MDN figures, the dissertation's values beside ours:
 
 - training-set rendering speed (a fresh 2,000-crop set, one worker per core);
 - the published reference models' training time, rendering included (as recorded when

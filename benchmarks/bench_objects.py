@@ -1,4 +1,4 @@
-"""Object library figures (issue 2): generation + voxelisation, parallel throughput,
+"""Object library figures: generation + voxelisation, parallel throughput,
 collision parts (procedural and CoACD), and processing the whole default library."""
 
 from __future__ import annotations

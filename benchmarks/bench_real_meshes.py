@@ -1,4 +1,4 @@
-"""Real meshes from a public robotics package (issue 19's targets): how many load with the
+"""Real meshes from a public robotics package: how many load with the
 default settings, how long each takes with its collision parts, and the ground-truth grasp
 ceiling at their native size.
 

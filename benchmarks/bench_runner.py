@@ -1,8 +1,8 @@
-"""Runner figures (issue 4): the oracle on ``pose-3dof`` with 1000 views and 2 workers,
+"""Runner figures: the oracle on ``pose-3dof`` with 1000 views and 2 workers,
 beside the raw render rate and the same items done in one process without the runner, with
 the runner's own cost; and the ``icp`` backend's time per view and pose errors on
 ``pose-1dof`` and ``pose-3dof``; and a campaign's short runs with a fresh worker pool per run
-against one kept pool (issue 7); and what a backend that crashes its worker costs a run
+against one kept pool; and what a backend that crashes its worker costs a run
 (the worker is replaced, the item recorded as failed)."""
 
 from __future__ import annotations

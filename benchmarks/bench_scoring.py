@@ -1,4 +1,4 @@
-"""Scoring figures (issue 17): what scoring one view costs, and that completion is measured
+"""Scoring figures: what scoring one view costs, and that completion is measured
 without a sampling floor.
 
 - CPU ms per scored view of warm ``pose-3dof`` items (render, predict, score) for the

@@ -5,7 +5,7 @@ provenance), ``<suite>_paired.json`` (the paired verdicts), and the plots
 (``<suite>[_<track>]_rot_cdf.png``, ``..._confusion_<backend>.png``,
 ``..._error_vs_samples.png``); ``README.md`` indexes them.
 
-Only runs scored under the same rules share a table (issue 17, item 8):
+Only runs scored under the same rules share a table:
 
 - a suite with tracks (``Suite.class_hint``: the pose suites) gets a part per track,
   ``class-given`` then ``class-free``; a backend that cannot use the class hint is run in

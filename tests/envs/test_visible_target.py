@@ -1,4 +1,4 @@
-"""BEOPick-v0 never produces an episode without a visible target (issue 19, item 2)."""
+"""BEOPick-v0 never produces an episode without a visible target."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Units and size of loaded meshes (issue 19, item 2): real scale detected from files that
+"""Units and size of loaded meshes: real scale detected from files that
 carry it, the category size table for normalised datasets, and the plausibility check that
 refuses objects no table or gripper can hold."""
 
