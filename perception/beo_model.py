@@ -26,9 +26,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import shutil
-import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -37,6 +34,7 @@ from typing import Any
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from beo_bench.atomic import atomic_dir
 from beo_bench.errors import CheckpointError
 from beo_bench.names import inside
 from beo_bench.objects.dataset import Dataset, active_dataset, train_command
@@ -147,18 +145,11 @@ class BEOModel:
         modeldir.check_replaceable(path, FILES, ("beo",))  # fail before writing anything
         cache.claim_for(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"))
-        try:
+        with atomic_dir(path, lambda tmp, to: modeldir.install(tmp, to, FILES, ("beo",))) as tmp:
             meta = self.stored_meta()
             (tmp / "config.json").write_text(json.dumps(meta, indent=2) + "\n")
             with open(tmp / "arrays.npz", "wb") as f:
                 np.savez(f, **self.arrays())
-                f.flush()
-                os.fsync(f.fileno())
-            modeldir.install(tmp, path, FILES, ("beo",))
-        except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)  # our own temporary directory
-            raise
         return path
 
     @classmethod

@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from beo_bench.atomic import atomic_write, atomic_write_text
 from beo_bench.errors import CorruptDataError
 from beo_bench.objects import cache
 from beo_bench.perception.hbeo_crop import CROP_SIZE, make_crop
@@ -211,16 +212,8 @@ class Shard:
 
     def save(self, path: Path) -> None:
         """Write the shard with its checksum, atomically (temporary file, then rename)."""
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp.npz")
-        try:
-            with open(tmp, "wb") as f:
-                np.savez_compressed(f, **cache.with_checksum(self.arrays()))
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            tmp.unlink(missing_ok=True)  # our own temporary file
-            raise
+        with atomic_write(path) as f:
+            np.savez_compressed(f, **cache.with_checksum(self.arrays()))
 
     @classmethod
     def load(cls, path: Path, n: int | None = None) -> Shard:
@@ -416,9 +409,7 @@ def render_dataset(
     root.mkdir(parents=True, exist_ok=True)
     meta = root / "config.json"
     if not meta.exists():
-        tmp = meta.with_name(f".config.json.{os.getpid()}.tmp")
-        tmp.write_text(json.dumps(asdict(config), indent=2) + "\n")
-        os.replace(tmp, meta)
+        atomic_write_text(meta, json.dumps(asdict(config), indent=2) + "\n")
     todo, repaired = [], 0
     for s in config.shards():
         path = shard_path(root, *_where(s))

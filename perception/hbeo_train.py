@@ -29,8 +29,6 @@ import hashlib
 import io
 import json
 import os
-import shutil
-import tempfile
 import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -39,6 +37,7 @@ from typing import Any, Literal
 import numpy as np
 import torch
 
+from beo_bench.atomic import atomic_dir, atomic_write_bytes
 from beo_bench.errors import CheckpointError
 from beo_bench.names import inside
 from beo_bench.perception import modeldir
@@ -193,19 +192,12 @@ class HBEOModel:
         modeldir.check_replaceable(path, FILES, KINDS)  # fail before writing anything
         cache.claim_for(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"))
-        try:
+        with atomic_dir(path, lambda tmp, to: modeldir.install(tmp, to, FILES, KINDS)) as tmp:
             state = self.state()
             with open(tmp / "weights.pt", "wb") as f:
                 torch.save(state, f)
-                f.flush()
-                os.fsync(f.fileno())
             meta = self.stored_meta()
             (tmp / "config.json").write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
-            modeldir.install(tmp, path, FILES, KINDS)
-        except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)  # our own temporary directory
-            raise
         return path
 
     @classmethod
@@ -546,20 +538,6 @@ def train_hbeo(
 
 
 # -- checkpoints ----------------------------------------------------------------------------------
-def _atomic_write(path: Path, data: bytes) -> None:
-    """``data`` to ``path`` through a temporary file (``.<name>.<pid>.tmp``) and a rename."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-
-
 def _plain(config: HBEOConfig) -> Any:
     """``config`` as it reads back from JSON (tuples become lists), for comparisons."""
     return json.loads(json.dumps(config.to_json()))
@@ -573,7 +551,7 @@ def _write_sidecar(path: Path, config: HBEOConfig, subspace: str, **fields: Any)
         "subspace": subspace,
         **fields,
     }
-    _atomic_write(path / "checkpoint.json", (json.dumps(meta, indent=1) + "\n").encode())
+    atomic_write_bytes(path / "checkpoint.json", (json.dumps(meta, indent=1) + "\n").encode())
 
 
 def _write_checkpoint(
@@ -585,7 +563,7 @@ def _write_checkpoint(
     buf = io.BytesIO()
     torch.save(state, buf)
     data = buf.getvalue()
-    _atomic_write(path / "checkpoint.next.pt", data)
+    atomic_write_bytes(path / "checkpoint.next.pt", data)
     _write_sidecar(
         path,
         config,
@@ -668,6 +646,131 @@ def resolve_device(device: str) -> torch.device:
     return torch.device(device)
 
 
+@dataclass
+class _Data:
+    """What training reads: the subspace model, the coefficient standardisation and the
+    train and validation crops as tensors (on the CPU; batches go to the device)."""
+
+    beo: BEOModel
+    subspace: str  # the subspace's fingerprint, stored with every checkpoint
+    mean: np.ndarray
+    std: np.ndarray
+    train: _Tensors
+    val: _Tensors | None
+
+
+@dataclass
+class _Run:
+    """A training run's state between epochs: what a checkpoint stores and restores."""
+
+    net: HBEONet
+    opt: torch.optim.Optimizer
+    sched: torch.optim.lr_scheduler.LRScheduler
+    history: list[dict[str, float]] = field(default_factory=list)
+    best: dict[str, Any] | None = None  # {"net", "epoch", "loss"} of the best validation epoch
+    start: int = 0  # the first epoch still to train
+
+
+def _load_data(config: HBEOConfig, beo: BEOModel, subspace: str, device: torch.device) -> _Data:
+    """The rendered dataset's splits as tensors, with subspace coefficients standardised by
+    the training split's mean and spread."""
+    train = load_split(config.dataset, config.dataset.split)
+    val = load_split(config.dataset, config.dataset.val_split)
+    codes_tr = _coefficients(beo, train.keys)
+    mean, std = codes_tr.mean(0), codes_tr.std(0) + 1e-3
+    w = config.projection_weighting
+    tr = _tensors(train, codes_tr, mean, std, w, device)
+    va = _tensors(val, _coefficients(beo, val.keys), mean, std, w, device) if len(val) else None
+    return _Data(beo, subspace, mean, std, tr, va)
+
+
+def _new_run(config: HBEOConfig, data: _Data, device: torch.device) -> _Run:
+    """A fresh network (initialised from ``config.seed``), its optimiser and schedule."""
+    torch.manual_seed(config.seed)
+    net = HBEONet(config.net(data.beo.k)).to(device)
+    opt = torch.optim.AdamW(net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+    steps = config.epochs * -(-len(data.train) // config.batch_size)
+    sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=config.lr, total_steps=steps)
+    return _Run(net, opt, sched)
+
+
+def _resume(run: _Run, resumed: tuple[dict[str, Any], list[Any]], path: Path) -> None:
+    """Restore ``run`` from a checkpoint read by :func:`_read_checkpoint`; training goes on
+    after its epoch. :class:`CheckpointError` when it does not fit the network."""
+    state, history = resumed
+    try:
+        run.net.load_state_dict(state["net"])
+        run.opt.load_state_dict(state["opt"])
+        run.sched.load_state_dict(state["sched"])
+        run.best = state.get("best")
+    except (RuntimeError, KeyError, ValueError, TypeError) as e:
+        raise CheckpointError(
+            f"{path}/checkpoint.pt does not fit this network ({e}); delete "
+            f"{path}/checkpoint.* to start over"
+        ) from e
+    run.history = history
+    run.start = int(state["epoch"]) + 1
+
+
+def _train_epoch(
+    run: _Run, data: _Data, config: HBEOConfig, epoch: int, progress: bool
+) -> dict[str, float]:
+    """Train ``run`` for one epoch, then score it on the validation split (keeping the best
+    epoch's weights); returns the epoch's history row, also appended to ``run.history``.
+    The shuffle is seeded by (seed, epoch), so a resumed run sees the same batches."""
+    from tqdm import tqdm
+
+    net, opt, sched, tr = run.net, run.opt, run.sched, data.train
+    net.train()
+    g = torch.Generator().manual_seed(config.seed * 1000 + epoch)
+    order = torch.randperm(len(tr), generator=g)
+    nb = len(tr) // config.batch_size  # drop the ragged last batch (BatchNorm)
+    bar = tqdm(
+        range(nb), desc=f"{config.kind} epoch {epoch + 1}/{config.epochs}", disable=not progress
+    )
+    loss_avg = 0.0
+    for b in bar:
+        x, tgt = tr.batch(order[b * config.batch_size : (b + 1) * config.batch_size])
+        terms = losses(net(x), net.cfg, tgt)
+        opt.zero_grad(set_to_none=True)
+        terms["total"].backward()
+        opt.step()
+        sched.step()
+        loss = float(terms["total"].detach())
+        loss_avg = 0.9 * loss_avg + 0.1 * loss if b else loss
+        bar.set_postfix(loss=f"{loss_avg:.3f}")
+    row = {"epoch": epoch + 1, "train_loss": loss_avg}
+    if data.val is not None:
+        row.update({f"val_{k}": v for k, v in evaluate(net, data.val).items()})
+        if run.best is None or row["val_total"] < float(run.best["loss"]):
+            run.best = {"net": _cpu_state(net), "epoch": epoch + 1, "loss": row["val_total"]}
+    run.history.append(row)
+    return row
+
+
+def _checkpoint(path: Path, config: HBEOConfig, data: _Data, run: _Run, epoch: int) -> None:
+    """Store ``run`` after ``epoch`` (:func:`_write_checkpoint`)."""
+    state = {
+        "net": run.net.state_dict(),
+        "opt": run.opt.state_dict(),
+        "sched": run.sched.state_dict(),
+        "epoch": epoch,
+    }
+    if run.best is not None:
+        state["best"] = run.best
+    _write_checkpoint(path, config, data.subspace, state, run.history)
+
+
+def _epoch_line(row: dict[str, float]) -> str:
+    line = f"epoch {row['epoch']}: train loss {row['train_loss']:.3f}"
+    if "val_total" in row:
+        line += (
+            f", val loss {row['val_total']:.3f}, class acc {row['val_class_acc']:.1%}, "
+            f"rotation median {row['val_rot_err_median']:.1f} deg"
+        )
+    return line
+
+
 def _train(
     config: HBEOConfig,
     path: Path,
@@ -676,8 +779,9 @@ def _train(
     log: Any,
     device: torch.device,
 ) -> HBEOModel:
-    from tqdm import tqdm
-
+    """Load (render first, if needed) the data, resume from the checkpoint in ``path`` or
+    start afresh, train the remaining epochs with a checkpoint after each, and save the
+    model over the training directory."""
     from beo_bench.objects import cache
 
     t0 = time.perf_counter()
@@ -688,96 +792,32 @@ def _train(
         progress=progress,
         per_category=config.beo_instances,
     )
-    subspace = fingerprint(beo)
     # the checkpoint is checked before the minutes of rendering: a bad one fails fast
+    subspace = fingerprint(beo)
     resumed = _read_checkpoint(path, config, subspace, log)
     _, render_stats = render_dataset(config.dataset, workers=workers, progress=progress)
     t_render = time.perf_counter() - t0
-    train = load_split(config.dataset, config.dataset.split)
-    val = load_split(config.dataset, config.dataset.val_split)
-    codes_tr = _coefficients(beo, train.keys)
-    mean, std = codes_tr.mean(0), codes_tr.std(0) + 1e-3
-    w = config.projection_weighting
-    tr = _tensors(train, codes_tr, mean, std, w, device)
-    va = _tensors(val, _coefficients(beo, val.keys), mean, std, w, device) if len(val) else None
-
-    torch.manual_seed(config.seed)
-    net = HBEONet(config.net(beo.k)).to(device)
-    opt = torch.optim.AdamW(net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
-    steps = config.epochs * -(-len(tr) // config.batch_size)
-    sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=config.lr, total_steps=steps)
-    history: list[dict[str, float]] = []
-    best: dict[str, Any] | None = None  # {"net", "epoch", "loss"} of the best validation epoch
-    start = 0
+    data = _load_data(config, beo, subspace, device)
+    run = _new_run(config, data, device)
     cache.claim_for(path)
     path.mkdir(parents=True, exist_ok=True)
     if resumed is not None:
-        state, history = resumed
-        try:
-            net.load_state_dict(state["net"])
-            opt.load_state_dict(state["opt"])
-            sched.load_state_dict(state["sched"])
-            best = state.get("best")
-        except (RuntimeError, KeyError, ValueError, TypeError) as e:
-            raise CheckpointError(
-                f"{path}/checkpoint.pt does not fit this network ({e}); delete "
-                f"{path}/checkpoint.* to start over"
-            ) from e
-        start = int(state["epoch"]) + 1
-        log(f"resuming {path.name} after epoch {start}/{config.epochs}")
+        _resume(run, resumed, path)
+        log(f"resuming {path.name} after epoch {run.start}/{config.epochs}")
     else:
         # before any checkpoint.pt exists, so the directory always shows whose it is
-        _write_sidecar(path, config, subspace, epoch=-1, history=[], sha256=None)
+        _write_sidecar(path, config, data.subspace, epoch=-1, history=[], sha256=None)
     t_train = time.perf_counter()
-    for epoch in range(start, config.epochs):
-        net.train()
-        g = torch.Generator().manual_seed(config.seed * 1000 + epoch)
-        order = torch.randperm(len(tr), generator=g)
-        nb = len(tr) // config.batch_size  # drop the ragged last batch (BatchNorm)
-        bar = tqdm(
-            range(nb), desc=f"{config.kind} epoch {epoch + 1}/{config.epochs}", disable=not progress
-        )
-        run = 0.0
-        for b in bar:
-            x, tgt = tr.batch(order[b * config.batch_size : (b + 1) * config.batch_size])
-            terms = losses(net(x), net.cfg, tgt)
-            opt.zero_grad(set_to_none=True)
-            terms["total"].backward()
-            opt.step()
-            sched.step()
-            loss = float(terms["total"].detach())
-            run = 0.9 * run + 0.1 * loss if b else loss
-            bar.set_postfix(loss=f"{run:.3f}")
-        row = {"epoch": epoch + 1, "train_loss": run}
-        if va is not None:
-            row.update({f"val_{k}": v for k, v in evaluate(net, va).items()})
-            if best is None or row["val_total"] < float(best["loss"]):
-                best = {"net": _cpu_state(net), "epoch": epoch + 1, "loss": row["val_total"]}
-        history.append(row)
-        state = {
-            "net": net.state_dict(),
-            "opt": opt.state_dict(),
-            "sched": sched.state_dict(),
-            "epoch": epoch,
-        }
-        if best is not None:
-            state["best"] = best
-        _write_checkpoint(path, config, subspace, state, history)
-        # logged after the checkpoint: an epoch reported done is on disk
-        log(
-            f"epoch {epoch + 1}: train loss {run:.3f}"
-            + (
-                f", val loss {row['val_total']:.3f}, class acc {row['val_class_acc']:.1%}, "
-                f"rotation median {row['val_rot_err_median']:.1f} deg"
-                if va is not None
-                else ""
-            )
-        )
-    kept = len(history)
-    if config.select == "best-val" and best is not None:
-        net.load_state_dict(best["net"])
-        kept = int(best["epoch"])
-        log(f"keeping epoch {kept} (lowest validation loss, {float(best['loss']):.3f})")
+    for epoch in range(run.start, config.epochs):
+        row = _train_epoch(run, data, config, epoch, progress)
+        _checkpoint(path, config, data, run, epoch)
+        log(_epoch_line(row))  # logged after the checkpoint: an epoch reported done is on disk
+    kept = len(run.history)
+    net = run.net
+    if config.select == "best-val" and run.best is not None:
+        net.load_state_dict(run.best["net"])
+        kept = int(run.best["epoch"])
+        log(f"keeping epoch {kept} (lowest validation loss, {float(run.best['loss']):.3f})")
     net = net.cpu().eval()
     from beo_bench.objects import LIBRARY_VERSION
 
@@ -785,15 +825,15 @@ def _train(
         config=config,
         net=net,
         beo=beo,
-        coef_mean=mean.astype(np.float32),
-        coef_std=std.astype(np.float32),
+        coef_mean=data.mean.astype(np.float32),
+        coef_std=data.std.astype(np.float32),
         info={
             "library_version": LIBRARY_VERSION,
-            "history": history,
+            "history": run.history,
             "epoch_kept": kept,
             "device": device.type,
-            "train_images": len(tr),
-            "val_images": len(va) if va is not None else 0,
+            "train_images": len(data.train),
+            "val_images": len(data.val) if data.val is not None else 0,
             "render_s": round(t_render, 1),
             "render_images_per_s": round(render_stats["images_per_s"], 1),
             "train_s": round(time.perf_counter() - t_train, 1),

@@ -19,8 +19,10 @@ from pathlib import Path
 from beo_bench.errors import CheckpointError
 
 TEMP_FILE = re.compile(r"\.[A-Za-z0-9._-]+\.\d+\.tmp")
-"""Temporary files this package writes inside a model directory (``.<file>.<pid>.tmp``):
-a killed writer can leave one behind, and it is ours to replace or remove."""
+"""Temporary files this package writes inside a model directory
+(``.<file>.<random>.<pid>.tmp``, :mod:`beo_bench.atomic`; older versions wrote
+``.<file>.<pid>.tmp``): a killed writer can leave one behind, and it is ours to replace or
+remove."""
 
 
 def _kind(path: Path) -> str | None:

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from beo_bench.atomic import atomic_write_bytes
 from beo_bench.errors import CheckpointError, UsageError
 
 if TYPE_CHECKING:
@@ -258,8 +259,6 @@ def write(stem: str, meta: dict[str, Any], arrays: dict[str, np.ndarray], root: 
     ``<stem>-<array>.npz`` under ``root`` (:func:`_pack`; atomically, each through a
     temporary file) and record their SHA-256 in the manifest; returns the npz's SHA-256.
     Only the stems of :data:`STEMS` are written: nothing else in ``root`` is touched."""
-    from beo_bench.perception.hbeo_train import _atomic_write
-
     if stem not in STEMS:
         raise ValueError(f"stem {stem!r}: one of {STEMS}")
     root.mkdir(parents=True, exist_ok=True)
@@ -271,9 +270,9 @@ def write(stem: str, meta: dict[str, Any], arrays: dict[str, np.ndarray], root: 
     }
     files = manifest(root)
     for name, data in blobs.items():
-        _atomic_write(root / name, data)
+        atomic_write_bytes(root / name, data)
         files[name] = _sha256(data)
-    _atomic_write(
+    atomic_write_bytes(
         root / MANIFEST,
         (json.dumps({"files": dict(sorted(files.items()))}, indent=1) + "\n").encode(),
     )

@@ -8,12 +8,12 @@ the run (items are deterministic, so this shows exactly what was scored).
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from beo_bench.atomic import atomic_path
 from beo_bench.errors import BeoBenchError
 
 
@@ -28,40 +28,39 @@ def log_run(cfg: Any, path: Path | str, items: int = 20) -> Path:
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    rec = rr.RecordingStream("beo-bench-run")
-    rec.save(tmp)
-    ev = Evaluator(cfg.suite, cfg.backend, cfg.backend_kwargs)
-    step = 0
-    try:
-        for index in range(min(items, cfg.suite.size)):
-            for view, gt in ev.cases(index):
-                rec.set_time("view", sequence=step)
-                step += 1
-                est, _, failure = ev._predict(view, gt)
-                h, w = view.depth.shape
-                rec.log("camera", rr.Pinhole(image_from_camera=view.K, width=w, height=h))
-                rec.log("camera/depth", rr.DepthImage(view.depth, meter=1.0))
-                rec.log("camera/mask", rr.SegmentationImage(view.mask.astype(np.uint8)))
-                truth = instance_from_key(gt.key).mesh.copy()
-                T = np.eye(4)
-                T[:3, :3], T[:3, 3] = gt.R_cam, gt.t_cam
-                truth.apply_transform(T)
-                rec.log("camera/truth", rerun_mesh(truth, [60, 180, 75, 160]))
-                mesh = estimate_mesh(est, np.eye(4)) if est is not None else None
-                if mesh is not None:
-                    rec.log("camera/estimate", rerun_mesh(mesh, [230, 25, 75, 160]))
-                else:
-                    rec.log("camera/estimate", rr.Clear(recursive=False))
-                text = f"{gt.key} ({gt.category})"
-                if est is not None:
-                    text += f"; predicted {view.categories[est.class_index]}"
-                if failure:
-                    text += f"; FAILED: {failure}"
-                rec.log("info", rr.TextLog(text))
-    finally:
-        ev.close()
-        rec.flush()
-        rec.disconnect()
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:  # a failed run leaves no partial recording at path
+        rec = rr.RecordingStream("beo-bench-run")
+        rec.save(tmp)
+        ev = Evaluator(cfg.suite, cfg.backend, cfg.backend_kwargs)
+        step = 0
+        try:
+            for index in range(min(items, cfg.suite.size)):
+                for view, gt in ev.cases(index):
+                    rec.set_time("view", sequence=step)
+                    step += 1
+                    est, _, failure = ev._predict(view, gt)
+                    h, w = view.depth.shape
+                    rec.log("camera", rr.Pinhole(image_from_camera=view.K, width=w, height=h))
+                    rec.log("camera/depth", rr.DepthImage(view.depth, meter=1.0))
+                    rec.log("camera/mask", rr.SegmentationImage(view.mask.astype(np.uint8)))
+                    truth = instance_from_key(gt.key).mesh.copy()
+                    T = np.eye(4)
+                    T[:3, :3], T[:3, 3] = gt.R_cam, gt.t_cam
+                    truth.apply_transform(T)
+                    rec.log("camera/truth", rerun_mesh(truth, [60, 180, 75, 160]))
+                    mesh = estimate_mesh(est, np.eye(4)) if est is not None else None
+                    if mesh is not None:
+                        rec.log("camera/estimate", rerun_mesh(mesh, [230, 25, 75, 160]))
+                    else:
+                        rec.log("camera/estimate", rr.Clear(recursive=False))
+                    text = f"{gt.key} ({gt.category})"
+                    if est is not None:
+                        text += f"; predicted {view.categories[est.class_index]}"
+                    if failure:
+                        text += f"; FAILED: {failure}"
+                    rec.log("info", rr.TextLog(text))
+        finally:
+            ev.close()
+            rec.flush()
+            rec.disconnect()
     return path

@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from beo_bench.atomic import atomic_write_bytes
 from beo_bench.bench.pool import (
     WORKER_THREADS,
     RunError,
@@ -324,17 +325,11 @@ class ResultsWriter:
 
 
 def write_atomic(path: Path, data: str | bytes) -> None:
-    """Write a whole file through a temporary one and a rename: readers (and a resumed
-    run) see the old file or the new one, never half of one. A failed write removes its
-    temporary file (its own) and raises the ``OSError``."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_bytes(data if isinstance(data, bytes) else data.encode())
-        os.replace(tmp, path)
-    except OSError:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
+    """Write a whole file through a temporary one and a rename
+    (:func:`beo_bench.atomic.atomic_write_bytes`): readers (and a resumed run) see the old
+    file or the new one, never half of one. A failed write removes its temporary file (its
+    own) and raises the ``OSError``."""
+    atomic_write_bytes(path, data)
 
 
 def write_json_atomic(path: Path, obj: Any) -> None:

@@ -2,9 +2,10 @@
 
 Entries live under ``$BEO_BENCH_CACHE`` (default ``~/.cache/beo_bench``), one ``.npz`` file
 per (mesh content hash, processing settings), in one directory per kind (:data:`KINDS`).
-Writers go through a temporary file in the same directory and ``os.replace``, so a reader in
-another process sees either nothing or the whole file, and a killed writer leaves only a
-``.tmp`` file that the next writer ignores.
+Writers go through a temporary file in the same directory and ``os.replace``
+(:func:`beo_bench.atomic.atomic_write`), so a reader in another process sees either nothing
+or the whole file, and a killed writer leaves only a ``.tmp`` file that the next writer
+ignores.
 
 Every entry carries a checksum of its arrays (``__checksum__``); an entry that does not
 match it, has none (written by an older version) or cannot be read is recomputed and
@@ -23,7 +24,6 @@ import json
 import logging
 import os
 import shutil
-import tempfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from beo_bench.atomic import atomic_write
 from beo_bench.errors import InvalidNameError, UsageError
 from beo_bench.names import check_name
 
@@ -191,16 +192,8 @@ def checksum_problem(arrays: Mapping[str, np.ndarray]) -> str | None:
 def atomic_save_npz(path: Path, **arrays: np.ndarray) -> None:
     """Write ``arrays`` to ``path`` so that no reader ever sees a partial file."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez_compressed(f, **arrays)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_write(path, perms=0o600) as f:  # private to the user, as it always was
+        np.savez_compressed(f, **arrays)
 
 
 def _read_entry(path: Path) -> dict[str, np.ndarray] | None:

@@ -16,12 +16,12 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from beo_bench.atomic import atomic_write_text
 from beo_bench.errors import UsageError
 from beo_bench.objects.loaders import DEFAULT_REPAIR
 from beo_bench.objects.objectset import ObjectSet
@@ -169,9 +169,9 @@ def dataset_digest(root: str | Path, layout: str) -> str:
     if fresh != memo:
         try:
             memo_path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = memo_path.with_name(f".{memo_path.name}.{os.getpid()}.tmp")
-            tmp.write_text(json.dumps(fresh))
-            os.replace(tmp, memo_path)
+            # not fsync-ed: losing it in a crash only costs re-hashing, and it is rewritten
+            # whenever a dataset file changes
+            atomic_write_text(memo_path, json.dumps(fresh), durable=False)
         except OSError:
             pass  # a read-only cache only costs re-hashing next time
     return h.hexdigest()[:DIGEST_CHARS]

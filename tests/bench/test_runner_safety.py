@@ -32,8 +32,8 @@ from beo_bench.bench.suites import get_suite
 from beo_bench.bench.summary import TIMING_KEYS
 from beo_bench.errors import CorruptDataError, UsageError
 
-ROOT = Path(__file__).resolve().parents[1]
-FAULTS = "tests.runner_faults"
+ROOT = Path(__file__).resolve().parents[2]
+FAULTS = "tests.bench.runner_faults"
 
 
 def _cfg(suite: str, backend: str, n: int, track: str | None = None, **opts) -> RunConfig:
@@ -57,7 +57,7 @@ def _lines(path: Path) -> list[bytes]:
 @pytest.fixture(scope="module")
 def faults():
     """The misbehaving test backend, registered here and in the workers that import it."""
-    import tests.runner_faults as mod
+    import tests.bench.runner_faults as mod
 
     yield mod
     B._REGISTRY.pop(mod.NAME, None)  # other test modules see the in-tree set

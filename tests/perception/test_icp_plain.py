@@ -13,7 +13,7 @@ import pytest
 from beo_bench.backend import backend_options, check_backend, get_backend, sample_views
 from beo_bench.errors import UsageError
 from beo_bench.perception.icp import PLAIN_DEFAULTS, UPRIGHT, ICPBackend
-from tests.test_icp import FAST, _angle_deg, _synthetic_view
+from tests.perception.test_icp import FAST, _angle_deg, _synthetic_view
 
 OFFSET = np.array([0.02, -0.01, 0.0])
 

@@ -2,7 +2,7 @@
 
 Importing this module registers ``test-fault``. Spawned workers know only in-tree and
 entry-point backends, so the tests hand it to them explicitly:
-``WorkerPool(n, imports=["tests.runner_faults"])`` (spawned children inherit ``sys.path``,
+``WorkerPool(n, imports=["tests.bench.runner_faults"])`` (spawned children inherit ``sys.path``,
 which holds the repository root under pytest). Nothing in the package imports it.
 
 On the views whose class (``View.class_hint``, given by ``pose-1dof``; item ``i`` shows

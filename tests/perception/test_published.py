@@ -14,7 +14,7 @@ from beo_bench.errors import CheckpointError
 from beo_bench.perception import beo_model, hbeo_train, published
 from beo_bench.perception.digest import state_digest
 
-README = Path(__file__).resolve().parents[1] / "docs" / "reference-models.md"
+README = Path(__file__).resolve().parents[2] / "docs" / "reference-models.md"
 
 
 @pytest.fixture

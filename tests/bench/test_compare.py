@@ -10,7 +10,7 @@ from beo_bench.bench import columns
 from beo_bench.bench.compare import ComparisonWarning, paired
 from beo_bench.cli import COLUMNS, format_runs, main
 from beo_bench.errors import UsageError
-from tests.synthetic_runs import pose_row, write_run
+from tests.bench.synthetic_runs import pose_row, write_run
 
 
 def _by_key(results) -> dict:

@@ -11,7 +11,7 @@ import pytest
 
 from beo_bench.bench.columns import METRICS, board_columns
 from beo_bench.bench.leaderboard import regenerate, suite_table
-from tests.synthetic_runs import pose_row, write_run
+from tests.bench.synthetic_runs import pose_row, write_run
 
 ROT = np.random.default_rng(0).exponential(40, 22)
 DIGEST = "0123456789abcdef"
