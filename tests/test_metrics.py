@@ -459,7 +459,7 @@ def test_surface_scores_agree_with_chamfer_and_fscore() -> None:
     assert M.surface_scores(a, a)["fscore"] == 1.0 and M.surface_scores(a, a)["chamfer_l1"] == 0
 
 
-# --------------------------------------------------------------------------- issue 17
+# --------------------------------------------------------------------------- gross errors
 
 
 def test_gross_errors_and_nocs_hits_are_the_rates_one_view_at_a_time() -> None:

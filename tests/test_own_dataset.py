@@ -1,4 +1,4 @@
-"""A user's own dataset end to end (issue 19, items 4 and 5): a folder of meshes made here,
+"""A user's own dataset end to end: a folder of meshes made here,
 scored by ``beo-bench all --objects`` with ``oracle`` and ``icp``, a BEO model trained on it
 by ``beo-bench train beo --objects``, and suites named by the dataset's content digest."""
 

@@ -225,7 +225,7 @@ def test_compare_needs_the_results_beside_the_summary(tmp_path, capsys) -> None:
 
 
 def test_every_table_reads_the_one_metric_spec_table() -> None:
-    """The plain-text table's columns are the specs (issue 20: no second list)."""
+    """The plain-text table's columns are the specs."""
     assert all(isinstance(c, columns.MetricSpec) for c in COLUMNS)
     assert [c.key for c in COLUMNS] == [m.key for m in columns.METRICS if m.brief]
     s = {"suite": "pose-1dof", "track": "class-free", "backend": "beo", "n": 2, "failures": 0,

@@ -1,4 +1,4 @@
-"""Leaderboard hygiene (issue 17, item 8): only runs scored under the same rules share a
+"""Leaderboard hygiene: only runs scored under the same rules share a
 table (track, seed, items), partial runs and borrowed rows are marked, each row carries its
 model digest and options, and each method gets paired verdicts against the baselines."""
 

@@ -55,7 +55,7 @@ def test_oracle_picks_exactly_like_the_ground_truth_planner(tmp_path) -> None:
     for r in rows:
         gt = ground_truth_pick_check(1, episode_seed(suite, r["item"])).episodes[0]
         assert (r["success"], r["category"]) == (gt.success, gt.category), r
-    assert s["metrics"]["pick_success"] >= 0.7  # the ceiling is about 92% (README)
+    assert s["metrics"]["pick_success"] >= 0.7  # the ceiling is about 92% (docs/objects.md)
 
 
 def test_icp_beats_random_on_pose_1dof(tmp_path) -> None:

@@ -1,4 +1,4 @@
-"""Tracks (issue 17, item 1): the class hint is a property of the track a pose suite is
+"""Tracks: the class hint is a property of the track a pose suite is
 scored in, never of a backend's option. ``class-given`` gives the true class to every
 backend that can use it, ``class-free`` to none; no backend changes track by default; the
 track is part of a run's identity, its directory name and its summary; a campaign runs

@@ -1,4 +1,4 @@
-"""BEO's pose prior (issue 17, item 3): the isolated suites publish the viewpoint
+"""BEO's pose prior: the isolated suites publish the viewpoint
 distribution their views are drawn from (``View.viewpoint_prior``), its log density is
 exact (it recovers the rig's angles, integrates to one, matches a hand computation), and
 ``beo`` uses it as P(R) in its 3-DOF coarse and fine steps (``pose_prior``, on by

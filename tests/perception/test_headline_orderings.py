@@ -1,4 +1,4 @@
-"""The benchmark's headline orderings (issue 17), pinned on small models trained here, on
+"""The benchmark's headline orderings, pinned on small models trained here, on
 rendered test-split views drawn by the isolated suites' rig (slow-marked; each test takes
 seconds once its models are trained, well under a minute on 2 cores in all):
 

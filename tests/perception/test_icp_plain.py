@@ -1,4 +1,4 @@
-"""``icp-plain`` (issue 17, item 2): the dissertation's ICP baseline is ``icp`` from one start
+"""``icp-plain``: the dissertation's ICP baseline is ``icp`` from one start
 (upright and facing the camera, or yaw 0 about a given up), with every pair kept,
 point-to-point steps and no free-space term. It must be a correct ICP (exact from a near
 start) that, unlike the multi-start ``icp``, gets stuck in local minima from a far one."""

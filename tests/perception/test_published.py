@@ -14,7 +14,7 @@ from beo_bench.errors import CheckpointError
 from beo_bench.perception import beo_model, hbeo_train, published
 from beo_bench.perception.digest import state_digest
 
-README = Path(__file__).resolve().parents[2] / "docs" / "reference-models.md"
+MODELS_PAGE = Path(__file__).resolve().parents[2] / "docs" / "reference-models.md"
 
 
 @pytest.fixture
@@ -33,7 +33,7 @@ def test_every_published_model_is_listed_with_its_digest() -> None:
     assert total <= 20e6, f"published models take {total / 1e6:.1f} MB (at most 20 MB)"
     for name, size, _ in published.files_table():
         assert size <= 10e6, f"{name} takes {size / 1e6:.1f} MB (at most 10 MB a file)"
-    text = README.read_text()
+    text = MODELS_PAGE.read_text()
     for name, sha in files.items():
         if name.endswith(".npz"):
             assert re.search(rf"`{re.escape(name)}`.*{sha}", text), (
