@@ -9,7 +9,6 @@ the recording with ``rerun FILE.rrd``.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -17,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 import gymnasium as gym
 import numpy as np
 
+from beo_bench.atomic import atomic_path
 from beo_bench.errors import BeoBenchError
 from beo_bench.scenes.builder import OBJECT_COLOURS
 from beo_bench.scenes.camera import backproject
@@ -74,11 +74,6 @@ def rerun_mesh(mesh: Any, rgba: Any) -> Any:
     )
 
 
-def _atomic_target(path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
-
-
 # the 12 edges of a box, as pairs of corner indices (corner i has sign bits of i on x, y, z)
 _BOX_EDGES = [(a, a | 1 << k) for a in range(8) for k in range(3) if not a & 1 << k]
 
@@ -125,13 +120,22 @@ def _write_png(
         ax.set_title(t)
         ax.set_axis_off()
     fig.suptitle(title)
-    tmp = _atomic_target(path)
-    fig.savefig(tmp, dpi=90, format="png")
-    plt.close(fig)
-    os.replace(tmp, path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=90, format="png")
+    finally:
+        plt.close(fig)
 
 
 def _log_rerun(path: Path, env: Any, obs: dict[str, Any], grasp: Any) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        _record(tmp, env, obs, grasp)
+
+
+def _record(tmp: Path, env: Any, obs: dict[str, Any], grasp: Any) -> None:
+    """Write the scene's rerun recording to ``tmp``."""
     try:
         import rerun as rr
     except ImportError as e:  # pragma: no cover - the viz extra is installed by make
@@ -140,7 +144,6 @@ def _log_rerun(path: Path, env: Any, obs: dict[str, Any], grasp: Any) -> None:
         ) from e
     u = env.unwrapped
     rec = rr.RecordingStream("beo-bench-view")
-    tmp = _atomic_target(path)
     rec.save(tmp)
     rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     for g in u.ground_truth():
@@ -197,7 +200,6 @@ def _log_rerun(path: Path, env: Any, obs: dict[str, Any], grasp: Any) -> None:
         )
     rec.flush()
     rec.disconnect()
-    os.replace(tmp, path)
 
 
 def view_scene(

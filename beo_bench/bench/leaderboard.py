@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from beo_bench.atomic import atomic_write_bytes
 from beo_bench.bench import compare
 from beo_bench.bench.campaign import backend_label
 from beo_bench.bench.columns import (
@@ -46,7 +47,6 @@ from beo_bench.bench.columns import (
     board_columns,
     spec,
 )
-from beo_bench.bench.runner import write_atomic
 from beo_bench.errors import UsageError
 
 BOUNDS = {"oracle": "upper bound", "random": "lower bound"}
@@ -253,7 +253,7 @@ def _savefig(fig: Any, path: Path) -> None:
 
     buf = io.BytesIO()
     fig.savefig(buf, dpi=100, format="png", metadata={"Software": None})
-    write_atomic(path, buf.getvalue())
+    atomic_write_bytes(path, buf.getvalue())
 
 
 def _slug(text: str) -> str:
@@ -713,17 +713,19 @@ def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> l
         for track, secs in tracks.items():
             _track_part(page, out, suite, track, secs, firsts)
         path = out / f"{suite}.md"
-        write_atomic(path, "\n".join(page.md))
+        atomic_write_bytes(path, "\n".join(page.md))
         shown = list(page.shown.values())
-        write_atomic(out / f"{suite}.json", json.dumps(shown, indent=2, sort_keys=True) + "\n")
+        atomic_write_bytes(
+            out / f"{suite}.json", json.dumps(shown, indent=2, sort_keys=True) + "\n"
+        )
         paired_json = [_verdict_json(v) for v in page.verdicts]
-        write_atomic(
+        atomic_write_bytes(
             out / f"{suite}_paired.json", json.dumps(paired_json, indent=2, sort_keys=True) + "\n"
         )
         keep |= {path.name, f"{suite}.json", f"{suite}_paired.json", *page.plots}
         written.append(path)
         index += [f"## [{suite}]({suite}.md)", "", desc, "", *page.index]
-    write_atomic(out / "README.md", "\n".join(index))
+    atomic_write_bytes(out / "README.md", "\n".join(index))
     from beo_bench.bench.suites import list_suites
 
     ours = tuple(list_suites())

@@ -324,16 +324,10 @@ class ResultsWriter:
                 self.close()
 
 
-def write_atomic(path: Path, data: str | bytes) -> None:
-    """Write a whole file through a temporary one and a rename
-    (:func:`beo_bench.atomic.atomic_write_bytes`): readers (and a resumed run) see the old
-    file or the new one, never half of one. A failed write removes its temporary file (its
-    own) and raises the ``OSError``."""
-    atomic_write_bytes(path, data)
-
-
 def write_json_atomic(path: Path, obj: Any) -> None:
-    write_atomic(path, json.dumps(obj, indent=2, sort_keys=True, default=jsonable) + "\n")
+    """``obj`` as a JSON file, written atomically (:func:`beo_bench.atomic.atomic_write_bytes`):
+    readers (and a resumed run) see the old file or the new one, never half of one."""
+    atomic_write_bytes(path, json.dumps(obj, indent=2, sort_keys=True, default=jsonable) + "\n")
 
 
 # -- the run directory -----------------------------------------------------------------------
