@@ -16,6 +16,7 @@ import multiprocessing
 import numbers
 import warnings
 from collections.abc import Callable
+from dataclasses import dataclass
 from importlib.metadata import EntryPoint, entry_points
 from typing import Any, Protocol, runtime_checkable
 
@@ -25,13 +26,63 @@ from beo_bench.errors import BackendError, BeoBenchError, EstimateError, PluginE
 from beo_bench.types import Estimate, View
 
 ENTRY_POINT_GROUP = "beo_bench.backends"
-_IN_TREE = (
-    "beo_bench.perception.bounds",
-    "beo_bench.perception.icp",
-    "beo_bench.perception.beo",
-    "beo_bench.perception.hbeo",
-    "beo_bench.perception.swap",
-)
+
+
+@dataclass(frozen=True)
+class InTreeBackend:
+    """Where an in-tree backend is registered and the line listings show for it: known
+    without importing its module, so ``beo-bench --help`` lists every backend without
+    loading torch (about 1.7 s); the module's registration takes ``description`` and
+    ``diagnostic`` from here, so the two cannot drift apart."""
+
+    module: str
+    description: str
+    diagnostic: bool = False
+
+
+IN_TREE: dict[str, InTreeBackend] = {
+    "oracle": InTreeBackend(
+        "beo_bench.perception.bounds",
+        "the ground truth (class, pose, size, shape, mesh): the upper bound",
+    ),
+    "random": InTreeBackend(
+        "beo_bench.perception.bounds",
+        "chance: a random class and rotation, the class-mean shape: the lower bound",
+    ),
+    "icp": InTreeBackend(
+        "beo_bench.perception.icp",
+        "multi-start trimmed ICP of the observed points to the class-mean surface",
+    ),
+    "icp-plain": InTreeBackend(
+        "beo_bench.perception.icp", "the dissertation's ICP baseline: icp with its plain defaults"
+    ),
+    "beo": InTreeBackend(
+        "beo_bench.perception.beo",
+        "Bayesian Eigenobjects (chapter 3): class, pose and shape by search",
+    ),
+    "hbeo": InTreeBackend(
+        "beo_bench.perception.hbeo",
+        "Hybrid Bayesian Eigenobjects (chapter 4): one network pass per view",
+    ),
+    "hbeo-mdn-likelihood": InTreeBackend(
+        "beo_bench.perception.hbeo",
+        "HBEO-MDN (chapter 5): the rotation sample of highest mixture density",
+    ),
+    "hbeo-mdn-posterior": InTreeBackend(
+        "beo_bench.perception.hbeo",
+        "HBEO-MDN (chapter 5): rotation samples scored with the silhouette prior",
+    ),
+    "swap": InTreeBackend(
+        "beo_bench.perception.swap",
+        "diagnostic: a base backend with some of its estimate replaced by the truth",
+        # not one of "every backend": `beo-bench all` and the demo skip it
+        diagnostic=True,
+    ),
+}
+"""The in-tree backends by name (a test checks that importing the modules registers exactly
+these, with these descriptions)."""
+
+_IN_TREE = tuple(dict.fromkeys(b.module for b in IN_TREE.values()))
 """Modules whose import registers the in-tree backends."""
 
 
@@ -84,6 +135,16 @@ def _add(name: str, factory: Factory, origin: str) -> None:
             f"a backend named {name!r} is already registered (from {_REGISTRY[name][1]}); "
             "choose another name"
         )
+    listed = IN_TREE.get(name)
+    if listed is not None and getattr(factory, "__module__", None) != listed.module:
+        # an in-tree name is taken whether or not its module has been imported yet
+        raise BackendError(
+            f"a backend named {name!r} is already registered (in-tree, {listed.module}); "
+            "choose another name"
+        )
+    if listed is not None:
+        factory.description = listed.description  # type: ignore[attr-defined]
+        factory.diagnostic = listed.diagnostic  # type: ignore[attr-defined]
     _REGISTRY[name] = (factory, origin)
 
 
@@ -100,8 +161,8 @@ def load_plugins() -> list[str]:
     returns the names registered. A plugin that fails to import, whose object is not a
     backend class or factory, or whose name is taken is skipped with one
     :class:`PluginWarning` naming it (the runner calls this in every worker: a broken
-    package must not stop the others); :func:`get_backend` of its name says why."""
-    _ensure_in_tree()
+    package must not stop the others); :func:`get_backend` of its name says why. The
+    in-tree backends are not imported here: their names are known (:data:`IN_TREE`)."""
     names = []
     for ep in entry_points(group=ENTRY_POINT_GROUP):
         if (ep.name, ep.value) in _BROKEN:
@@ -165,19 +226,24 @@ def buildable_in_fresh_process(name: str, imports: tuple[str, ...] = ()) -> bool
 def list_backends(diagnostic: bool = True) -> list[str]:
     """Names of the registered backends, sorted; without the diagnostic tools that wrap
     another backend (a class attribute ``diagnostic = True``, e.g. ``swap``) when
-    ``diagnostic`` is False."""
-    _ensure_in_tree()
-    return sorted(
+    ``diagnostic`` is False. The in-tree backends come from :data:`IN_TREE` without
+    importing their modules (plugins are in the registry once :func:`load_plugins` ran)."""
+    names = {n for n, b in IN_TREE.items() if diagnostic or not b.diagnostic}
+    names |= {
         name
         for name, (f, _) in _REGISTRY.items()
-        if diagnostic or not getattr(f, "diagnostic", False)
-    )
+        if name not in IN_TREE and (diagnostic or not getattr(f, "diagnostic", False))
+    }
+    return sorted(names)
 
 
 def describe_backend(name: str) -> str:
     """One line saying what backend ``name`` is, for listings (``beo-bench --help``): its
     factory's ``description`` attribute (in-tree backends and plugins may set one), else the
-    first sentence of the factory's docstring, else ``""``. Builds nothing."""
+    first sentence of the factory's docstring, else ``""``. Builds nothing, and imports
+    nothing for an in-tree backend (:data:`IN_TREE`)."""
+    if name in IN_TREE:
+        return IN_TREE[name].description
     _ensure_in_tree()
     if name not in _REGISTRY:
         raise _unknown_backend(name)

@@ -142,7 +142,6 @@ class BEOBackend:
     """
 
     name = "beo"
-    description = "Bayesian Eigenobjects (chapter 3): class, pose and shape by search"
     wants_class_hint = True
     """It uses ``View.class_hint`` (given in the ``class-given`` track) to fix the class."""
 

@@ -23,7 +23,6 @@ class OracleBackend:
     backend (the ceiling of a D^3 shape)."""
 
     name = "oracle"
-    description = "the ground truth (class, pose, size, shape, mesh): the upper bound"
     privileged = True
 
     def __init__(self, resolution: int = 32, mesh: bool = True) -> None:
@@ -49,7 +48,6 @@ class RandomBackend:
     (its generator is seeded from the view's bytes and ``seed``)."""
 
     name = "random"
-    description = "chance: a random class and rotation, the class-mean shape: the lower bound"
 
     def __init__(self, seed: int = 0, resolution: int = 32, mean_instances: int | None = None):
         self.seed = int(seed)

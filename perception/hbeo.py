@@ -376,14 +376,6 @@ def sdf_errors(observed: np.ndarray, masks: np.ndarray) -> np.ndarray:
     return e
 
 
-DESCRIPTIONS: dict[Mode, str] = {
-    "hbeo": "Hybrid Bayesian Eigenobjects (chapter 4): one network pass per view",
-    "likelihood": "HBEO-MDN (chapter 5): the rotation sample of highest mixture density",
-    "posterior": "HBEO-MDN (chapter 5): rotation samples scored with the silhouette prior",
-}
-"""The line each factory shows in listings (``beo-bench --help``)."""
-
-
 def _factory(mode: Mode) -> Callable[..., HBEOBackend]:
     def make(**kw: object) -> HBEOBackend:
         return HBEOBackend(mode, **kw)  # type: ignore[arg-type]
@@ -394,7 +386,6 @@ def _factory(mode: Mode) -> Callable[..., HBEOBackend]:
     make.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
         [p for p in params if p.name not in ("self", "mode")]
     )
-    make.description = DESCRIPTIONS[mode]  # type: ignore[attr-defined]
     return make
 
 

@@ -403,7 +403,6 @@ class ICPBackend:
     """
 
     name = "icp"
-    description = "multi-start trimmed ICP of the observed points to the class-mean surface"
     wants_class_hint = True
     """It can use ``View.class_hint`` (the runner gives it in the ``class-given`` track)."""
 
@@ -603,7 +602,6 @@ class PlainICPBackend(ICPBackend):
     docstring); every ``icp`` option can still be given."""
 
     name = "icp-plain"
-    description = "the dissertation's ICP baseline: icp with its plain defaults"
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**{**PLAIN_DEFAULTS, **kwargs})

@@ -33,9 +33,7 @@ PARTS = ("class", "pose", "shape")
 @register_backend("swap")
 class SwapBackend:
     name = "swap"
-    description = "diagnostic: a base backend with some of its estimate replaced by the truth"
     privileged = True
-    diagnostic = True  # not one of "every backend": `beo-bench all` and the demo skip it
 
     def __init__(self, base: str = "icp", truth: str = "class", **base_options: Any) -> None:
         parts = tuple(p for p in str(truth).replace("+", ",").split(",") if p)

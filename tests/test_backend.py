@@ -40,6 +40,23 @@ def test_in_tree_backends_are_listed() -> None:
     assert "swap" in B.list_backends() and "swap" not in B.list_backends(diagnostic=False)
 
 
+def test_the_in_tree_catalogue_is_what_the_modules_register() -> None:
+    # listings read the catalogue without importing torch; the modules' registrations must
+    # be exactly its entries, in its modules, with its descriptions and diagnostic flags
+    B._ensure_in_tree()
+    registered = {
+        name: f
+        for name, (f, origin) in B._REGISTRY.items()
+        if origin == "in-tree" and f.__module__ in B._IN_TREE
+    }
+    assert set(registered) == set(B.IN_TREE)
+    for name, f in registered.items():
+        listed = B.IN_TREE[name]
+        assert f.__module__ == listed.module, name
+        assert f.description == listed.description == B.describe_backend(name)
+        assert bool(getattr(f, "diagnostic", False)) == listed.diagnostic, name
+
+
 @pytest.mark.parametrize("name", B.list_backends())
 def test_every_registered_backend_conforms(name, views) -> None:
     B.check_backend(B.get_backend(name, **FAST.get(name, {})), views)
