@@ -4,10 +4,7 @@ check; and the checksum alone. Run alone with ``python benchmarks/run.py cache``
 
 from __future__ import annotations
 
-import os
-import tempfile
-
-from harness import median_ms_per_item, report
+from harness import median_ms_per_item, report, use_fresh_cache
 
 from beo_bench.objects import ObjectSet, cache
 
@@ -16,7 +13,7 @@ REPEAT = 5
 
 
 def main() -> None:
-    os.environ["BEO_BENCH_CACHE"] = tempfile.mkdtemp(prefix="beo_bench_bench_")
+    use_fresh_cache()
     objects = ObjectSet("test", ("mug", "car", "chair", "bowl"), per_category=5)
     insts = [objects.get(c, i) for c in objects.categories for i in range(5)]
     for inst in insts:  # fill the cache (the cold path is bench_objects' business)

@@ -3,11 +3,9 @@ collision parts (procedural and CoACD), and processing the whole default library
 
 from __future__ import annotations
 
-import os
-import tempfile
 import time
 
-from harness import median_time, report
+from harness import median_time, report, use_fresh_cache
 
 from beo_bench.geometry import no_symmetry
 from beo_bench.objects import DEFAULT_SPLIT_SIZES, ObjectSet, categories
@@ -17,13 +15,9 @@ from beo_bench.objects.prepare import prepare
 from beo_bench.objects.registry import Generated
 
 
-def _fresh_cache() -> None:
-    os.environ["BEO_BENCH_CACHE"] = tempfile.mkdtemp(prefix="beo_bench_bench_")
-
-
 def main() -> None:
     cats = categories()
-    _fresh_cache()
+    use_fresh_cache()
     # 1. generate + voxelise (32^3) one instance, cold cache, fresh instance objects
     keys = [(c, i) for i in range(4) for c in cats]
     it = iter(keys)
@@ -43,7 +37,7 @@ def main() -> None:
     )
 
     # 2. throughput with 2 worker processes (pool start-up included)
-    _fresh_cache()
+    use_fresh_cache()
     objs = ObjectSet("train", per_category=8)
     t0 = time.perf_counter()
     prepare(objs, workers=2, progress=False)
@@ -99,7 +93,7 @@ def main() -> None:
     report("estimate the symmetry group of a mug-like mesh (median)", t, "s", "< 1 s", t < 1.0)
 
     # 5. the whole default library, cold then warm
-    _fresh_cache()
+    use_fresh_cache()
     every = [inst for split in DEFAULT_SPLIT_SIZES for inst in ObjectSet(split)]
     t0 = time.perf_counter()
     prepare(every, workers=2, progress=False)

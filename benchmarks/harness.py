@@ -5,12 +5,23 @@ Benchmarks measure; they never fail the build. ``make bench`` runs them all.
 
 from __future__ import annotations
 
+import os
 import statistics
+import tempfile
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 RESULTS: list[dict[str, Any]] = []
+
+
+def use_fresh_cache() -> Path:
+    """Point the asset cache at a new, empty temporary folder, for cold-cache figures
+    (``run.py`` gives the next benchmark the user's cache back)."""
+    root = Path(tempfile.mkdtemp(prefix="beo_bench_bench_"))
+    os.environ["BEO_BENCH_CACHE"] = str(root)
+    return root
 
 
 def median_time(

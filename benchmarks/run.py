@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import importlib.util
+import os
 import sys
 import time
+import warnings
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -24,7 +26,13 @@ def main(argv: list[str]) -> int:
         mod = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(mod)
         t0 = time.perf_counter()
-        mod.main()
+        environ = dict(os.environ)
+        # each benchmark starts from the user's environment (e.g. the asset cache a
+        # cold-cache figure replaced) and warning filters
+        with warnings.catch_warnings():
+            mod.main()
+        os.environ.clear()
+        os.environ.update(environ)
         print(f"  ({path.stem} took {time.perf_counter() - t0:.0f} s)")
     missed = [r for r in harness.RESULTS if r["ok"] is False]
     print(

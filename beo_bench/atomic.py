@@ -78,7 +78,7 @@ def atomic_write(
 
 
 @contextlib.contextmanager
-def atomic_path(path: Path | str, *, durable: bool = True) -> Iterator[Path]:
+def atomic_path(path: Path | str) -> Iterator[Path]:
     """For a library that writes a file by name (a figure, a rerun recording): a new,
     empty temporary file beside ``path`` for it to write, renamed onto ``path`` when the
     block ends without an exception, removed otherwise; as :func:`atomic_write` in every
@@ -88,8 +88,7 @@ def atomic_path(path: Path | str, *, durable: bool = True) -> Iterator[Path]:
     os.close(fd)
     try:
         yield tmp
-        if durable:
-            _fsync(tmp)
+        _fsync(tmp)
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)  # our own temporary file, never the target
@@ -100,11 +99,6 @@ def atomic_write_bytes(path: Path | str, data: bytes | str, *, durable: bool = T
     """Write ``data`` (``str`` as UTF-8) to ``path`` atomically (:func:`atomic_write`)."""
     with atomic_write(path, "wb", durable=durable) as f:
         f.write(data.encode() if isinstance(data, str) else data)
-
-
-def atomic_write_text(path: Path | str, text: str, *, durable: bool = True) -> None:
-    """Write ``text`` as UTF-8 to ``path`` atomically (:func:`atomic_write`)."""
-    atomic_write_bytes(path, text.encode(), durable=durable)
 
 
 def _fsync(path: Path) -> None:

@@ -32,8 +32,8 @@ ENTRY_POINT_GROUP = "beo_bench.backends"
 class InTreeBackend:
     """Where an in-tree backend is registered and the line listings show for it: known
     without importing its module, so ``beo-bench --help`` lists every backend without
-    loading torch (about 1.7 s); the module's registration takes ``description`` and
-    ``diagnostic`` from here, so the two cannot drift apart."""
+    loading torch (about 1.7 s). It is the one record of their ``description`` and
+    ``diagnostic`` flag; a plugin sets them as attributes of its class or factory."""
 
     module: str
     description: str
@@ -142,9 +142,6 @@ def _add(name: str, factory: Factory, origin: str) -> None:
             f"a backend named {name!r} is already registered (in-tree, {listed.module}); "
             "choose another name"
         )
-    if listed is not None:
-        factory.description = listed.description  # type: ignore[attr-defined]
-        factory.diagnostic = listed.diagnostic  # type: ignore[attr-defined]
     _REGISTRY[name] = (factory, origin)
 
 
@@ -244,8 +241,8 @@ def describe_backend(name: str) -> str:
     nothing for an in-tree backend (:data:`IN_TREE`)."""
     if name in IN_TREE:
         return IN_TREE[name].description
-    _ensure_in_tree()
     if name not in _REGISTRY:
+        _ensure_in_tree()  # only so that the error lists them: they cannot add ``name``
         raise _unknown_backend(name)
     factory = _REGISTRY[name][0]
     text = getattr(factory, "description", None) or inspect.getdoc(factory) or ""

@@ -550,7 +550,7 @@ def cmd_publish(args: argparse.Namespace) -> int:
         from beo_bench.perception.beo_model import BEOModel, model_dir
 
         cats = _categories(args)
-        path = model_dir(args.name, cats, 32) if args.name else model_dir(None, cats, 32)
+        path = model_dir(args.name, cats, 32)
         sha = published.publish_beo(BEOModel.load(path), out)
     else:
         from beo_bench.perception.hbeo_train import HBEOModel, model_path

@@ -32,12 +32,12 @@ from beo_bench.grasping import Grasp, plan_grasps
 from beo_bench.objects import ObjectSet
 from beo_bench.objects import categories as registered_categories
 from beo_bench.scenes.builder import Scene, TableConfig, build_tabletop
-from beo_bench.scenes.camera import CameraRig, Intrinsics, backproject
+from beo_bench.scenes.camera import CameraRig, Intrinsics, pixels_to_points
 from beo_bench.scenes.execute import GraspOutcome, execute_grasp, park, release, settle
 from beo_bench.scenes.gripper import MAX_OPENING
 from beo_bench.scenes.layout import ObjectTooLargeError, PlacementError, place_objects
 from beo_bench.scenes.noise import DepthNoise, apply_noise
-from beo_bench.scenes.renderer import Renderer, mujoco
+from beo_bench.scenes.renderer import UINT8_LABELS, Renderer, mujoco
 from beo_bench.types import Mat4, ObjectState
 
 FAR_CLIP = 20.0
@@ -297,8 +297,9 @@ class BEOPickEnv(gym.Env):
         if num_points is not None and _whole(num_points, "num_points") < 1:
             raise EnvConfigError(f"num_points={num_points}: give at least 1 point")
         self.num_points = DEFAULT_NUM_POINTS if num_points is None else int(num_points)
-        # labels 0..k: one byte per pixel while they fit (a 640x480 observation 2.46 -> 1.54 MB)
-        self.seg_dtype = np.dtype(np.uint8 if self.max_objects < 255 else np.int32)
+        # labels 0..k: one byte per pixel while they fit, as the renderer gives them (a
+        # 640x480 observation 2.46 -> 1.54 MB)
+        self.seg_dtype = np.dtype(np.uint8 if self.max_objects <= UINT8_LABELS else np.int32)
         self.observation_space = self._observation_space()
         half = np.array(self.table.table_half)
         low = np.array([-half[0], -half[1], 0.0, -1, -1, -1, -1, 0.0], np.float32)
@@ -486,9 +487,9 @@ class BEOPickEnv(gym.Env):
         obs = self._observe(frame)
         return _copy(obs), {"num_objects": k, "attempt": 0, "target_pixels": pixels}
 
-    def _render_frame(self) -> Any:
-        """Depth and segmentation of the current scene, (re)creating the renderer when there is
-        none (first reset, after ``close`` or in a copy) and binding it to a new scene."""
+    def _bound_renderer(self) -> Renderer:
+        """The renderer, (re)created when there is none (first reset, after ``close`` or in a
+        copy) and bound to the current scene."""
         assert self._scene is not None
         if self._renderer is None:
             self._renderer = Renderer(self.intrinsics)
@@ -496,7 +497,12 @@ class BEOPickEnv(gym.Env):
         if self._bound is not self._scene:
             self._renderer.bind(self._scene.model, self._scene.geom_labels)
             self._bound = self._scene
-        return self._renderer.render(self._scene.data, self._cam)
+        return self._renderer
+
+    def _render_frame(self) -> Any:
+        """Depth and segmentation of the current scene."""
+        assert self._scene is not None
+        return self._bound_renderer().render(self._scene.data, self._cam)
 
     def _observe(self, frame: Any = None) -> dict[str, Any]:
         """The observation of the current scene; ``frame``: its rendering if reset has just
@@ -528,8 +534,8 @@ class BEOPickEnv(gym.Env):
         """``num_points`` camera-frame points of pixels with depth, drawn from ``np_random``,
         and their labels (see the class docstring for how few valid pixels are padded)."""
         n = self.num_points
-        valid = depth > 0
-        count = int(np.count_nonzero(valid))
+        v, u = np.nonzero(depth > 0)
+        count = len(v)
         if count == 0:
             return np.zeros((n, 3), np.float32), np.zeros(n, self.seg_dtype)
         rng = self.np_random
@@ -537,10 +543,10 @@ class BEOPickEnv(gym.Env):
             idx = rng.choice(count, n, replace=False)
         else:  # every valid pixel once, then repeats: all points stay on surfaces
             idx = np.concatenate([np.arange(count), rng.choice(count, n - count, replace=True)])
-        # backproject and np.nonzero both list the valid pixels in row-major order
-        points = backproject(depth, self.intrinsics.K)[idx].astype(np.float32)
-        labels = seg[valid][idx]
-        return points, labels
+        # only the drawn pixels are back-projected (not the whole image)
+        v, u = v[idx], u[idx]
+        points = pixels_to_points(u, v, depth[v, u], self.intrinsics.K).astype(np.float32)
+        return points, seg[v, u]
 
     def step(self, action: Any) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
         if self._scene is None or self._obs is None:
@@ -593,9 +599,7 @@ class BEOPickEnv(gym.Env):
             raise EnvStateError("call reset() before render()")
         if self.render_mode == "depth_array":
             return np.array(self._image["depth"], dtype=np.float32, copy=True)
-        self._render_frame()  # creates and binds the renderer when needed (e.g. in a copy)
-        assert self._renderer is not None
-        return self._renderer.render_rgb(self._scene.data, self._cam)
+        return self._bound_renderer().render_rgb(self._scene.data, self._cam)
 
     def close(self) -> None:
         if self._renderer is not None:
@@ -622,15 +626,17 @@ class BEOPickEnv(gym.Env):
             assert self._image is not None
             episode = {
                 "drawn": list(self._draw[0]),
-                "poses": [T.copy() for T in self._draw[1]],
+                "poses": list(self._draw[1]),
                 "physics": physics,
-                "cam": self._cam.copy(),
+                "cam": self._cam,
                 "target": self._target,
                 "attempts": self._attempts,
                 "terminated": self._terminated,
-                "rest": self._rest.copy(),
-                "image": _copy(self._image),
-                "obs": _copy(self._obs),
+                "rest": self._rest,
+                # not copied here: pickle and deepcopy copy them, and their memo keeps the
+                # observation and the image sharing their arrays (stored once)
+                "image": self._image,
+                "obs": self._obs,
             }
         return {
             "config": self._config,

@@ -405,8 +405,12 @@ def load_model(
     path = model_dir(name, categories, resolution, per_category, dataset)
     if name is None and not (path / "config.json").exists():
         if dataset is not None:
-            how = train_command("beo", dataset) + (
-                f" --resolution {resolution}" if resolution != 32 else ""
+            how = train_command(
+                "beo",
+                categories,
+                dataset,
+                resolution=resolution if resolution != 32 else None,
+                per_category=per_category,
             )
             raise CheckpointError(
                 f"no BEO model for the dataset {dataset.root} (digest {dataset.short}, classes "

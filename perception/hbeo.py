@@ -36,7 +36,7 @@ import torch.nn.functional as F
 from scipy.spatial.transform import Rotation
 from scipy.special import logsumexp
 
-from beo_bench.backend import register_backend
+from beo_bench.backend import as_bool, register_backend
 from beo_bench.errors import UsageError
 from beo_bench.geometry import orthonormalise
 from beo_bench.names import check_name
@@ -104,7 +104,7 @@ class HBEOBackend:
         if size not in ("small", "dissertation"):
             raise ValueError(f"size={size!r}: use 'small' or 'dissertation'")
         self.size = str(size)
-        self.per_category = per_category in (True, "true", "True", "1", 1)
+        self.per_category = as_bool(per_category)
         if self.per_category and self.model_name is not None:
             raise ValueError(
                 "per_category=true picks each class's per-category network itself: leave "

@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from beo_bench.atomic import atomic_write, atomic_write_text
+from beo_bench.atomic import atomic_write, atomic_write_bytes
 from beo_bench.errors import CorruptDataError
 from beo_bench.objects import cache
 from beo_bench.perception.hbeo_crop import CROP_SIZE, make_crop
@@ -84,11 +84,9 @@ class DatasetConfig:
 
     def object_set(self, split: str) -> ObjectSet:
         """The instances of ``split`` the crops of that split are rendered from."""
-        if self.objects is not None:
-            return self.objects.objects(split, self.categories, self.per_category)
-        from beo_bench.objects import ObjectSet
+        from beo_bench.objects.dataset import object_set
 
-        return ObjectSet(split, self.categories, per_category=self.per_category)
+        return object_set(self.objects, split, self.categories, self.per_category)
 
     def __post_init__(self) -> None:
         if not self.categories:
@@ -345,7 +343,9 @@ def _tabletop_shard(config: DatasetConfig, split: str, rng: np.random.Generator,
     from beo_bench.envs.pick import BEOPickEnv
     from beo_bench.scenes.noise import DepthNoise, apply_noise
 
-    digest = config.objects.digest if config.objects is not None else ""
+    # the dataset's content and loading options (the same files loaded another way are
+    # other objects)
+    digest = config.objects.short if config.objects is not None else ""
     key = f"tabletop-{split}-{config.categories}-{config.per_category}-{digest}"
     if key not in _WORKER:
         objects = config.object_set(split)
@@ -409,7 +409,7 @@ def render_dataset(
     root.mkdir(parents=True, exist_ok=True)
     meta = root / "config.json"
     if not meta.exists():
-        atomic_write_text(meta, json.dumps(asdict(config), indent=2) + "\n")
+        atomic_write_bytes(meta, json.dumps(asdict(config), indent=2) + "\n")
     todo, repaired = [], 0
     for s in config.shards():
         path = shard_path(root, *_where(s))

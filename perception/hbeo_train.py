@@ -652,7 +652,6 @@ class _Data:
     train and validation crops as tensors (on the CPU; batches go to the device)."""
 
     beo: BEOModel
-    subspace: str  # the subspace's fingerprint, stored with every checkpoint
     mean: np.ndarray
     std: np.ndarray
     train: _Tensors
@@ -671,7 +670,7 @@ class _Run:
     start: int = 0  # the first epoch still to train
 
 
-def _load_data(config: HBEOConfig, beo: BEOModel, subspace: str, device: torch.device) -> _Data:
+def _load_data(config: HBEOConfig, beo: BEOModel, device: torch.device) -> _Data:
     """The rendered dataset's splits as tensors, with subspace coefficients standardised by
     the training split's mean and spread."""
     train = load_split(config.dataset, config.dataset.split)
@@ -681,7 +680,7 @@ def _load_data(config: HBEOConfig, beo: BEOModel, subspace: str, device: torch.d
     w = config.projection_weighting
     tr = _tensors(train, codes_tr, mean, std, w, device)
     va = _tensors(val, _coefficients(beo, val.keys), mean, std, w, device) if len(val) else None
-    return _Data(beo, subspace, mean, std, tr, va)
+    return _Data(beo, mean, std, tr, va)
 
 
 def _new_run(config: HBEOConfig, data: _Data, device: torch.device) -> _Run:
@@ -748,8 +747,9 @@ def _train_epoch(
     return row
 
 
-def _checkpoint(path: Path, config: HBEOConfig, data: _Data, run: _Run, epoch: int) -> None:
-    """Store ``run`` after ``epoch`` (:func:`_write_checkpoint`)."""
+def _checkpoint(path: Path, config: HBEOConfig, subspace: str, run: _Run, epoch: int) -> None:
+    """Store ``run`` after ``epoch`` (:func:`_write_checkpoint`), for the BEO subspace of
+    fingerprint ``subspace``."""
     state = {
         "net": run.net.state_dict(),
         "opt": run.opt.state_dict(),
@@ -758,7 +758,7 @@ def _checkpoint(path: Path, config: HBEOConfig, data: _Data, run: _Run, epoch: i
     }
     if run.best is not None:
         state["best"] = run.best
-    _write_checkpoint(path, config, data.subspace, state, run.history)
+    _write_checkpoint(path, config, subspace, state, run.history)
 
 
 def _epoch_line(row: dict[str, float]) -> str:
@@ -797,7 +797,7 @@ def _train(
     resumed = _read_checkpoint(path, config, subspace, log)
     _, render_stats = render_dataset(config.dataset, workers=workers, progress=progress)
     t_render = time.perf_counter() - t0
-    data = _load_data(config, beo, subspace, device)
+    data = _load_data(config, beo, device)
     run = _new_run(config, data, device)
     cache.claim_for(path)
     path.mkdir(parents=True, exist_ok=True)
@@ -806,11 +806,11 @@ def _train(
         log(f"resuming {path.name} after epoch {run.start}/{config.epochs}")
     else:
         # before any checkpoint.pt exists, so the directory always shows whose it is
-        _write_sidecar(path, config, data.subspace, epoch=-1, history=[], sha256=None)
+        _write_sidecar(path, config, subspace, epoch=-1, history=[], sha256=None)
     t_train = time.perf_counter()
     for epoch in range(run.start, config.epochs):
         row = _train_epoch(run, data, config, epoch, progress)
-        _checkpoint(path, config, data, run, epoch)
+        _checkpoint(path, config, subspace, run, epoch)
         log(_epoch_line(row))  # logged after the checkpoint: an epoch reported done is on disk
     kept = len(run.history)
     net = run.net
@@ -849,22 +849,6 @@ def _cpu_state(net: HBEONet) -> dict[str, torch.Tensor]:
     return {k: v.detach().to("cpu", copy=True) for k, v in net.state_dict().items()}
 
 
-def model_dir(
-    name: str | None,
-    kind: Kind,
-    categories: tuple[str, ...],
-    size: str = "small",
-    recipe: str = "default",
-    **small: int | None,
-) -> Path:
-    """Where :func:`load_hbeo` looks: the named model's directory, or with ``name=None``
-    the ``recipe`` model's of network ``size`` for ``categories`` and ``small``."""
-    if name is None:
-        cfg = with_overrides(default_config(kind, categories, recipe=recipe, **small), size=size)
-        return model_path(default_name(cfg))
-    return model_path(name)
-
-
 def load_hbeo(
     name: str | None,
     kind: Kind,
@@ -886,42 +870,49 @@ def load_hbeo(
     from beo_bench.objects import LIBRARY_VERSION
 
     quick = any(v is not None for v in small.values())
-    if name is None and recipe == "default" and size == "small" and not quick:
-        from beo_bench.perception import published
+    if name is None and recipe == "default" and not quick:
+        if size == "small":
+            from beo_bench.perception import published
 
-        model = published.hbeo_for(kind, tuple(categories))
-        if model is not None:  # the published reference model: nothing to train
-            return model
-    if name is None and size != "small" and recipe == "default" and not quick:
-        # the larger networks are the reference recipe's, trained once on a GPU and kept in
-        # the cache (not published: too large for the repository); never trained here
-        recipe = "reference"
-    path = model_dir(name, kind, categories, size, recipe, **small)
+            model = published.hbeo_for(kind, tuple(categories))
+            if model is not None:  # the published reference model: nothing to train
+                return model
+        else:
+            # the larger networks are the reference recipe's, trained once on a GPU and kept
+            # in the cache (not published: too large for the repository); never trained here
+            recipe = "reference"
+    cfg = None
+    if name is None:
+        cfg = with_overrides(default_config(kind, categories, recipe=recipe, **small), size=size)
+    path = model_path(default_name(cfg) if cfg is not None else str(name))
     from beo_bench.objects.dataset import active_dataset, train_command
 
     dataset = active_dataset()
-    if name is None and dataset is not None and not (path / "weights.pt").exists():
-        # training inside a run (minutes) is what a user must ask for
-        how = train_command(kind, dataset) + (f" --recipe {recipe}" if recipe != "default" else "")
-        flags = {"instances": "--per-category", "images": "--images", "epochs": "--epochs"}
-        how += "".join(f" {flags.get(k, k)} {v}" for k, v in small.items() if v is not None)
-        how += "" if size == "small" else f" --size {size}"
-        raise CheckpointError(
-            f"no {kind} model for the dataset {dataset.root} (digest {dataset.short}, classes "
-            f"{', '.join(categories)}) at {path}: train it first with `{how}` (models for a "
-            "dataset are never trained implicitly)"
-        )
-    if name is None and not (path / "weights.pt").exists():
-        if not train_default or recipe != "default":
-            how = (
-                f"beo-bench train {kind} --categories {' '.join(categories)} --recipe {recipe}"
-                + ("" if size == "small" else f" --size {size} --device cuda")
+    if cfg is not None and not (path / "weights.pt").exists():
+        if dataset is not None or not train_default or recipe != "default":
+            big = size != "small"
+            how = train_command(
+                kind,
+                categories,
+                dataset,
+                recipe=None if recipe == "default" else recipe,
+                per_category=small.get("instances"),
+                images=small.get("images"),
+                epochs=small.get("epochs"),
+                size=size if big else None,
+                device="cuda" if big else None,
             )
+            where = (
+                f"no {kind} model for the dataset {dataset.root} (digest {dataset.short}, "
+                f"classes {', '.join(categories)})"
+                if dataset is not None
+                else f"no {recipe} {kind} model for {', '.join(categories)}"
+            )
+            # training inside a run (minutes) is what a user must ask for
             raise CheckpointError(
-                f"no {recipe} {kind} model for {', '.join(categories)} at {path}: train it "
-                f"first with `{how}`"
+                f"{where} at {path}: train it first with `{how}`"
+                + (" (models for a dataset are never trained implicitly)" if dataset else "")
             )
-        cfg = with_overrides(default_config(kind, categories, **small), size=size)
         train_hbeo(cfg, path, progress=progress)
     model = HBEOModel.load(path)
     if model.config.kind != kind:

@@ -13,7 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from beo_bench.objects import ObjectSet, cache
+from beo_bench.objects import cache
+from beo_bench.objects.dataset import object_set
 from beo_bench.objects.prepare import prepare
 
 if TYPE_CHECKING:
@@ -84,11 +85,7 @@ def training_voxels(
     start children), which also caches their meshes, samples and parts; later calls read
     the disk cache. ``dataset``: a user's dataset instead of the procedural library, and
     ``split`` instead of ``train``."""
-    objects = (
-        ObjectSet(split, categories, per_category=per_category)
-        if dataset is None
-        else dataset.objects(split, categories, per_category)
-    )
+    objects = object_set(dataset, split, categories, per_category)
     workers = 1 if mp.current_process().daemon else None
     prepare(objects, D=resolution, workers=workers, progress=progress)
     grids, sizes = {}, {}

@@ -158,7 +158,13 @@ def backproject(depth: np.ndarray, K: Mat3, mask: np.ndarray | None = None) -> n
     d = np.asarray(depth)
     keep = d > 0 if mask is None else (d > 0) & np.asarray(mask, dtype=bool)
     v, u = np.nonzero(keep)
-    z = d[v, u].astype(np.float64)
+    return pixels_to_points(u, v, d[v, u], K)
+
+
+def pixels_to_points(u: np.ndarray, v: np.ndarray, z: np.ndarray, K: Mat3) -> np.ndarray:
+    """(N, 3) camera-frame points (OpenCV axes, float64) of pixels (``u`` column, ``v``
+    row) at z-depths ``z``: the pinhole model inverted."""
+    z = np.asarray(z).astype(np.float64)
     x = (u - K[0, 2]) * z / K[0, 0]
     y = (v - K[1, 2]) * z / K[1, 1]
     return np.stack([x, y, z], axis=1)

@@ -13,6 +13,7 @@ import pytest
 
 from beo_bench import backend as B
 from beo_bench.errors import BackendError, PluginError, UsageError
+from tests.plugins import install_plugin
 
 
 @pytest.mark.parametrize(
@@ -76,14 +77,13 @@ class NoPredict:
     name = "no-predict"
 """
 
-ENTRY_POINTS = """\
-[beo_bench.backends]
-broken-demo = beo_plugin_broken_mod:Backend
-good-demo = beo_plugin_good_mod:Good
-number-demo = beo_plugin_good_mod:NOT_A_BACKEND
-nopredict-demo = beo_plugin_good_mod:NoPredict
-random = beo_plugin_good_mod:Good
-"""
+ENTRY_POINTS = {
+    "broken-demo": "beo_plugin_broken_mod:Backend",
+    "good-demo": "beo_plugin_good_mod:Good",
+    "number-demo": "beo_plugin_good_mod:NOT_A_BACKEND",
+    "nopredict-demo": "beo_plugin_good_mod:NoPredict",
+    "random": "beo_plugin_good_mod:Good",
+}
 
 
 @pytest.fixture
@@ -93,11 +93,7 @@ def plugins(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     and a name that an in-tree backend already has."""
     (tmp_path / "beo_plugin_good_mod.py").write_text(textwrap.dedent(GOOD))
     (tmp_path / "beo_plugin_broken_mod.py").write_text("import no_such_dependency_xyz\n")
-    dist = tmp_path / "beo_plugin_mixed-0.1.dist-info"
-    dist.mkdir()
-    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: beo-plugin-mixed\nVersion: 0.1\n")
-    (dist / "entry_points.txt").write_text(ENTRY_POINTS)
-    monkeypatch.syspath_prepend(str(tmp_path))
+    install_plugin(tmp_path, "beo-plugin-mixed", ENTRY_POINTS, monkeypatch)
     monkeypatch.setattr(B, "_BROKEN", {})  # this process has warned about none of them yet
     B._ensure_in_tree()
     yield tmp_path

@@ -16,6 +16,7 @@ from beo_bench import cli
 from beo_bench.cli import main
 from beo_bench.errors import CheckpointError
 from beo_bench.objects import cache
+from tests.plugins import install_plugin
 
 RUN = ["run", "--suite", "pose-1dof", "--backend", "random"]
 
@@ -223,13 +224,9 @@ def broken_plugin(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     site = tmp_path / "site"
     site.mkdir()
     (site / "beo_cli_broken_mod.py").write_text("raise RuntimeError('half-installed')\n")
-    dist = site / "beo_cli_broken-0.1.dist-info"
-    dist.mkdir()
-    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: beo-cli-broken\nVersion: 0.1\n")
-    (dist / "entry_points.txt").write_text(
-        "[beo_bench.backends]\ncli-broken = beo_cli_broken_mod:Backend\n"
+    install_plugin(
+        site, "beo-cli-broken", {"cli-broken": "beo_cli_broken_mod:Backend"}, monkeypatch
     )
-    monkeypatch.syspath_prepend(str(site))
     monkeypatch.setattr(B, "_BROKEN", {})
     yield site
     sys.modules.pop("beo_cli_broken_mod", None)

@@ -15,6 +15,7 @@ from beo_bench.bench.suites import SUITES
 from beo_bench.cli import build_parser, main, registry_listing
 from beo_bench.errors import BackendError
 from beo_bench.objects.cache import KINDS
+from tests.plugins import install_plugin
 
 
 def _help(capsys, argv: list[str]) -> str:
@@ -65,13 +66,9 @@ def plugin(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
         "    def predict(self, view):\n"
         "        raise NotImplementedError\n"
     )
-    dist = site / "beo_help_plugin-0.1.dist-info"
-    dist.mkdir()
-    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: beo-help-plugin\nVersion: 0.1\n")
-    (dist / "entry_points.txt").write_text(
-        "[beo_bench.backends]\nhelp-plugin = beo_help_plugin_mod:Backend\n"
+    install_plugin(
+        site, "beo-help-plugin", {"help-plugin": "beo_help_plugin_mod:Backend"}, monkeypatch
     )
-    monkeypatch.syspath_prepend(str(site))
     yield
     B._REGISTRY.pop("help-plugin", None)
     sys.modules.pop("beo_help_plugin_mod", None)
@@ -151,7 +148,7 @@ def test_help_builds_nothing_and_commands_do_not_import_the_backends(tmp_path) -
 def test_shared_options_keep_each_commands_defaults(argv, expected) -> None:
     args = vars(build_parser().parse_args(argv))
     for key, value in expected.items():
-        assert args.get(key) == value, (argv, key, args.get(key))
+        assert key in args and args[key] == value, (argv, key, args.get(key))
 
 
 @pytest.mark.parametrize(

@@ -126,8 +126,3 @@ def board_columns() -> tuple[MetricSpec, ...]:
 def brief_columns() -> tuple[MetricSpec, ...]:
     """The plain-text table's columns."""
     return tuple(m for m in METRICS if m.brief)
-
-
-def paired_keys() -> frozenset[str]:
-    """The keys ``compare`` pairs item by item (:attr:`MetricSpec.paired`)."""
-    return frozenset(m.key for m in METRICS if m.paired)

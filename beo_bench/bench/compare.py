@@ -28,15 +28,13 @@ from typing import Any
 
 import numpy as np
 
-from beo_bench.bench.columns import METRICS, MetricSpec, paired_keys, spec
+from beo_bench.bench.columns import METRICS, MetricSpec, spec
 from beo_bench.errors import CorruptDataError, UsageError
 
 RESULTS_NAME = "results.jsonl"
 SUMMARY_NAME = "summary.json"
 CLASS_FREE = "class-free"
 VERDICTS = ("better", "worse", "no difference")
-PAIRED = paired_keys()
-"""The summary means that are paired (means over views; medians and timings are not)."""
 
 
 class ComparisonWarning(UserWarning):
@@ -178,7 +176,7 @@ def view_values(run: Run) -> dict[str, dict[tuple[int, int], float]]:
 def pairable(a: dict[str, Any], b: dict[str, Any]) -> list[MetricSpec]:
     """The headline metrics both summaries have that can be paired, in table order."""
     both = set(a.get("metrics", {})) & set(b.get("metrics", {}))
-    return [m for m in METRICS if m.key in both and m.key in PAIRED]
+    return [m for m in METRICS if m.key in both and m.paired]
 
 
 # -- the paired bootstrap ------------------------------------------------------------------------

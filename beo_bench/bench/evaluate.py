@@ -24,6 +24,7 @@ from beo_bench.backend import PerceptionBackend, get_backend, validate_estimate
 from beo_bench.bench.suites import Suite
 from beo_bench.geometry import rigid
 from beo_bench.objects import ObjectSet, instance_from_key
+from beo_bench.objects.dataset import object_set
 from beo_bench.types import Estimate, GroundTruth, View
 
 FSCORE_TAU = metrics.FSCORE_TAU
@@ -215,11 +216,7 @@ class ItemViews:
             w, h = self.suite.image_size
             self._renderer = IsolatedRenderer(Intrinsics(w, h, self.suite.fovy_deg))
             s = self.suite
-            self._objects = (
-                ObjectSet(s.split, s.categories)
-                if s.dataset is None
-                else s.dataset.objects(s.split, s.categories)
-            )
+            self._objects = object_set(s.dataset, s.split, s.categories)
             self._noise = DepthNoise() if self.suite.noise else None
         return self._renderer
 
@@ -293,14 +290,7 @@ class ItemViews:
         for g in env.ground_truth():
             if g.pixels < self.suite.min_pixels:
                 continue
-            view = View(
-                depth=obs["depth"],
-                mask=obs["segmentation"] == g.label,
-                K=obs["intrinsics"],
-                cam_to_world=obs["cam_to_world"],
-                categories=cats,
-                segmentation=obs["segmentation"],
-            )
+            view = View.from_observation(obs, g.label, cats)
             gt = GroundTruth.of(g, cats, g.R_cam, g.t_cam)
             out.append((view, gt))
         return out

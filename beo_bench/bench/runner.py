@@ -516,12 +516,10 @@ def provenance(cfg: RunConfig) -> dict[str, Any]:
 
 def suite_categories(suite: Suite) -> tuple[str, ...]:
     """The class list a suite's views carry (``View.categories``)."""
-    if suite.dataset is not None:
-        return suite.dataset.objects(suite.split, suite.categories).categories
-    if suite.kind == "isolated":
-        from beo_bench.objects import ObjectSet
+    if suite.dataset is not None or suite.kind == "isolated":
+        from beo_bench.objects.dataset import object_set
 
-        return ObjectSet(suite.split, suite.categories).categories
+        return object_set(suite.dataset, suite.split, suite.categories).categories
     from beo_bench.envs.pick import default_categories
 
     return default_categories()

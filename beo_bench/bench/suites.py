@@ -168,7 +168,14 @@ class Suite:
 def base_name(name: str) -> str:
     """``pose-3dof.1a2b3c4d`` -> ``pose-3dof`` (a name without a digest is returned as is)."""
     head, dot, tail = name.rpartition(".")
-    if dot and head in SUITES and len(tail) == 8 and all(c in "0123456789abcdef" for c in tail):
+    from beo_bench.objects.dataset import SHORT_CHARS
+
+    if (
+        dot
+        and head in SUITES
+        and len(tail) == SHORT_CHARS
+        and all(c in "0123456789abcdef" for c in tail)
+    ):
         return head
     return name
 

@@ -240,16 +240,12 @@ def _collect(suite: Suite, rows: list[dict[str, Any]], intervals: bool = True) -
     return M
 
 
-PER_CATEGORY = SUMMARY_PER_CATEGORY
-"""The metrics of the per-category table (without intervals)."""
-
-
 def _per_category(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
     for cat in sorted({r["category"] for r in rows}):
         sub = [r for r in rows if r["category"] == cat]
         M = _collect(suite, sub, intervals=False)
-        out[cat] = {"n": len(sub), **{k: M.m[k] for k in PER_CATEGORY if k in M.m}}
+        out[cat] = {"n": len(sub), **{k: M.m[k] for k in SUMMARY_PER_CATEGORY if k in M.m}}
     return out
 
 

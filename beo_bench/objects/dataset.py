@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from beo_bench.atomic import atomic_write_text
+from beo_bench.atomic import atomic_write_bytes
 from beo_bench.errors import UsageError
 from beo_bench.objects.loaders import DEFAULT_REPAIR
 from beo_bench.objects.objectset import ObjectSet
@@ -95,6 +95,19 @@ class Dataset:
     def categories(self) -> tuple[str, ...]:
         """Every class of the dataset (in any split), sorted."""
         return self.objects(ALL_SPLIT).categories
+
+
+def object_set(
+    dataset: Dataset | None,
+    split: str,
+    categories: Sequence[str] | None = None,
+    per_category: int | None = None,
+) -> ObjectSet:
+    """The objects of ``split``: the procedural library's (``dataset`` None) or a user's
+    dataset's, of ``categories`` (default: all) and at most ``per_category`` each."""
+    if dataset is None:
+        return ObjectSet(split, categories, per_category=per_category)
+    return dataset.objects(split, categories, per_category)
 
 
 def open_dataset(
@@ -171,7 +184,7 @@ def dataset_digest(root: str | Path, layout: str) -> str:
             memo_path.parent.mkdir(parents=True, exist_ok=True)
             # not fsync-ed: losing it in a crash only costs re-hashing, and it is rewritten
             # whenever a dataset file changes
-            atomic_write_text(memo_path, json.dumps(fresh), durable=False)
+            atomic_write_bytes(memo_path, json.dumps(fresh), durable=False)
         except OSError:
             pass  # a read-only cache only costs re-hashing next time
     return h.hexdigest()[:DIGEST_CHARS]
@@ -213,14 +226,29 @@ def active_dataset() -> Dataset | None:
     return _ACTIVE
 
 
-def train_command(model: str, dataset: Dataset) -> str:
+def train_command(
+    model: str,
+    categories: Sequence[str] = (),
+    dataset: Dataset | None = None,
+    **flags: object,
+) -> str:
     """The ``beo-bench train`` command that makes ``model``'s default model for
-    ``dataset`` (what errors for a missing model print)."""
-    parts = ["beo-bench", "train", model, "--objects", dataset.root]
-    if dataset.repair != DEFAULT_REPAIR:
-        parts += ["--repair", dataset.repair]
-    if dataset.up != "z":
-        parts += ["--up", dataset.up]
-    if dataset.size is not None:
-        parts += ["--size", str(dataset.size)]
+    ``categories`` (on a dataset left out when they are all its classes: the command's
+    default), on the library or on ``dataset`` (with the loading options it was opened
+    with), with ``flags`` (option name -> value, underscores for dashes; None is left out):
+    what the errors for a missing model print, so the command trains the model looked for."""
+    parts = ["beo-bench", "train", model]
+    if dataset is not None:
+        parts += ["--objects", dataset.root]
+        if dataset.repair != DEFAULT_REPAIR:
+            parts += ["--repair", dataset.repair]
+        if dataset.up != "z":
+            parts += ["--up", dataset.up]
+        if dataset.size is not None:
+            parts += ["--object-size", str(dataset.size)]  # train's --size is the network's
+        if set(categories) == set(dataset.categories()):
+            categories = ()
+    if categories:
+        parts += ["--categories", *categories]
+    parts += [f"--{k.replace('_', '-')} {v}" for k, v in flags.items() if v is not None]
     return " ".join(parts)

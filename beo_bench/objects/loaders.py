@@ -99,12 +99,13 @@ MESH_SUFFIXES: tuple[str, ...] = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf
 """File types :func:`load_folder` picks up (matched case-insensitively)."""
 
 REPAIR_MODES: tuple[str, ...] = processing.REPAIR_MODES
+"""See :func:`~beo_bench.objects.processing.repair`."""
+
 DEFAULT_REPAIR = "solid"
 """The loaders' default: ``basic``'s clean-up for a mesh that is already a solid, and a
 watertight rebuild (:func:`~beo_bench.objects.processing.solidify`) only for one that is
 still open or not a manifold afterwards. With ``basic`` as the default, 4 of 14 real meshes
-from public robotics packages loaded (issue report); real files are rarely clean solids."""
-"""See :func:`~beo_bench.objects.processing.repair`."""
+from public robotics packages loaded; real files are rarely clean solids."""
 
 DEFAULT_SIZE = 0.15
 """Largest extent (m) of a normalised mesh whose category is neither in
@@ -299,7 +300,7 @@ def load_shapenet(
     split: str = "test",
     categories: Sequence[str] | None = None,
     per_category: int | None = None,
-    repair: str = "solid",
+    repair: str = DEFAULT_REPAIR,
     *,
     size: float | Mapping[str, float] | str | None = None,
     units: str | None = None,
@@ -329,7 +330,7 @@ def load_modelnet(
     split: str = "test",
     categories: Sequence[str] | None = None,
     per_category: int | None = None,
-    repair: str = "solid",
+    repair: str = DEFAULT_REPAIR,
     *,
     size: float | Mapping[str, float] | str | None = None,
     units: str | None = None,
@@ -355,7 +356,7 @@ def load_folder(
     split: str = "test",
     categories: Sequence[str] | None = None,
     per_category: int | None = None,
-    repair: str = "solid",
+    repair: str = DEFAULT_REPAIR,
     *,
     size: float | Mapping[str, float] | str | None = None,
     units: str | None = None,
@@ -532,7 +533,7 @@ def axes_rotation(up: str = "z", front: str = "x") -> Mat3:
 class _Options:
     """Processing options of a load call (hashable: they go into build partials)."""
 
-    repair: str = "solid"
+    repair: str = DEFAULT_REPAIR
     size: float | str | tuple[tuple[str, float], ...] | None = None
     up: str = "z"
     front: str = "x"

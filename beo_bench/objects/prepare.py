@@ -25,7 +25,6 @@ from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.objectset import instance_from_key
 from beo_bench.objects.processing import DEFAULT_RESOLUTION
 from beo_bench.objects.symmetry import symmetry_name
-from beo_bench.types import Symmetry
 
 
 @dataclass(frozen=True)
@@ -48,12 +47,6 @@ class InstanceStats:
     """Voxels, surface samples and collision parts (cold: computed; warm: from cache)."""
 
 
-def symmetry_label(sym: Symmetry) -> str:
-    """A short name of a symmetry group for tables (named after the group's structure, not
-    its order: a box's three half turns are not "4-fold")."""
-    return symmetry_name(sym)
-
-
 def process(inst: ObjectInstance, D: int = DEFAULT_RESOLUTION) -> InstanceStats:
     """Build one instance and fill its cache entries."""
     t0 = time.perf_counter()
@@ -62,7 +55,7 @@ def process(inst: ObjectInstance, D: int = DEFAULT_RESOLUTION) -> InstanceStats:
     inst.voxels(D)
     inst.surface_points()
     parts = inst.collision_parts()
-    label = symmetry_label(inst.symmetry)
+    label = symmetry_name(inst.symmetry)
     t2 = time.perf_counter()
     return InstanceStats(
         key=inst.key,

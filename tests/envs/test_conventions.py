@@ -17,10 +17,9 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.wrappers import TimeLimit
 
 import beo_bench  # noqa: F401  (registers the ids)
-from beo_bench.envs.pick import BEOPickEnv
+from beo_bench.envs.pick import BEOPickEnv, _time_limit
 from beo_bench.errors import EnvConfigError
 from beo_bench.objects import ObjectSet
 from beo_bench.scenes.camera import backproject, project
@@ -28,14 +27,6 @@ from beo_bench.scenes.camera import backproject, project
 SMALL = {"image_size": (64, 48), "num_objects": 1}
 AIR = [0.4, 0.3, 0.9, 0.0, 1.0, 0.0, 0.0, 0.08]  # above a table corner: lifts nothing
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "env.md"
-
-
-def _time_limit(env: gym.Env) -> TimeLimit | None:
-    while isinstance(env, gym.Wrapper):
-        if isinstance(env, TimeLimit):
-            return env
-        env = env.env
-    return None
 
 
 # -- max_episode_steps and max_attempts ----------------------------------------------------------

@@ -213,19 +213,11 @@ def test_ground_truth_planner_lifts_the_target_in_90_percent() -> None:
 
 def test_info_carries_is_success_for_rl_libraries() -> None:
     """``info["is_success"]`` (what Stable-Baselines3's Monitor and Gymnasium-Robotics read)
-    equals ``info["success"]``, on picks that succeed and on ones that fail."""
+    equals ``info["success"]`` on a pick that succeeds (seed 1: a mug the planner lifts);
+    a failing pick is checked in ``test_grasp_of_the_wrong_class_fails``."""
     e = gym.make("BEOPick-v0", image_size=(64, 48))
-    u = e.unwrapped
-    seen = set()
-    for seed in range(10):
-        e.reset(seed=seed)
-        grasps = u.ground_truth_grasps()
-        if not grasps:
-            continue
-        _, reward, _, _, info = e.step(grasps[0].action)
-        assert info["is_success"] is info["success"] and reward == float(info["success"])
-        seen.add(info["success"])
-        if seen == {True} and seed > 3:
-            break
+    e.reset(seed=1)
+    (grasp, *_) = e.unwrapped.ground_truth_grasps()
+    _, reward, _, _, info = e.step(grasp.action)
     e.close()
-    assert True in seen
+    assert info["is_success"] is info["success"] is True and reward == 1.0

@@ -14,7 +14,6 @@ from scipy.spatial.transform import Rotation
 
 from beo_bench.geometry import axis_angle, cyclic_z, discrete_symmetry, no_symmetry, rigid
 from beo_bench.objects import processing
-from beo_bench.objects.prepare import symmetry_label
 from beo_bench.objects.symmetry import (
     analyse_symmetry,
     estimate_symmetry,
@@ -243,7 +242,6 @@ def test_names_follow_group_structure() -> None:
     assert symmetry_name(cyclic_z(4)) == "4-fold"
     assert symmetry_name(discrete_symmetry([half, flip])) == "2-fold+flips"  # not "4-fold"
     assert symmetry_name(discrete_symmetry([quarter, flip])) == "4-fold+flips"  # not "8-fold"
-    assert symmetry_label(discrete_symmetry([half, flip])) == "2-fold+flips"
 
 
 def test_cache_packing_and_the_old_entry_point() -> None:
