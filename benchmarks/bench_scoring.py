@@ -43,7 +43,7 @@ def per_view() -> None:
             ev.run_item(i)
         whole = _cpu_ms(lambda: [ev.run_item(i) for i in range(VIEWS)], VIEWS)  # noqa: B023
         cases = [ev.isolated_view(i) for i in range(VIEWS)]
-        ests = [ev._predict(v, gt)[0] for v, gt in cases]
+        ests = [ev.predict(i, 0, v)[0] for i, (v, _) in enumerate(cases)]
         truths = [E.truth_shape(gt.key, suite.resolution) for _, gt in cases]
         shapes = [E._resample(e.shape, suite.resolution) for e in ests]
         surf = _cpu_ms(

@@ -372,6 +372,25 @@ def as_bool(x: object) -> bool:
     )
 
 
+class PrivilegeError(UsageError):
+    """A plugin that declares ``privileged = True`` run without ``--allow-privileged``."""
+
+
+def check_privileged(name: str, backend: PerceptionBackend, allow: bool = False) -> bool:
+    """Whether ``backend`` is privileged (handed the ground truth). An in-tree bound
+    (``oracle``, ``swap``) may be; any other backend only with ``allow`` (``--allow-privileged``),
+    because a privileged backend is given the answer: its rows are then listed with the
+    bounds and never ranked (docs/benchmark.md, "What a backend is told")."""
+    privileged = bool(getattr(backend, "privileged", False))
+    if privileged and not allow and name not in IN_TREE:
+        raise PrivilegeError(
+            f"backend {name!r} declares privileged = True, so the runner would hand it the "
+            "ground truth of every view: pass --allow-privileged to run it as a bound (its "
+            "rows are listed with the bounds and never ranked), or drop `privileged`"
+        )
+    return privileged
+
+
 def prepare_backend(backend: PerceptionBackend, categories: tuple[str, ...]) -> None:
     """Call the backend's optional ``prepare(categories)`` (see :class:`PerceptionBackend`)."""
     prep = getattr(backend, "prepare", None)

@@ -246,7 +246,7 @@ def cmd_pick_check(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from beo_bench.backend import get_backend, load_plugins
+    from beo_bench.backend import check_privileged, get_backend, load_plugins
     from beo_bench.bench.campaign import parse_options, run_name
     from beo_bench.bench.runner import RunConfig, run
     from beo_bench.bench.suites import check_track
@@ -261,6 +261,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         suite = suite.with_dataset(dataset, args.split)
     kwargs = parse_options(args.opt)
     backend = get_backend(args.backend, **kwargs)  # fail here, not in a worker
+    check_privileged(args.backend, backend, args.allow_privileged)
     check_track(
         suite,
         args.backend,
@@ -269,8 +270,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     )
     name = run_name(suite.name, args.backend, kwargs, args.seed, suite.track)
     out = Path(args.out) if args.out else Path("runs") / name
+    cfg = RunConfig(suite, args.backend, kwargs, args.allow_privileged)
     summary = run(
-        RunConfig(suite, args.backend, kwargs),
+        cfg,
         out,
         workers=args.workers,
         resume=args.resume,
@@ -282,7 +284,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.rerun:
         from beo_bench.bench.recording import log_run
 
-        path = log_run(RunConfig(suite, args.backend, kwargs), args.rerun)
+        path = log_run(cfg, args.rerun)
         print(f"recording of the first views: {path}  (open with `rerun {path}`)")
     return 0
 
@@ -421,6 +423,7 @@ def cmd_all(args: argparse.Namespace) -> int:
         seed=args.seed,
         dataset=dataset,
         split=args.split,
+        allow_privileged=args.allow_privileged,
         **_timeout(args),
     )
     print(leaderboard_text(run_campaign(c), c.leaderboards))
@@ -609,6 +612,16 @@ def workers_parent(
 ) -> argparse.ArgumentParser:
     """``--workers``: processes, at least one."""
     return _option_parent("--workers", type=positive_int, default=default, help=help, title=title)
+
+
+def privileged_parent() -> argparse.ArgumentParser:
+    """``--allow-privileged``: a plugin that declares ``privileged`` may be handed the truth."""
+    return _option_parent(
+        "--allow-privileged",
+        action="store_true",
+        help="let a plugin that declares privileged = True be handed the ground truth (its "
+        "rows are listed with the bounds, never ranked)",
+    )
 
 
 def episodes_parent(default: int | None = None, help: str | None = None) -> argparse.ArgumentParser:
@@ -839,6 +852,7 @@ def build_parser() -> argparse.ArgumentParser:
             out_parent(None, "default: runs/SUITE[@TRACK]__BACKEND"),
             ray_parent(),
             item_timeout_parent(),
+            privileged_parent(),
         ],
     )
     r.add_argument("--suite", required=True)
@@ -879,6 +893,7 @@ def build_parser() -> argparse.ArgumentParser:
             ray_parent(),
             runs_parent("where the runs go (resumed when present)"),
             out_parent("leaderboards"),
+            privileged_parent(),
         ],
     )
     al.add_argument(

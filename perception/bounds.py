@@ -43,9 +43,10 @@ class OracleBackend:
 
 @register_backend("random")
 class RandomBackend:
-    """Chance: a uniformly random class, a uniformly random rotation, the class-mean shape
-    and size, placed at the centroid of the observed points. Deterministic for a given view
-    (its generator is seeded from the view's bytes and ``seed``)."""
+    """Chance: a uniformly random class (its probabilities peak there), a uniformly random
+    rotation, the class-mean shape and size, placed at the centroid of the observed points.
+    Deterministic for a given view (its generator is seeded from the view's bytes and
+    ``seed``)."""
 
     name = "random"
 
@@ -77,5 +78,9 @@ class RandomBackend:
         rng = self._rng(view)
         c = int(rng.integers(len(cats)))
         R = Rotation.random(random_state=rng).as_matrix()
-        p = np.full(len(cats), 1.0 / len(cats))
+        # the class it drew gets twice the others' probability: argmax is that uniformly
+        # drawn class (uniform probabilities would make argmax always class 0), and the
+        # probabilities still say how little it knows
+        p = np.full(len(cats), 1.0 / (len(cats) + 1))
+        p[c] *= 2.0
         return Estimate(p, R, pts.mean(axis=0), means.size[c].copy(), means.shape[c].copy())

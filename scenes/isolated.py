@@ -48,12 +48,13 @@ class IsolatedView:
     def to_view(self, categories: Sequence[str] | None = None) -> View:
         """What a perception backend's ``predict`` takes: the fields an isolated suite gives
         (depth, mask, ``K``, ``cam_to_world``, the class list and, for rig-drawn views, the
-        viewpoint prior), and nothing of the truth. ``categories``: the classes the
+        viewpoint prior) and no truth field. ``categories``: the classes the
         estimate's ``class_probs`` index, default the built-in library's
         (``beo_bench.objects.categories()``); they must include this instance's category.
         Suites' protocol hints are left out (``dataclasses.replace(view, class_hint=...,
-        up_hint=...)`` adds them); unlike the 3-DOF suites, ``cam_to_world`` is not
-        re-randomised, so the world's +z is the object's up. Raises
+        up_hint=...)`` adds them). ``cam_to_world`` is the render's own, with the object
+        at the origin in its canonical frame, so it gives the pose away: the suites replace
+        it by a random rigid frame (``beo_bench.bench.evaluate.world_frame``). Raises
         :class:`~beo_bench.errors.ViewError` for a class list without the instance's
         category."""
         from beo_bench.errors import ViewError

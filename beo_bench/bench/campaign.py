@@ -92,13 +92,15 @@ class Campaign:
     item_timeout: float | None = None
     dataset: Dataset | None = None
     split: str | None = None
+    allow_privileged: bool = False
+    """``--allow-privileged``: plugins that declare ``privileged`` may run (as bounds)."""
 
 
 def run_campaign(c: Campaign) -> list[Path]:
     """Run every pair (resuming) in each of its tracks, then regenerate the leaderboard;
     returns its Markdown files. A backend whose construction fails stops the campaign before
     anything runs."""
-    from beo_bench.backend import get_backend, load_plugins
+    from beo_bench.backend import check_privileged, get_backend, load_plugins
     from beo_bench.bench.leaderboard import regenerate
     from beo_bench.bench.runner import RunConfig, WorkerPool, item_timeout_s, run
     from beo_bench.bench.suites import backend_tracks, get_suite
@@ -111,6 +113,8 @@ def run_campaign(c: Campaign) -> list[Path]:
         item_timeout_s(suite, c.item_timeout)  # a bad value fails here, before any run
     # build each backend here: a bad option fails with its message, not in a worker
     built = [get_backend(n, **kw) for n, kw in c.backends]
+    for (n, _), b in zip(c.backends, built, strict=True):
+        check_privileged(n, b, c.allow_privileged)  # before any run starts
     hints = [
         (bool(getattr(b, "wants_class_hint", False)), bool(getattr(b, "needs_class_hint", False)))
         for b in built
@@ -123,7 +127,7 @@ def run_campaign(c: Campaign) -> list[Path]:
                     tracked = suite.with_overrides(track=track)
                     out = c.runs / run_name(suite.name, name, kwargs, c.seed, track)
                     run(
-                        RunConfig(tracked, name, kwargs),
+                        RunConfig(tracked, name, kwargs, c.allow_privileged),
                         out,
                         resume=True,
                         use_ray=c.use_ray,

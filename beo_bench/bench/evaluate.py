@@ -20,7 +20,12 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from beo_bench import metrics
-from beo_bench.backend import PerceptionBackend, get_backend, validate_estimate
+from beo_bench.backend import (
+    PerceptionBackend,
+    check_privileged,
+    get_backend,
+    validate_estimate,
+)
 from beo_bench.bench.suites import Suite
 from beo_bench.geometry import rigid
 from beo_bench.objects import ObjectSet, instance_from_key
@@ -243,56 +248,96 @@ class ItemViews:
             self._env = None
 
     # -- items -----------------------------------------------------------------------------
-    def cases(self, index: int) -> list[tuple[View, GroundTruth]]:
-        """The views (with their truth) that item ``index`` scores: one for isolated suites,
-        every visible object for tabletop and pick scenes."""
-        if self.suite.kind == "isolated":
-            return [self.isolated_view(index)]
-        env = self._pick_env()
-        obs, _ = env.reset(seed=episode_seed(self.suite, index))
-        return self._views_of_scene(obs, env)
-
-    def isolated_view(self, index: int) -> tuple[View, GroundTruth]:
-        r = self._isolated()
+    # A backend sees a View and nothing else (docs/benchmark.md, "What a backend is told"):
+    # the functions that build views return only the views, and the truth is computed
+    # after the backend has answered (privileged bounds aside), so it is not a local of any
+    # frame on predict's call stack.
+    def _draw(self, index: int) -> tuple[np.random.Generator, Any, np.ndarray]:
+        """Item ``index``'s instance and camera pose (``cam_to_world`` with the object at the
+        origin in its canonical frame), with the generator left where they were drawn."""
+        self._isolated()
         assert self._objects is not None
-        s = self.suite
-        rng = item_rng(s, index)
+        rng = item_rng(self.suite, index)
         cats = self._objects.categories
         cat = cats[index % len(cats)]  # classes balanced over items
         inst = self._objects.get(cat, int(rng.integers(self._objects.count(cat))))
-        T = r.rig.sample(rng, np.zeros(3))
-        iv = r.render(inst, T, self._noise, rng)
-        gt = GroundTruth.of(inst, cats, iv.R_cam, iv.t_cam)
-        cam_to_world = iv.cam_to_world
-        if s.protocol == "3dof":
-            # a random world frame: cam_to_world must not reveal the object's up
-            Q = Rotation.random(random_state=rng).as_matrix()
-            cam_to_world = rigid(Q) @ cam_to_world
+        return rng, inst, self._renderer.rig.sample(rng, np.zeros(3))
+
+    def isolated_view_only(self, index: int) -> View:
+        """The view of isolated item ``index``: exactly what its protocol reveals."""
         from beo_bench.types import ViewpointPrior
 
-        view = View(
+        s = self.suite
+        rng, inst, T = self._draw(index)
+        iv = self._renderer.render(inst, T, self._noise, rng)
+        # The world frame is a random rigid frame drawn after the image, so cam_to_world
+        # tells a backend no more than the protocol does: up (1-DOF) or nothing (3-DOF,
+        # known-pose), and never where the object is (the renderer puts it at the origin).
+        cam_to_world = world_frame(rng, s.protocol) @ iv.cam_to_world
+        return View(
             # the rig's viewpoint distribution is part of the protocol (a pose prior any
             # backend may use); it reveals nothing about this view's pose
-            viewpoint_prior=ViewpointPrior.of_rig(r.rig),
+            viewpoint_prior=ViewpointPrior.of_rig(self._renderer.rig),
             depth=iv.depth,
             mask=iv.mask,
             K=iv.K,
             cam_to_world=cam_to_world,
-            categories=cats,
+            categories=inst_categories(self._objects),
             up_hint=iv.R_cam[:, 2].copy() if s.protocol == "1dof" else None,
-            pose_hint=(iv.R_cam, iv.t_cam, gt.size) if s.protocol == "known-pose" else None,
+            pose_hint=(iv.R_cam, iv.t_cam, np.asarray(inst.size, dtype=np.float64))
+            if s.protocol == "known-pose"
+            else None,
         )
-        return view, gt
 
-    def _views_of_scene(self, obs: dict[str, Any], env: Any) -> list[tuple[View, GroundTruth]]:
-        out = []
+    def isolated_truth(self, index: int) -> GroundTruth:
+        """The truth about isolated item ``index``, drawn again without rendering: the
+        renderer's object sits at the origin in its canonical frame, so its pose in the
+        camera is the inverse of the rig's ``cam_to_world``."""
+        _, inst, T = self._draw(index)
+        inv = np.linalg.inv(T)
+        assert self._objects is not None
+        return GroundTruth.of(inst, self._objects.categories, inv[:3, :3], inv[:3, 3])
+
+    def isolated_view(self, index: int) -> tuple[View, GroundTruth]:
+        """Item ``index``'s view and its truth (for tests, recordings and benchmarks; the
+        evaluator itself asks for the truth only after the backend has answered)."""
+        return self.isolated_view_only(index), self.isolated_truth(index)
+
+    def views(self, index: int) -> list[View]:
+        """The views item ``index`` scores (one for isolated suites, every object with
+        ``min_pixels`` visible pixels for tabletop and pick scenes), without their truth."""
+        if self.suite.kind == "isolated":
+            return [self.isolated_view_only(index)]
+        env = self._pick_env()
+        obs, _ = env.reset(seed=episode_seed(self.suite, index))
+        return self._scene_views(obs, env)
+
+    def truths(self, index: int, views: list[View]) -> list[GroundTruth]:
+        """The truth of each of item ``index``'s ``views`` (after :meth:`views`; a scene's
+        env must still hold that item's episode)."""
+        if self.suite.kind == "isolated":
+            return [self.isolated_truth(index)]
+        env = self._pick_env()
+        return self._scene_truths(env, views)
+
+    def cases(self, index: int) -> list[tuple[View, GroundTruth]]:
+        """The views (with their truth) that item ``index`` scores."""
+        views = self.views(index)
+        return list(zip(views, self.truths(index, views), strict=True))
+
+    def _scene_views(self, obs: dict[str, Any], env: Any) -> list[View]:
         cats = env.categories
-        for g in env.ground_truth():
-            if g.pixels < self.suite.min_pixels:
-                continue
-            view = View.from_observation(obs, g.label, cats)
-            gt = GroundTruth.of(g, cats, g.R_cam, g.t_cam)
-            out.append((view, gt))
+        labels = [g.label for g in env.ground_truth() if g.pixels >= self.suite.min_pixels]
+        return [View.from_observation(obs, label, cats) for label in labels]
+
+    @staticmethod
+    def _scene_truths(env: Any, views: list[View]) -> list[GroundTruth]:
+        by_label = {g.label: g for g in env.ground_truth()}
+        cats = env.categories
+        out = []
+        for v in views:
+            g = by_label[view_label(v)]
+            out.append(GroundTruth.of(g, cats, g.R_cam, g.t_cam))
         return out
 
     def base_row(self, index: int, j: int, view: View, gt: GroundTruth) -> dict[str, Any]:
@@ -307,26 +352,60 @@ class ItemViews:
             "class_given": self.class_hint,
         }
 
-    def pick_row(
-        self, index: int, obs: dict[str, Any], env: Any, views: list[tuple[View, GroundTruth]]
-    ) -> dict[str, Any]:
-        """The row of pick episode ``index`` as far as it is known without the backend."""
+    def pick_row(self, index: int, obs: dict[str, Any], env: Any, n_views: int) -> dict[str, Any]:
+        """The row of pick episode ``index`` as far as it is known without the backend (the
+        asked class is the task, not a secret)."""
         target = int(obs["target_class"])
         return {
             "item": index,
             "view": 0,
             "category": env.categories[target],
             "true_class": target,
-            "views": len(views),
+            "views": n_views,
         }
 
     def templates(self, index: int) -> list[dict[str, Any]]:
         """Item ``index``'s rows before any backend call (see :func:`failed_rows`)."""
         if self.suite.kind != "pick":
-            return [self.base_row(index, j, v, gt) for j, (v, gt) in enumerate(self.cases(index))]
+            return self._base_rows(index, self.views(index))
         env = self._pick_env()
         obs, _ = env.reset(seed=episode_seed(self.suite, index))
-        return [self.pick_row(index, obs, env, self._views_of_scene(obs, env))]
+        return [self.pick_row(index, obs, env, len(self._scene_views(obs, env)))]
+
+    def _base_rows(self, index: int, views: list[View]) -> list[dict[str, Any]]:
+        truths = self.truths(index, views)
+        return [
+            self.base_row(index, j, v, gt)
+            for j, (v, gt) in enumerate(zip(views, truths, strict=True))
+        ]
+
+
+def world_frame(rng: np.random.Generator, protocol: str) -> np.ndarray:
+    """A random rigid world frame for an isolated view (4x4, applied on the left of the
+    rig's ``cam_to_world``): a yaw about +z in 1-DOF (up stays up, which that protocol
+    reveals), a uniformly random rotation otherwise; and a translation uniform in a 2 m
+    cube, so the camera's position says nothing about where the object is."""
+    if protocol == "1dof":
+        yaw = rng.uniform(0.0, 2 * np.pi)
+        Q = Rotation.from_rotvec([0.0, 0.0, yaw]).as_matrix()
+    else:
+        Q = Rotation.random(random_state=rng).as_matrix()
+    return rigid(Q, rng.uniform(-WORLD_OFFSET_M, WORLD_OFFSET_M, 3))
+
+
+WORLD_OFFSET_M = 1.0
+"""Half the side of the cube an isolated view's world origin is drawn from (m): larger than
+the rig's camera distance (0.45-0.8 m), so the camera's world position hides the object's."""
+
+
+def inst_categories(objects: ObjectSet | None) -> tuple[str, ...]:
+    assert objects is not None  # set by ItemViews._isolated
+    return objects.categories
+
+
+def view_label(view: View) -> int:
+    """The segmentation label of the object a scene view shows."""
+    return int(np.asarray(view.segmentation)[np.asarray(view.mask)][0])
 
 
 Announce = Callable[[list[dict[str, Any]]], None]
@@ -341,10 +420,17 @@ def _no_announce(rows: list[dict[str, Any]]) -> None:
 class Evaluator(ItemViews):
     """Scores ``backend`` on items of ``suite``. Create one per worker process."""
 
-    def __init__(self, suite: Suite, backend: str, backend_kwargs: dict[str, Any] | None = None):
+    def __init__(
+        self,
+        suite: Suite,
+        backend: str,
+        backend_kwargs: dict[str, Any] | None = None,
+        allow_privileged: bool = False,
+    ):
         super().__init__(suite)
         self.backend: PerceptionBackend = get_backend(backend, **(backend_kwargs or {}))
-        self.privileged = bool(getattr(self.backend, "privileged", False))
+        # the truth goes to an in-tree bound, or to a plugin run with --allow-privileged
+        self.privileged = check_privileged(backend, self.backend, allow_privileged)
         # the true class goes only to a backend that can use it, and only in the class-given
         # track (Suite.track): the hint is the track's, never a backend option's
         self.class_hint = suite.gives_class and bool(
@@ -357,27 +443,34 @@ class Evaluator(ItemViews):
         ``item_rows`` (how many rows the item has: a reader can tell a complete item from one
         that lost a line). ``announce`` gets the rows known before the backend is called."""
         t0 = time.perf_counter()
-        if self.suite.kind == "isolated":
-            view, gt = self.isolated_view(index)
-            announce([self.base_row(index, 0, view, gt)])
-            rows = [self._score(index, 0, view, gt)]
-        elif self.suite.kind == "tabletop":
-            cases = self.cases(index)
-            announce([self.base_row(index, j, v, gt) for j, (v, gt) in enumerate(cases)])
-            rows = [self._score(index, j, v, gt) for j, (v, gt) in enumerate(cases)]
-        else:
+        if self.suite.kind == "pick":
             rows = [self._pick(index, announce)]
+        else:
+            views = self.views(index)
+            announce(self._base_rows(index, views))
+            answers = [self.predict(index, j, v) for j, v in enumerate(views)]
+            truths = self.truths(index, views)
+            rows = [
+                self._score(index, j, v, gt, answer)
+                for j, (v, gt, answer) in enumerate(zip(views, truths, answers, strict=True))
+            ]
         if rows:
             rows[0]["item_ms"] = 1000 * (time.perf_counter() - t0)
             rows[0]["item_rows"] = len(rows)
         return rows
 
     # -- backend calls ---------------------------------------------------------------------
-    def _predict(self, view: View, gt: GroundTruth) -> tuple[Estimate | None, float, str | None]:
-        if self.privileged:
-            view = replace(view, ground_truth=gt)
-        if self.class_hint:
-            view = replace(view, class_hint=gt.class_index)
+    def predict(self, index: int, j: int, view: View) -> tuple[Estimate | None, float, str | None]:
+        """The backend's answer for view ``j`` of item ``index``. Only a privileged bound
+        is handed the truth; the class hint goes only to a backend in the class-given track
+        that uses it (both fetched here, for this call alone)."""
+        if self.privileged or self.class_hint:
+            gt = self._truth_of(index, view)
+            if self.privileged:
+                view = replace(view, ground_truth=gt)
+            if self.class_hint:
+                view = replace(view, class_hint=gt.class_index)
+            del gt
         t0 = time.perf_counter()
         try:
             est = validate_estimate(self.backend.predict(view), view)
@@ -386,8 +479,20 @@ class Evaluator(ItemViews):
             est, failure = None, f"{type(e).__name__}: {e}"[:500]
         return est, time.perf_counter() - t0, failure
 
-    def _score(self, index: int, j: int, view: View, gt: GroundTruth) -> dict[str, Any]:
-        est, seconds, failure = self._predict(view, gt)
+    def _truth_of(self, index: int, view: View) -> GroundTruth:
+        if self.suite.kind == "isolated":
+            return self.isolated_truth(index)
+        return self._scene_truths(self._pick_env(), [view])[0]
+
+    def _score(
+        self,
+        index: int,
+        j: int,
+        view: View,
+        gt: GroundTruth,
+        answer: tuple[Estimate | None, float, str | None],
+    ) -> dict[str, Any]:
+        est, seconds, failure = answer
         row = self.base_row(index, j, view, gt)
         row.update(ms=1000 * seconds, failure=failure)
         if est is None:
@@ -419,13 +524,13 @@ class Evaluator(ItemViews):
         env = self._pick_env()
         obs, _ = env.reset(seed=episode_seed(self.suite, index))
         target = int(obs["target_class"])
-        views = self._views_of_scene(obs, env)
-        row = self.pick_row(index, obs, env, views)
+        views = self._scene_views(obs, env)
+        row = self.pick_row(index, obs, env, len(views))
         announce([dict(row)])
         row["failure"] = None
         estimates, total, failures = [], 0.0, []
-        for v, gt in views:
-            est, seconds, failure = self._predict(v, gt)
+        for j, v in enumerate(views):
+            est, seconds, failure = self.predict(index, j, v)
             estimates.append(est)
             total += seconds
             if failure:
@@ -437,12 +542,12 @@ class Evaluator(ItemViews):
             row.update(success=False, reason="no_estimate", failure=(failures or [None])[0])
             return row
         k = int(np.argmax(scores))  # ties: the first, in label order
-        best, (chosen, chosen_gt) = estimates[k], views[k]
+        best, chosen = estimates[k], views[k]
         assert best is not None
-        label = int(np.asarray(chosen.segmentation)[np.asarray(chosen.mask)][0])
+        label = view_label(chosen)
         row["chosen_label"] = label
         row["chosen_is_target"] = label == env.target_label
-        row["chosen_category"] = chosen_gt.category
+        row["chosen_category"] = self._scene_truths(env, [chosen])[0].category
         cam_to_world = np.asarray(obs["cam_to_world"], dtype=np.float64)
         mesh = estimate_mesh(best, cam_to_world)
         if mesh is None:
@@ -450,7 +555,7 @@ class Evaluator(ItemViews):
             return row
         obstacles = [
             obstacle_points(e, v, cam_to_world)
-            for j, (e, (v, _)) in enumerate(zip(estimates, views, strict=True))
+            for j, (e, v) in enumerate(zip(estimates, views, strict=True))
             if j != k
         ]
         grasps = plan_grasps(

@@ -50,6 +50,23 @@ from beo_bench.bench.columns import (
 from beo_bench.errors import UsageError
 
 BOUNDS = {"oracle": "upper bound", "random": "lower bound"}
+PRIVILEGED_MARK = "privileged: given the truth"
+"""How a row is marked whose backend was handed the ground truth (``privileged``) and is not
+one of the :data:`BOUNDS`: such rows are listed with the bounds and never ranked or paired."""
+
+
+def is_bound(s: dict[str, Any]) -> bool:
+    """Whether a run is a bound, not a method: ``oracle``, ``random``, or any backend that
+    was handed the truth (its summary's ``privileged``)."""
+    return s["backend"] in BOUNDS or bool(s.get("privileged"))
+
+
+def _bound_mark(s: dict[str, Any]) -> str | None:
+    if s["backend"] in BOUNDS:
+        return BOUNDS[s["backend"]]
+    return PRIVILEGED_MARK if s.get("privileged") else None
+
+
 BASELINES: tuple[str, ...] = ("icp-plain", "icp")
 """The baselines every method is paired against (default options only): the
 dissertation's plain ICP and this benchmark's multi-start ICP."""
@@ -151,13 +168,14 @@ def _cell(s: dict[str, Any], m: MetricSpec) -> str:
 
 
 def _ordered(rows: list[Row]) -> list[Row]:
-    return sorted(rows, key=lambda r: (r.summary["backend"] in BOUNDS, label(r.summary)))
+    return sorted(rows, key=lambda r: (is_bound(r.summary), label(r.summary)))
 
 
 def _name(r: Row, views: int | None = None) -> str:
     """The row's name: backend and options, then its marks (bound, hint not used, partial)."""
     s = r.summary
-    marks = [BOUNDS[s["backend"]]] if s["backend"] in BOUNDS else []
+    bound = _bound_mark(s)
+    marks = [bound] if bound else []
     if r.borrowed:
         marks.append(HINT_UNUSED)
     if views is not None and s["n"] < views:
@@ -347,7 +365,7 @@ def _error_vs_samples(
     # the other methods as references, those within twice the sampled errors' range (a
     # far-off baseline would squash the curves this plot is about)
     top = 2 * max(s["metrics"]["rot_err_deg_mean"] for s in sampled)
-    others = [s for s in with_rot if "samples" not in _kwargs(s) and s["backend"] not in BOUNDS]
+    others = [s for s in with_rot if "samples" not in _kwargs(s) and not is_bound(s)]
     styles = iter(["--", ":", "-.", (0, (5, 1)), (0, (1, 3))] * 4)
     for i, s in enumerate(o for o in others if o["metrics"]["rot_err_deg_mean"] <= top):
         ax.axhline(
@@ -445,7 +463,7 @@ class Verdict:
 
 
 def _is_method(s: dict[str, Any]) -> bool:
-    return s["backend"] not in (*BASELINES, *BOUNDS, *DIAGNOSTIC)
+    return not is_bound(s) and s["backend"] not in (*BASELINES, *DIAGNOSTIC)
 
 
 def paired_verdicts(section: Section) -> list[Verdict]:
@@ -699,7 +717,9 @@ def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> l
         "*class-free*. Runs of other seeds or item counts are in separate sections of each "
         "page; *partial* marks fewer items than the suite's size. `model` is the first "
         f"{DIGEST_CHARS} hex digits of the backend's model digest. *Bounds* are not methods: "
-        "`oracle` returns the truth, `random` guesses. `class acc.` reads *given* where the "
+        "`oracle` returns the truth, `random` guesses, and a backend marked *privileged* was "
+        "handed the truth (listed with the bounds, never ranked or paired). `class acc.` "
+        "reads *given* where the "
         "backend was told the class. F-score@1%: tau = 1% of the canonical cube's side.",
         "",
     ]

@@ -132,7 +132,7 @@ def init_worker(cfg: RunConfig, pin: bool = True) -> None:
         return
     try:
         load_plugins()
-        _WORKER = Evaluator(cfg.suite, cfg.backend, cfg.backend_kwargs)
+        _WORKER = Evaluator(cfg.suite, cfg.backend, cfg.backend_kwargs, cfg.allow_privileged)
     except Exception as e:
         _INIT_ERROR = f"{type(e).__name__}: {e}"
         return

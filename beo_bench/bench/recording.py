@@ -31,14 +31,17 @@ def log_run(cfg: Any, path: Path | str, items: int = 20) -> Path:
     with atomic_path(path) as tmp:  # a failed run leaves no partial recording at path
         rec = rr.RecordingStream("beo-bench-run")
         rec.save(tmp)
-        ev = Evaluator(cfg.suite, cfg.backend, cfg.backend_kwargs)
+        ev = Evaluator(cfg.suite, cfg.backend, cfg.backend_kwargs, cfg.allow_privileged)
         step = 0
         try:
             for index in range(min(items, cfg.suite.size)):
-                for view, gt in ev.cases(index):
+                views = ev.views(index)
+                answers = [ev.predict(index, j, v) for j, v in enumerate(views)]
+                for view, gt, (est, _, failure) in zip(
+                    views, ev.truths(index, views), answers, strict=True
+                ):
                     rec.set_time("view", sequence=step)
                     step += 1
-                    est, _, failure = ev._predict(view, gt)
                     h, w = view.depth.shape
                     rec.log("camera", rr.Pinhole(image_from_camera=view.K, width=w, height=h))
                     rec.log("camera/depth", rr.DepthImage(view.depth, meter=1.0))

@@ -97,6 +97,10 @@ class RunConfig:
     suite: Suite
     backend: str
     backend_kwargs: dict[str, Any] = field(default_factory=dict)
+    allow_privileged: bool = False
+    """Let a plugin that declares ``privileged = True`` be handed the truth
+    (``--allow-privileged``); in-tree bounds need no leave. Whether the backend *was*
+    privileged is recorded in the run record, summary and provenance."""
 
 
 LOCK_NAME = "run.lock"
@@ -485,6 +489,23 @@ def _git(*args: str) -> str:
         return ""
 
 
+def git_diff_sha256() -> str | None:
+    """SHA-256 of ``git diff HEAD --binary`` (the tracked changes a dirty checkout runs
+    with), so a row scored on uncommitted code names exactly which code; None without git."""
+    import hashlib
+
+    try:
+        diff = subprocess.run(
+            ["git", "diff", "HEAD", "--binary"],
+            capture_output=True,
+            cwd=Path(__file__).resolve().parent,
+            timeout=30,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return hashlib.sha256(diff.stdout).hexdigest() if diff.returncode == 0 else None
+
+
 def provenance(cfg: RunConfig) -> dict[str, Any]:
     import importlib.metadata as md
 
@@ -498,6 +519,7 @@ def provenance(cfg: RunConfig) -> dict[str, Any]:
     return {
         "git_commit": commit or None,
         "git_dirty": bool(dirty) if commit else None,
+        **({"git_diff_sha256": git_diff_sha256()} if commit and dirty else {}),
         "versions": {
             n: version(n)
             for n in ("beo-bench", "mujoco", "numpy", "scipy", "trimesh", "torch", "gymnasium")
@@ -536,24 +558,40 @@ class Prepared:
     use it)."""
     uses_class_hint: bool = False
     """Whether the backend can use the class hint at all (its ``wants_class_hint``)."""
+    privileged: bool = False
+    """Whether the backend is handed the ground truth (a bound)."""
 
 
 def _prepare(cfg: RunConfig) -> Prepared:
     """The backend's one-time set-up, here, before workers start (they then load it), and
     the digest of the model it loaded. A backend that cannot use the class hint is refused
     the ``class-given`` track (its class-free run scores the same)."""
-    from beo_bench.backend import get_backend, load_plugins, prepare_backend
+    from beo_bench.backend import check_privileged, get_backend, load_plugins, prepare_backend
     from beo_bench.bench.suites import check_track
     from beo_bench.objects.dataset import activate
 
     load_plugins()
     activate(cfg.suite.dataset)  # a model for a dataset's classes is looked up by its digest
     backend = get_backend(cfg.backend, **cfg.backend_kwargs)
+    privileged = check_privileged(cfg.backend, backend, cfg.allow_privileged)
     wants = bool(getattr(backend, "wants_class_hint", False))
     check_track(cfg.suite, cfg.backend, wants, bool(getattr(backend, "needs_class_hint", False)))
     prepare_backend(backend, suite_categories(cfg.suite))
     digest = getattr(backend, "model_digest", None)
-    return Prepared(digest() if callable(digest) else None, cfg.suite.gives_class and wants, wants)
+    return Prepared(
+        digest() if callable(digest) else None, cfg.suite.gives_class and wants, wants, privileged
+    )
+
+
+def _privileged(cfg: RunConfig, record: dict[str, Any] | None) -> bool:
+    """Whether the run's backend was handed the truth: as its run record says, or (a record
+    written before it was recorded) as the backend built here says."""
+    if record is not None and isinstance(record.get("privileged"), bool):
+        return bool(record["privileged"])
+    from beo_bench.backend import get_backend, load_plugins
+
+    load_plugins()
+    return bool(getattr(get_backend(cfg.backend, **cfg.backend_kwargs), "privileged", False))
 
 
 def _uses_class_hint(cfg: RunConfig, record: dict[str, Any] | None) -> bool:
@@ -678,6 +716,7 @@ def _open_run(
             "model_digest": prepared.model_digest,
             "library_version": LIBRARY_VERSION,
             "uses_class_hint": prepared.uses_class_hint,
+            "privileged": prepared.privileged,
         }
         _write(record_path, old, "writing the run record")
     return old, done, todo, prepared
@@ -728,8 +767,11 @@ def _summarise(
     summary["track"] = cfg.suite.track
     summary["uses_class_hint"] = _uses_class_hint(cfg, record)
     summary["model_digest"] = (record or {}).get("model_digest")
+    # a bound is marked by what it was given, not by its name (leaderboard.is_bound)
+    summary["privileged"] = _privileged(cfg, record)
     summary["provenance"] = provenance(cfg)
     summary["provenance"].update(
+        privileged=summary["privileged"],
         wall_s_last_session=wall,
         workers=workers,
         ray=use_ray,

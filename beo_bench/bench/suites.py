@@ -44,9 +44,12 @@ class Suite:
     pixels is one scored view) or ``pick`` (BEOPick-v0 episodes executed with the grasp
     planned from the estimate). ``protocol``: what the backend is told besides the view:
     ``known-pose`` (the true pose and size), ``1dof`` (the object's up axis: only the
-    rotation about the vertical is unknown), ``3dof`` (nothing; the world frame is
-    randomised so ``cam_to_world`` does not reveal the object's up), ``free`` (tabletop: the
-    table's up is known from ``cam_to_world``, as for a real robot). ``size``: items (views
+    rotation about the vertical is unknown), ``3dof`` (nothing about the pose), ``free``
+    (tabletop and pick: the camera and the table plane in the robot's frame, as a real
+    robot knows them). An isolated view's world frame is a random rigid frame (a yaw and a
+    translation in 1-DOF, a rotation and a translation otherwise: ``evaluate.world_frame``),
+    so ``cam_to_world`` reveals nothing the protocol does not (docs/benchmark.md, "What a
+    backend is told"). ``size``: items (views
     for isolated suites, scenes or episodes otherwise). ``class_hint``: the suite is scored
     in two tracks (:data:`TRACKS`), and ``track`` says which one this is: in
     ``class-given`` a backend that can use the true class (``wants_class_hint``) is given
@@ -191,7 +194,7 @@ SUITES: dict[str, Suite] = {
     for s in (
         Suite(
             "known-pose",
-            2,
+            3,
             "isolated",
             "known-pose",
             size=500,
@@ -200,7 +203,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pose-1dof",
-            2,
+            3,
             "isolated",
             "1dof",
             size=500,
@@ -211,7 +214,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pose-3dof",
-            2,
+            3,
             "isolated",
             "3dof",
             size=1000,
@@ -222,7 +225,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pose-3dof-percat",
-            1,
+            2,
             "isolated",
             "3dof",
             size=600,
@@ -235,7 +238,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pose-3dof-ood",
-            2,
+            3,
             "isolated",
             "3dof",
             size=550,
@@ -247,7 +250,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "tabletop",
-            2,
+            3,
             "tabletop",
             "free",
             size=200,
@@ -260,7 +263,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pick",
-            2,
+            3,
             "pick",
             "free",
             size=100,

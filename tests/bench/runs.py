@@ -16,7 +16,7 @@ def short_run(tmp_path: Path, suite: str, backend: str, n: int, **kw) -> dict:
     """Run ``n`` items of ``suite`` with ``backend`` into a directory of ``tmp_path`` named
     after them; returns the summary."""
     s = get_suite(suite).with_overrides(size=n, track=kw.pop("track", None))
-    cfg = RunConfig(s, backend, kw.pop("opts", {}))
+    cfg = RunConfig(s, backend, kw.pop("opts", {}), kw.pop("allow_privileged", False))
     return run(cfg, tmp_path / f"{suite}-{backend}-{n}", progress=False, **kw)
 
 

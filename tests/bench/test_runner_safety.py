@@ -12,6 +12,7 @@ import subprocess
 import sys
 import textwrap
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -38,6 +39,11 @@ FAULTS = "tests.bench.runner_faults"
 
 def _cfg(suite: str, backend: str, n: int, track: str | None = None, **opts) -> RunConfig:
     return RunConfig(get_suite(suite).with_overrides(size=n, track=track), backend, opts)
+
+
+def _priv(cfg: RunConfig) -> RunConfig:
+    """``cfg`` with ``--allow-privileged`` (a test backend that wraps the oracle)."""
+    return replace(cfg, allow_privileged=True)
 
 
 HINT = "class-given"
@@ -419,7 +425,7 @@ def test_a_resume_with_another_model_is_refused(tmp_path) -> None:
 
     out = tmp_path / "out"
     try:
-        s = run(_cfg("pose-1dof", "test-digest", 2), out, progress=False, workers=1)
+        s = run(_priv(_cfg("pose-1dof", "test-digest", 2)), out, progress=False, workers=1)
         record = json.loads((out / "run.json").read_text())
         assert record["model_digest"] == "aaaa1111"
         assert record["library_version"] == LIBRARY_VERSION
@@ -427,16 +433,25 @@ def test_a_resume_with_another_model_is_refused(tmp_path) -> None:
         model["digest"] = "bbbb2222"  # retrained
         before = (out / "results.jsonl").read_bytes()
         with pytest.raises(RunUsageError, match=r"model aaaa1111.*now loads model bbbb2222"):
-            run(_cfg("pose-1dof", "test-digest", 4), out, resume=True, progress=False, workers=1)
+            run(_priv(_cfg("pose-1dof", "test-digest", 4)), out, resume=True, progress=False,
+                workers=1)  # fmt: skip
         assert (out / "results.jsonl").read_bytes() == before
         model["digest"] = "aaaa1111"  # restored: the run goes on
-        s = run(_cfg("pose-1dof", "test-digest", 4), out, resume=True, progress=False, workers=1)
+        s = run(
+            _priv(_cfg("pose-1dof", "test-digest", 4)), out, resume=True, progress=False, workers=1
+        )
         assert s["n"] == 4
         # a record from before digests were recorded cannot be checked: refused too
         del record["model_digest"], record["library_version"]
         (out / "run.json").write_text(json.dumps(record))
         with pytest.raises(RunUsageError, match="older beo-bench"):
-            run(_cfg("pose-1dof", "test-digest", 6), out, resume=True, progress=False, workers=1)
+            run(
+                _priv(_cfg("pose-1dof", "test-digest", 6)),
+                out,
+                resume=True,
+                progress=False,
+                workers=1,
+            )
     finally:
         B._REGISTRY.pop("test-digest", None)
 

@@ -95,7 +95,9 @@ def test_a_backend_that_fails_on_some_views_loses_on_every_mean(tmp_path) -> Non
             return self.inner.predict(view)
 
     try:
-        flaky = short_run(tmp_path, "pose-3dof", "test-flaky-oracle", 12, workers=1)
+        flaky = short_run(
+            tmp_path, "pose-3dof", "test-flaky-oracle", 12, workers=1, allow_privileged=True
+        )
     finally:
         B._REGISTRY.pop("test-flaky-oracle", None)
     oracle = short_run(tmp_path, "pose-3dof", "oracle", 12)
@@ -137,7 +139,7 @@ def test_the_runner_scores_an_equivalent_symmetric_pose_as_exact(tmp_path) -> No
     )
     out = tmp_path / "symmetric"
     try:
-        run(RunConfig(base.with_overrides(size=11, seed=seed), "test-symmetric"), out,
+        run(RunConfig(base.with_overrides(size=11, seed=seed), "test-symmetric", {}, True), out,
             progress=False, workers=1)  # fmt: skip
     finally:
         B._REGISTRY.pop("test-symmetric", None)

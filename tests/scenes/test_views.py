@@ -41,17 +41,19 @@ def scene():
     env.close()
 
 
-def test_isolated_view_gives_what_an_isolated_suite_gives(isolated, hbeo) -> None:
+def test_isolated_view_gives_the_pixels_an_isolated_suite_gives(isolated, hbeo) -> None:
     iv, _ = isolated
     view = iv.to_view()
     assert view.categories == categories()  # the built-in library's classes
     np.testing.assert_array_equal(view.depth, iv.depth)
     np.testing.assert_array_equal(view.mask, iv.mask)
     np.testing.assert_array_equal(view.K, iv.K)
+    # the render's own frame, with the object at the origin: it gives the pose away, which
+    # is why the suites replace it by a random rigid frame (tests/bench/test_protocol_probe.py)
     np.testing.assert_array_equal(view.cam_to_world, iv.cam_to_world)
     # drawn from the object rig: the suites publish that rig's distribution with the view
     assert view.viewpoint_prior == ViewpointPrior.of_rig(OBJECT_RIG)
-    # and nothing of the truth or of a protocol's hints
+    # no truth field and none of a protocol's hints
     assert view.ground_truth is None and view.class_hint is None
     assert view.up_hint is None and view.pose_hint is None
     est = validate_estimate(hbeo.predict(view), view)
