@@ -402,6 +402,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 def cmd_all(args: argparse.Namespace) -> int:
     from beo_bench.bench.campaign import Campaign, parse_backend_spec, run_campaign
+    from beo_bench.bench.leaderboard import check_out
     from beo_bench.bench.suites import list_suites
     from beo_bench.reports import every_backend, leaderboard_text
 
@@ -413,6 +414,7 @@ def cmd_all(args: argparse.Namespace) -> int:
         if dataset is not None:
             suite.with_dataset(dataset, args.split)  # so does a scene suite on a dataset
     specs = args.backends or every_backend()
+    check_out(args.out)  # a refused --out fails now, not after every run
     c = Campaign(
         {s: args.episodes for s in suites},
         [parse_backend_spec(b) for b in specs],
@@ -651,8 +653,16 @@ def categories_parent(help: str | None = None) -> argparse.ArgumentParser:
 def out_parent(
     default: Any, help: str | None = None, type: Callable[[str], Any] | None = None
 ) -> argparse.ArgumentParser:
-    """``--out``: where a command writes (``type``: e.g. ``Path``; default: the string)."""
-    return _option_parent("--out", type=type, default=default, help=help)
+    """``--out``: where a command writes (``type``: e.g. ``Path``; default: the string). An
+    empty value is a usage error: it would read as "not given" (``run`` then writes under
+    ``runs/``) or as the current directory, neither of which the user named."""
+
+    def checked(text: str) -> Any:
+        if not text.strip():
+            raise argparse.ArgumentTypeError("is empty: give a directory, or leave --out out")
+        return text if type is None else type(text)
+
+    return _option_parent("--out", type=checked, default=default, help=help)
 
 
 def runs_parent(help: str | None = None) -> argparse.ArgumentParser:

@@ -129,6 +129,24 @@ class InvalidNameError(UsageError):
     an absolute path, or characters outside ``[A-Za-z0-9._-]``)."""
 
 
+class TrainingInRunError(UsageError):
+    """Backend options that select a model nobody trained (``--opt instances``, ``images``,
+    ``epochs`` of ``hbeo`` and ``hbeo-mdn-*``; ``instances``, ``resolution`` of ``beo``).
+    A run never trains a model. The
+    message names the ``beo-bench train`` command, with the matching flags, that makes the
+    model; the same options then load it."""
+
+    @classmethod
+    def of(cls, backend: str, options: dict[str, object], command: str) -> TrainingInRunError:
+        """The error for ``backend`` given ``options`` (name -> value), whose model
+        ``command`` trains."""
+        opts = " ".join(f"--opt {k}={v}" for k, v in options.items())
+        return cls(
+            f"{backend} {opts}: no model is trained for these options, and a run never trains "
+            f"one: train it first with `{command}`, then run again with the same options"
+        )
+
+
 class CorruptDataError(BeoBenchError, ValueError):
     """A file this package wrote earlier (cache entry, training shard, results file, run
     record) that is truncated or damaged. The message says whether it was rebuilt, skipped

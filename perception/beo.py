@@ -120,8 +120,11 @@ class BEOBackend:
 
     - ``model`` (None): a model name (``beo-bench train beo --name``; a name under the
       cache's models, never a path); None uses the default model for the view's
-      categories, trained on first use;
-    - ``resolution`` (32): D of the voxel grids (must match the model);
+      categories: the published one, or for other ``resolution`` or ``instances`` the one
+      ``beo-bench train beo`` made;
+    - ``resolution`` (32): D of the voxel grids (must match the model; with no ``model``,
+      another D than the published model's is the one ``beo-bench train beo --resolution D``
+      made, never trained in a run);
     - ``pose_prior`` (True): use the suite's viewpoint distribution
       (``View.viewpoint_prior``) as P(R) in the 3-DOF coarse and fine steps (module
       docstring, 6.); False: uniform over SO(3);
@@ -137,7 +140,9 @@ class BEOBackend:
     - ``coarse_components`` (48): leading subspace directions used by the coarse step;
     - ``fine`` ("density"): the fine step's score: the joint pose-class density of eq. 3.22,
       or "edt" (the coarse step's EDT error at full resolution);
-    - ``instances`` (None): train the default model on this many instances per class;
+    - ``instances`` (None): the default model trained on this many instances per class by
+      ``beo-bench train beo --per-category N``; a run never trains it
+      (:class:`~beo_bench.errors.TrainingInRunError` names that command);
     - ``chunk`` (32): hypotheses per batched computation (bounds memory).
     """
 
@@ -214,8 +219,15 @@ class BEOBackend:
         self, cats: tuple[str, ...], progress: bool = False
     ) -> tuple[BEOModel, Subspace, Subspace]:
         if cats not in self._models:
+            self._refuse_training(cats)
             m = load_model(
-                self.model_name, cats, self.resolution, progress, per_category=self.instances
+                self.model_name,
+                cats,
+                self.resolution,
+                progress,
+                # the published default, or one trained with `beo-bench train`: not here
+                train_default=not self._training_options(),
+                per_category=self.instances,
             )
             self._models[cats] = (
                 m,
@@ -223,6 +235,34 @@ class BEOBackend:
                 Subspace.from_model(m, self.coarse_factor, self.coarse_components),
             )
         return self._models[cats]
+
+    def _training_options(self) -> dict[str, int]:
+        """The options that select a default model other than the published one (32^3, every
+        training instance): ``resolution`` and ``instances``, where given."""
+        given = {"resolution": self.resolution} if self.resolution != 32 else {}
+        return given | ({"instances": self.instances} if self.instances is not None else {})
+
+    def _refuse_training(self, cats: tuple[str, ...]) -> None:
+        """With :meth:`_training_options` and no default model trained for them (on the
+        library: a dataset's missing model is :func:`load_model`'s error), the usage error
+        that names the ``beo-bench train beo`` command making it: nothing trains in a run."""
+        from beo_bench.envs.pick import default_categories
+        from beo_bench.errors import TrainingInRunError
+        from beo_bench.objects.dataset import active_dataset, train_command
+        from beo_bench.perception.beo_model import model_dir
+
+        given = self._training_options()
+        if not given or self.model_name is not None or active_dataset() is not None:
+            return
+        if (model_dir(None, cats, self.resolution, self.instances) / "config.json").exists():
+            return
+        how = train_command(
+            "beo",
+            () if cats == default_categories() else cats,
+            resolution=given.get("resolution"),
+            per_category=self.instances,
+        )
+        raise TrainingInRunError.of(self.name, given, how)
 
     # -- batched evaluation ---------------------------------------------------------------
     def _chunks(self, n: int) -> list[slice]:

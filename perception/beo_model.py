@@ -163,8 +163,7 @@ class BEOModel:
         )
         try:
             meta = json.loads((path / "config.json").read_text())
-            with np.load(path / "arrays.npz") as z:  # allow_pickle stays False
-                arrays = {k: z[k] for k in z.files}
+            arrays = read_arrays(path, meta)
         except FileNotFoundError as e:
             raise CheckpointError(
                 f"no BEO model at {path}: train one with `beo-bench train beo` "
@@ -232,6 +231,40 @@ class BEOModel:
                 "one for these settings with `beo-bench train beo --name NAME --categories "
                 f"{' '.join(categories)} --resolution {resolution}` and pass `--opt model=NAME`"
             )
+
+
+def _shapes(meta: Any) -> dict[str, tuple[int, ...]] | None:
+    """The shape of each array that ``config.json`` (``meta``) implies, None when it does not
+    say (no categories, resolution or k)."""
+    try:
+        C, D, k = len(meta["config"]["categories"]), int(meta["config"]["resolution"]), meta["k"]
+        k = int(k)
+    except (KeyError, TypeError, ValueError):
+        return None
+    return {
+        "basis": (D**3, k),
+        "mean": (D**3,),
+        "class_mean": (C, k),
+        "class_cov": (C, k, k),
+        "class_size": (C, 3),
+        "components": (C,),
+        "shrinkage": (C, 2),
+    }
+
+
+def read_arrays(path: Path, meta: Any) -> dict[str, np.ndarray]:
+    """The arrays of the model directory ``path``'s ``arrays.npz``, each member's header
+    checked against the names, real dtypes and shapes its ``config.json`` (``meta``)
+    declares before it is unpacked (:func:`beo_bench.safe_npz.read_npz`): a tampered file
+    cannot make the reader unpack gigabytes. :class:`~beo_bench.safe_npz.UnsafeArrayError`
+    otherwise."""
+    from beo_bench.safe_npz import UnsafeArrayError, read_npz
+
+    want = _shapes(meta)
+    if want is None:
+        raise UnsafeArrayError("config.json lacks categories, resolution or k")
+    budget = 8 * sum(int(np.prod(s)) for s in want.values())  # float64 at most
+    return read_npz(path / "arrays.npz", budget=budget, kinds="fiu", shapes=want, names=ARRAYS)
 
 
 def _array_problem(arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> str | None:

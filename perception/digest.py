@@ -8,6 +8,7 @@ differ between two saves of equal arrays.
 from __future__ import annotations
 
 import hashlib
+import json
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -49,8 +50,10 @@ def model_digest(path: Path) -> str:
         raise CheckpointError(f"{path} holds no model (no arrays.npz or weights.pt)")
     try:
         if npz.exists():
-            with np.load(npz) as z:  # allow_pickle stays False
-                state: Any = {k: z[k] for k in z.files}
+            from beo_bench.perception.beo_model import read_arrays
+
+            # headers checked before unpacking: the digest reads the file before the model
+            state: Any = read_arrays(path, json.loads((path / "config.json").read_text()))
         else:
             import torch
 

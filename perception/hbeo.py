@@ -56,8 +56,8 @@ class HBEOBackend:
     """HBEO / HBEO-MDN (module docstring). Keyword arguments (``--opt KEY=VALUE``):
 
     - ``model`` (None): a model name (``beo-bench train hbeo|hbeo-mdn --name``; a name
-      under the cache's models, never a path); None uses the default small model, trained
-      on first use;
+      under the cache's models, never a path); None uses the default small model: the
+      published reference one, or for the options below the one ``beo-bench train`` made;
     - ``samples`` (25, MDN modes): N, the rotation samples drawn per view;
     - ``seed`` (0): with the crop's bytes, seeds the sampling (same view, same estimate);
     - ``size`` (``small``): with no ``model``, the default network's size: ``small`` or
@@ -68,8 +68,10 @@ class HBEOBackend:
       track only. Each class's network is the ``per-category`` recipe's (``beo-bench train
       hbeo-mdn --categories car --recipe per-category``), regressing that class's own BEO
       subspace; it is never trained here (a missing one is an error naming the command);
-    - ``instances``, ``images``, ``epochs`` (None): train the default model on this many
-      instances per class, crops and epochs (quick checks; None: the default's);
+    - ``instances``, ``images``, ``epochs`` (None): the default model trained on this many
+      instances per class, crops and epochs (quick checks; None: the default's) by
+      ``beo-bench train hbeo|hbeo-mdn --per-category N --images N --epochs N``; a run never
+      trains it (:class:`~beo_bench.errors.TrainingInRunError` names that command);
     - ``device`` (``cpu``): where the network runs: ``cpu``, ``cuda`` or ``auto`` (CUDA when
       available). The sampling and scoring stay on the CPU in float64;
     - ``threads`` (1): torch intra-op threads for this process. One image at a time is
@@ -156,11 +158,14 @@ class HBEOBackend:
         self, cats: tuple[str, ...], progress: bool = False
     ) -> tuple[HBEOModel, np.ndarray, np.ndarray, np.ndarray]:
         if cats not in self._models:
+            self._refuse_training(cats)
             m = load_hbeo(
                 self.model_name,
                 self.kind,  # type: ignore[arg-type]
                 cats,
                 progress,
+                # the quick options select a trained model: never one trained here
+                train_default=all(v is None for v in self.small.values()),
                 size=self.size,
                 recipe="per-category" if self.per_category else "default",
                 **self.small,
@@ -177,6 +182,40 @@ class HBEOBackend:
             idx = np.array([m.categories.index(c) for c in cats])
             self._models[cats] = (m, A, b, idx)
         return self._models[cats]
+
+    def _refuse_training(self, cats: tuple[str, ...]) -> None:
+        """With ``instances``, ``images`` or ``epochs`` and no model trained for them (on the
+        library: a dataset's missing model is :func:`load_hbeo`'s error), the usage error
+        that names the ``beo-bench train`` command making it: nothing trains in a run."""
+        from beo_bench.envs.pick import default_categories
+        from beo_bench.errors import TrainingInRunError
+        from beo_bench.objects.dataset import active_dataset, train_command
+        from beo_bench.perception.hbeo_train import (
+            default_config,
+            default_name,
+            model_path,
+            with_overrides,
+        )
+
+        given = {k: v for k, v in self.small.items() if v is not None}
+        if not given or self.model_name is not None or self.per_category:
+            return  # a named model, or per-category networks: load_hbeo never trains them
+        if active_dataset() is not None:
+            return
+        cfg = with_overrides(default_config(self.kind, cats, **self.small), size=self.size)  # type: ignore[arg-type]
+        if (model_path(default_name(cfg)) / "weights.pt").exists():
+            return
+        big = self.size != "small"
+        how = train_command(
+            self.kind,
+            () if cats == default_categories() else cats,
+            per_category=given.get("instances"),
+            images=given.get("images"),
+            epochs=given.get("epochs"),
+            size=self.size if big else None,
+            device="cuda" if big else None,
+        )
+        raise TrainingInRunError.of(self.name, given, how)
 
     def _classes(self, view: View) -> tuple[str, ...]:
         """The class list of the network that answers ``view``: the view's, or with

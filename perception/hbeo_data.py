@@ -44,6 +44,7 @@ from beo_bench.atomic import atomic_write, atomic_write_bytes
 from beo_bench.errors import CorruptDataError
 from beo_bench.objects import cache
 from beo_bench.perception.hbeo_crop import CROP_SIZE, make_crop
+from beo_bench.safe_npz import read_npz
 from beo_bench.types import Mat3, Symmetry
 
 if TYPE_CHECKING:
@@ -235,13 +236,23 @@ class Shard:
         )
 
 
+SHARD_BUDGET = 1 << 30
+"""Most bytes one shard may unpack to (500 crops of a few channels at 64 x 64 take tens of
+MB; the largest crops of a dissertation-size network stay well under this)."""
+
+
 def _read_shard(path: Path, n: int | None) -> tuple[dict[str, np.ndarray], str | None]:
     """A shard file's arrays and None, or ({}, what is wrong with it)."""
     if not path.exists():
         return {}, "missing"
     try:
-        with np.load(path) as z:  # allow_pickle stays False
-            arrays = {k: z[k] for k in z.files}
+        # each member's header checked before it is unpacked: no zip bomb is unpacked
+        arrays = read_npz(
+            path,
+            budget=SHARD_BUDGET,
+            kinds={"keys": "U", cache.CHECKSUM_KEY: "U"},
+            names={*FIELDS, cache.CHECKSUM_KEY},
+        )
     except Exception as e:  # zip, zlib, EOF and OS errors: a torn or damaged file
         return {}, f"damaged (unreadable: {type(e).__name__}: {e})"
     why = _shard_problem(arrays, n)

@@ -38,7 +38,7 @@ import numpy as np
 import torch
 
 from beo_bench.atomic import atomic_dir, atomic_write_bytes
-from beo_bench.errors import CheckpointError
+from beo_bench.errors import CheckpointError, UsageError
 from beo_bench.names import inside
 from beo_bench.perception import modeldir
 from beo_bench.perception.beo_model import BEOModel, load_model
@@ -502,6 +502,19 @@ def evaluate(net: HBEONet, data: _Tensors, batch: int = 512) -> dict[str, float]
     return res
 
 
+def check_steps(config: HBEOConfig) -> None:
+    """A :class:`~beo_bench.errors.UsageError` when ``config`` would train no step: an epoch
+    drops its ragged last batch (BatchNorm), so fewer training crops than one batch leave
+    nothing, and the untouched network would be saved as if trained."""
+    n, b = config.dataset.images, config.batch_size
+    if n < b:
+        raise UsageError(
+            f"--images {n} is fewer than --batch-size {b}: training would run no step "
+            f"(each epoch drops its ragged last batch). Give --images {b} or more, or "
+            f"--batch-size {n} or less (in a run: --opt images=...)"
+        )
+
+
 def train_hbeo(
     config: HBEOConfig,
     path: Path,
@@ -523,6 +536,7 @@ def train_hbeo(
     (it is never run as code); one for other settings is ignored and training starts over."""
     from threadpoolctl import threadpool_limits
 
+    check_steps(config)  # before anything is rendered or trained
     path = Path(path)
     modeldir.check_replaceable(path, FILES, KINDS)
     if not resume and path.exists():

@@ -134,17 +134,40 @@ def _pack(arrays: dict[str, np.ndarray]) -> bytes:
     return buf.getvalue()
 
 
+BUDGET = 256 << 20
+"""Most bytes one published file may unpack to (the largest, the BEO basis, is 15 MB): the
+manifest vouches for a file only as long as nobody edits it too, so the headers are
+checked before anything is unpacked (:func:`beo_bench.safe_npz.read_npz`)."""
+
+
 def _unpack(data: bytes) -> dict[str, np.ndarray]:
-    """The arrays of :func:`_pack`'s bytes (read with ``allow_pickle=False``)."""
-    with np.load(io.BytesIO(data)) as z:
-        raw = {k: z[k] for k in z.files}
+    """The arrays of :func:`_pack`'s bytes (read with ``allow_pickle=False``): real numbers
+    only (a complex array would be cast to real by torch with a mere warning), each float
+    array's planes, shape and dtype consistent; :class:`UnsafeArrayError` otherwise."""
+    from beo_bench.safe_npz import UnsafeArrayError, read_npz
+
+    def kind(key: str) -> str:
+        # planes and dtype names are bytes, shapes integers; a float is always split into
+        # planes by _pack, so a plain member is an integer or boolean array
+        return "u" if key.endswith((PLANES, DTYPE)) else "i" if key.endswith(SHAPE) else "biu"
+
+    with zipfile.ZipFile(io.BytesIO(data)) as zf:
+        keys = [i.filename.removesuffix(".npy") for i in zf.infolist()]
+    raw = read_npz(data, budget=BUDGET, kinds={k: kind(k) for k in keys})
     out: dict[str, np.ndarray] = {}
     for key, a in raw.items():
         if key.endswith(PLANES):
             name = key[: -len(PLANES)]
-            dtype = np.dtype(raw[name + DTYPE].tobytes().decode())
-            flat = a.T.copy().view(dtype).reshape(-1)
-            out[name] = flat.reshape(tuple(int(n) for n in raw[name + SHAPE]))
+            try:
+                dtype = np.dtype(raw[name + DTYPE].tobytes().decode())
+                shape = tuple(int(n) for n in raw[name + SHAPE])
+            except (KeyError, TypeError, ValueError, UnicodeDecodeError) as e:
+                raise UnsafeArrayError(f"{name}: no readable dtype or shape ({e})") from e
+            if dtype.kind != "f" or dtype.itemsize not in (2, 4, 8) or min(shape, default=0) < 0:
+                raise UnsafeArrayError(f"{name} is {dtype} {shape}, expected a real float array")
+            if a.shape != (dtype.itemsize, int(np.prod(shape))):
+                raise UnsafeArrayError(f"{name}'s planes {a.shape} do not fit {dtype} {shape}")
+            out[name] = a.T.copy().view(dtype).reshape(shape)
         elif not key.endswith((SHAPE, DTYPE)):
             out[key] = a
     return out

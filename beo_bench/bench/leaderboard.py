@@ -29,14 +29,14 @@ from __future__ import annotations
 
 import json
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from beo_bench.atomic import atomic_write_bytes
-from beo_bench.bench import compare
+from beo_bench.bench import ablations, compare
 from beo_bench.bench.campaign import backend_label
 from beo_bench.bench.columns import (
     BOARD_PER_CATEGORY,
@@ -319,22 +319,43 @@ def _plots(out: Path, prefix: str, title: str, rows: list[Row]) -> list[str]:
 def _confusion(out: Path, prefix: str, title: str, s: dict[str, Any], conf: Any) -> str:
     import matplotlib.pyplot as plt
 
-    c = np.asarray(conf, dtype=float)
-    fig, ax = plt.subplots(figsize=(5, 4.5), constrained_layout=True)
-    norm = c / np.maximum(c.sum(axis=1, keepdims=True), 1)
-    im = ax.imshow(norm, vmin=0, vmax=1, cmap="Blues")
-    ax.set_xlabel("predicted class")
-    ax.set_ylabel("true class")
-    cats = s.get("categories")
-    if cats and len(cats) == len(c):
-        ax.set_xticks(range(len(cats)), cats, rotation=90)
-        ax.set_yticks(range(len(cats)), cats)
-    fig.colorbar(im, ax=ax, shrink=0.8)
-    ax.set_title(f"{title} / {label(s)}", fontsize="small")
+    fig = confusion_figure(conf, s.get("categories"), f"{title} / {label(s)}")
     name = f"{prefix}_confusion_{_slug(label(s))}.png"
     _savefig(fig, out / name)
     plt.close(fig)
     return name
+
+
+def confusion_figure(conf: Any, categories: list[str] | None, title: str) -> Any:
+    """The confusion matrix ``conf`` (true class x predicted class, counts) as a figure:
+    each cell's colour is its row-normalised rate (the fraction of the true class), and its
+    text the count itself (at 2 views a class, 1 of 2 and 50% of many read alike); the true
+    classes' labels carry their view counts."""
+    import matplotlib.pyplot as plt
+
+    c = np.asarray(conf, dtype=float)
+    k = len(c)
+    side = max(5.0, 2.2 + 0.45 * k)  # 11 classes: cells of about 0.4 inch
+    fig, ax = plt.subplots(figsize=(side + 0.8, side), constrained_layout=True)
+    totals = c.sum(axis=1)
+    norm = c / np.maximum(totals[:, None], 1)
+    im = ax.imshow(norm, vmin=0, vmax=1, cmap="Blues")
+    size = 9 if k <= 12 else max(5, 9 - (k - 12) // 3)
+    for i in range(k):
+        for j in range(k):
+            v = c[i, j]
+            text = f"{v:.0f}" if float(v).is_integer() else f"{v:.1f}"
+            colour = "white" if norm[i, j] > 0.55 else ("0.6" if v == 0 else "black")
+            ax.text(j, i, text, ha="center", va="center", fontsize=size, color=colour)
+    ax.set_xlabel("predicted class")
+    ax.set_ylabel("true class (views)")
+    if categories and len(categories) == k:
+        ax.set_xticks(range(k), categories, rotation=90)
+        rows = [f"{n} ({t:.0f})" for n, t in zip(categories, totals, strict=True)]
+        ax.set_yticks(range(k), rows)
+    fig.colorbar(im, ax=ax, shrink=0.8, label="fraction of the true class")
+    ax.set_title(f"{title}\n(cell: views; colour: fraction of the row)", fontsize="small")
+    return fig
 
 
 def _error_vs_samples(
@@ -400,13 +421,19 @@ class Section:
     rows: list[Row]
 
     @property
+    def partial(self) -> str | None:
+        """``200 of the suite's 550 items`` when the runs cover fewer items than the suite's
+        registered size, else None."""
+        size = suite_size(self.suite)
+        if size is None or self.items >= size:
+            return None
+        return f"{self.items} of the suite's {size} items"
+
+    @property
     def title(self) -> str:
         """``seed 2000, 500 items``, with ``(partial: ...)`` below the suite's size."""
-        size = suite_size(self.suite)
         text = f"seed {self.seed}, {self.items} items"
-        if size is not None and self.items < size:
-            text += f" (partial: {self.items} of the suite's {size} items)"
-        return text
+        return text + (f" (partial: {self.partial})" if self.partial else "")
 
 
 def _track_key(track: str | None) -> int:
@@ -541,6 +568,7 @@ def verdict_table(verdicts: list[Verdict]) -> str:
 def _verdict_json(v: Verdict) -> dict[str, Any]:
     r = v.result
     return {
+        "pairing": "baseline",
         "track": v.track,
         "method": v.method,
         "baseline": v.baseline,
@@ -638,6 +666,19 @@ def _heading(suite: str, track: str | None) -> str:
     return f"{suite}, {track} track" if track else suite
 
 
+def _partial_note(suite: str, tracks: dict[str | None, list[Section]]) -> str:
+    """The line under a suite's title (its page's and the README's) when the sections shown
+    first (the README's) cover fewer items than the suite's size, else ``""``."""
+    parts = {t: secs[0].partial for t, secs in tracks.items() if secs and secs[0].partial}
+    if not parts:
+        return ""
+    if len(set(parts.values())) == 1 and len(parts) == len(tracks):
+        covered = next(iter(parts.values()))
+    else:
+        covered = "; ".join(f"{_heading(suite, t)}: {p}" for t, p in parts.items())
+    return f"**Partial**: the runs shown first cover {covered}."
+
+
 @dataclass
 class _Page:
     """What a suite's page collects while it is built."""
@@ -647,6 +688,7 @@ class _Page:
     plots: list[str]
     verdicts: list[Verdict]
     shown: dict[int, dict[str, Any]]
+    ablations: list[ablations.AblationResult] = field(default_factory=list)
 
 
 def _track_part(
@@ -671,6 +713,12 @@ def _track_part(
         verdicts = paired_verdicts(sec)
         page.verdicts += verdicts
         vt = verdict_table(verdicts)
+        # ablations pair runs across this seed's sections (a variant may cover a prefix)
+        same_seed = [r for s in secs if s.seed == sec.seed for r in s.rows]
+        abl = ablations.ablation_results(track, same_seed, label)
+        page.ablations += abl
+        at = ablations.ablation_table(abl)
+        vt = "\n\n".join(t for t in (vt, at) if t)
         page.index += [f"### {_heading(suite, track)}: {sec.title}", "", table, ""]
         page.index += [vt, ""] if vt else []
         summaries = [r.summary for r in sec.rows]
@@ -687,11 +735,53 @@ def _track_part(
         page.md += [*[f"![{p}]({p})" for p in plots], ""]
 
 
+MARKER_NAME = ".beo-bench-leaderboards"
+MARKER_TEXT = (
+    "This directory is a leaderboard directory of beo-bench (`beo-bench leaderboard`, "
+    "`beo-bench all`).\n"
+    "Regenerating rewrites its files only while this file marks the directory as its own.\n"
+)
+"""The file marking a directory :func:`regenerate` made. Without it a non-empty directory is
+refused, even one holding only names a leaderboard writes (``README.md``, ``<suite>.md``):
+those could be the user's own, and regenerating replaces and removes files."""
+
+
+def check_out(out: Path | str) -> None:
+    """A :class:`~beo_bench.errors.UsageError` unless ``out`` may take a leaderboard: it
+    does not exist, is empty or carries :data:`MARKER_NAME` (``beo-bench all`` asks before
+    its runs, so a refusal costs no hours of scoring)."""
+    from beo_bench import outdir
+
+    out = Path(out)
+    if not out.is_dir():
+        return  # created by regenerate (or a file there: mkdir says so)
+    try:
+        held = outdir.foreign_files(out, MARKER_NAME)
+    except OSError as e:
+        raise UsageError(f"--out {out} cannot be read ({e}): choose another --out") from e
+    if held:
+        raise UsageError(
+            f"--out {out} is a non-empty directory that beo-bench did not create (it holds "
+            f"{outdir.shown(held)} and no {MARKER_NAME}): give --out a new or empty "
+            "directory; nothing in this one is touched"
+        )
+
+
+def _mark_out(out: Path) -> None:
+    from beo_bench import outdir
+
+    if not (out / MARKER_NAME).is_file():
+        outdir.mark(out, MARKER_NAME, MARKER_TEXT)
+
+
 def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> list[Path]:
     """Rewrite ``out`` from the summaries under ``runs``; returns the suites' Markdown files.
-    Its own files (named after a suite) that no run produces any more are removed."""
+    Its own files (named after a suite) that no run produces any more are removed. ``out``
+    must be new, empty or marked as a leaderboard directory (:func:`check_out`)."""
     out = Path(out)
+    check_out(out)
     out.mkdir(parents=True, exist_ok=True)
+    _mark_out(out)
     by_suite: dict[str, list[Row]] = {}
     for r in load_rows(Path(runs)):
         by_suite.setdefault(r.summary["suite"], []).append(r)
@@ -727,6 +817,8 @@ def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> l
         page = _Page([], [], [], [], {})
         desc = _description(tracks)
         page.md = [f"# {suite} (suite version {version})", "", desc, ""]
+        partial = _partial_note(suite, tracks)
+        page.md += [partial, ""] if partial else []
         if older:
             left = ", ".join(f"v{v}: {n} run(s)" for v, n in sorted(older.items()))
             page.md += [f"Runs of older suite versions are left out ({left}): not comparable.", ""]
@@ -739,12 +831,15 @@ def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> l
             out / f"{suite}.json", json.dumps(shown, indent=2, sort_keys=True) + "\n"
         )
         paired_json = [_verdict_json(v) for v in page.verdicts]
+        paired_json += [ablations.ablation_json(x) for x in page.ablations]
         atomic_write_bytes(
             out / f"{suite}_paired.json", json.dumps(paired_json, indent=2, sort_keys=True) + "\n"
         )
         keep |= {path.name, f"{suite}.json", f"{suite}_paired.json", *page.plots}
         written.append(path)
-        index += [f"## [{suite}]({suite}.md)", "", desc, "", *page.index]
+        mark = " *(partial)*" if partial else ""
+        index += [f"## [{suite}]({suite}.md){mark}", "", desc, ""]
+        index += [*([partial, ""] if partial else []), *page.index]
     atomic_write_bytes(out / "README.md", "\n".join(index))
     from beo_bench.bench.suites import list_suites
 

@@ -350,7 +350,46 @@ def _run_dir(out: Path) -> Path:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise io_error(e, out, "creating the run directory") from e
+    _claim_run_dir(out)
     return out
+
+
+MARKER_NAME = ".beo-bench-run"
+MARKER_TEXT = (
+    "This directory is a run directory of beo-bench (`beo-bench run --out`, `beo-bench all`).\n"
+    "A run writes and resumes here only while this file marks the directory as its own.\n"
+)
+"""The file marking a directory a run made: a run writes only into an empty directory or
+one carrying it, so nothing the user keeps in a folder given as ``--out`` is replaced."""
+
+
+def _claim_run_dir(out: Path) -> None:
+    """Mark ``out`` as a run directory when it is empty, or written by an earlier version
+    (a valid run record: its marker is added); a :class:`RunUsageError` for a non-empty
+    directory this package did not make, left untouched."""
+    from beo_bench import outdir
+
+    try:
+        held = outdir.foreign_files(out, MARKER_NAME)
+    except OSError as e:
+        raise io_error(e, out, "looking into the run directory") from e
+    if held is None:
+        return
+    if held:
+        try:  # a run of a version before the marker: its record shows it is ours
+            legacy = RECORD_NAME in held and _read_record(out / RECORD_NAME) is not None
+        except RunError:
+            legacy = False
+        if not legacy:
+            raise RunUsageError(
+                f"--out {out} is a non-empty directory that beo-bench did not create (it "
+                f"holds {outdir.shown(held)} and no {MARKER_NAME}): give --out a new or "
+                "empty directory; nothing in this one is touched"
+            )
+    try:
+        outdir.mark(out, MARKER_NAME, MARKER_TEXT)
+    except OSError as e:
+        raise io_error(e, out / MARKER_NAME, "marking the run directory") from e
 
 
 @contextlib.contextmanager

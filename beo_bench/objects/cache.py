@@ -9,7 +9,10 @@ ignores.
 
 Every entry carries a checksum of its arrays (``__checksum__``); an entry that does not
 match it, has none (written by an older version) or cannot be read is recomputed and
-rewritten, never trusted.
+rewritten, never trusted. So is one whose arrays, checksum and all, are not what the kind's
+writer makes (names, dtypes, shapes from the entry's settings, value ranges:
+:func:`entry_problem`): a checksum shows a file is whole, not who wrote it. Headers are
+checked before anything is unpacked (:mod:`beo_bench.safe_npz`).
 
 The cache only deletes what it made: when it creates its root it writes a
 ``CACHEDIR.TAG`` (https://bford.info/cachedir/, which also keeps backup tools out), and
@@ -196,18 +199,108 @@ def atomic_save_npz(path: Path, **arrays: np.ndarray) -> None:
         np.savez_compressed(f, **arrays)
 
 
-def _read_entry(path: Path) -> dict[str, np.ndarray] | None:
+ENTRY_BUDGET = 256 << 20
+"""Most bytes one entry may unpack to (the largest, a dense real mesh's parts, take a few
+MB): a file declaring more is damage or a zip bomb, refused before it is unpacked."""
+
+_PARTS = {"vertices": (None, 3), "counts": (None,), "faces": (None, 3), "face_counts": (None,)}
+_MESH = {"vertices": (None, 3), "faces": (None, 3), "symmetry": ()}
+_SHAPES: dict[str, Callable[[dict[str, Any]], dict[str, tuple[int | None, ...]]]] = {
+    # each kind's arrays as its writer (objects.instance, loaders, objectset, means) makes
+    # them; a voxel grid's packed length follows from D, so a short one is refused
+    "voxels": lambda s: {"occ": ((int(s["D"]) ** 3 + 7) // 8,)},
+    "surface": lambda s: {"points": (int(s["n"]), 3), "normals": (int(s["n"]), 3)},
+    "coacd": lambda s: dict(_PARTS),
+    "symmetry": lambda s: {"continuous": (None, 6), "discrete": (None, 4, 4)},
+    "generated": lambda s: {**_MESH, **{f"part_{k}": v for k, v in _PARTS.items()}},
+    "classmeans": lambda s: {
+        "shape": (len(s["categories"]), *(int(s["D"]),) * 3),
+        "size": (len(s["categories"]), 3),
+    },
+}
+_KINDS: dict[str, dict[str, str]] = {
+    "voxels": {"occ": "u"},
+    "generated": {"symmetry": "U", "faces": "i", "part_counts": "i", "part_faces": "i"},
+    "coacd": {"counts": "i", "faces": "i", "face_counts": "i"},
+}
+"""dtype kinds other than real floats, per kind and array (counts and indices are
+integers, packed bits unsigned bytes, a symmetry record text)."""
+
+
+def _parts_problem(a: Mapping[str, np.ndarray], p: str = "") -> str | None:
+    """Why packed convex parts (processing.pack_parts) would unpack to wrong meshes."""
+    counts, face_counts = a[f"{p}counts"], a[f"{p}face_counts"]
+    if len(counts) != len(face_counts) or (counts < 0).any() or (face_counts < 0).any():
+        return "part counts that do not pair up"
+    if counts.sum() != len(a[f"{p}vertices"]) or face_counts.sum() != len(a[f"{p}faces"]):
+        return "part counts that do not add up to the vertices and faces"
+    limit = np.repeat(counts, face_counts)[:, None]  # each face indexes its own part
+    if len(a[f"{p}faces"]) and ((a[f"{p}faces"] < 0) | (a[f"{p}faces"] >= limit)).any():
+        return "part faces indexing outside their part"
+    return None
+
+
+def entry_problem(kind: str, arrays: Mapping[str, np.ndarray]) -> str | None:
+    """Why the arrays of a ``kind`` entry, of the right names, dtypes and shapes, hold
+    values its writer never makes (NaN, out-of-range indices or occupancies), or None."""
+    floats = [a for a in arrays.values() if a.dtype.kind == "f"]
+    if not all(np.isfinite(a).all() for a in floats):
+        return "NaN or infinite values"
+    if kind == "surface":
+        norms = np.linalg.norm(arrays["normals"], axis=1)
+        if len(norms) and np.abs(norms - 1).max() > 1e-3:
+            return "normals that are not unit vectors"
+    if kind == "classmeans":
+        shape, size = arrays["shape"], arrays["size"]
+        if (shape.size and (shape.min() < 0 or shape.max() > 1)) or (size <= 0).any():
+            return "mean occupancies outside [0, 1] or sizes that are not positive"
+    if kind == "generated":
+        faces, n = arrays["faces"], len(arrays["vertices"])
+        if len(faces) == 0 or faces.min() < 0 or faces.max() >= n:
+            return "mesh faces indexing outside its vertices"
+        return _parts_problem(arrays, "part_")
+    if kind == "coacd":
+        return _parts_problem(arrays)
+    return None
+
+
+def _read_entry(
+    path: Path, kind: str | None = None, settings: dict[str, Any] | None = None
+) -> dict[str, np.ndarray] | None:
     """The verified arrays of the entry at ``path``, or None when it is missing or cannot be
-    trusted (unreadable, truncated, no or wrong checksum): then it is recomputed."""
+    trusted (unreadable, truncated, no or wrong checksum; for a ``kind`` this package
+    knows, made with ``settings``: other names, dtypes, shapes or values than its writer
+    makes): then it is recomputed. Each member's header is checked before it is unpacked
+    (:func:`beo_bench.safe_npz.read_npz`), so a zip bomb costs no memory."""
+    from beo_bench.safe_npz import REAL, TEXT, read_npz
+
     if not path.exists():
         return None
+    shapes = None
     try:
-        with np.load(path) as z:  # allow_pickle stays False: an entry is arrays, never code
-            arrays = {k: z[k] for k in z.files}
+        if kind in _SHAPES and settings is not None:
+            shapes = {**_SHAPES[kind](settings), CHECKSUM_KEY: ()}
+    except (KeyError, TypeError, ValueError):  # settings of another form: no shapes known
+        shapes = None
+    kinds = {**_KINDS.get(kind or "", {}), CHECKSUM_KEY: TEXT}
+    try:
+        # allow_pickle stays off in read_npz: an entry is arrays, never code
+        arrays = read_npz(
+            path,
+            budget=ENTRY_BUDGET,
+            kinds=kinds if shapes is not None else REAL + TEXT,
+            shapes=shapes,
+            names=None if shapes is None else shapes.keys(),
+        )
+        if shapes is not None and set(arrays) | {CHECKSUM_KEY} != set(shapes):
+            raise ValueError(f"arrays {sorted(arrays)}, expected {sorted(shapes)}")
     except Exception as e:  # zip, zlib, format and OS errors alike: a torn or damaged file
         _log.warning("cache entry %s is unreadable (%s); recomputing it", path, e)
         return None
     problem = checksum_problem(arrays)
+    if problem is None and shapes is not None:
+        # a valid checksum proves only that the file is whole, not that its writer was us
+        problem = entry_problem(str(kind), arrays)
     if problem is not None:
         # an old entry is expected after an upgrade; a wrong checksum means damage
         log = _log.debug if CHECKSUM_KEY not in arrays else _log.warning
@@ -221,10 +314,10 @@ def cached(
     kind: str, content: str, settings: dict[str, Any], compute: Callable[[], dict[str, np.ndarray]]
 ) -> dict[str, np.ndarray]:
     """Load an entry, or compute and store it. An entry that cannot be read or does not
-    match its checksum (a disk error, a tampered or an older file) is recomputed and
-    atomically replaced rather than trusted."""
+    match its checksum or its kind's arrays (a disk error, a tampered or an older file) is
+    recomputed and atomically replaced rather than trusted."""
     path = entry_path(kind, content, settings)
-    found = _read_entry(path)
+    found = _read_entry(path, kind, settings)
     if found is not None:
         return found
     arrays = {k: np.asarray(v) for k, v in compute().items()}

@@ -93,11 +93,19 @@ def _generate_cached(category: str, params: Params) -> Generated:
     return Generated(mesh=mesh, parts=parts, symmetry=json.loads(str(a["symmetry"])))
 
 
+def _is_index(s: str) -> bool:
+    """A canonical instance index: ASCII digits, no sign, no leading zero."""
+    return s.isascii() and s.isdigit() and (s == "0" or not s.startswith("0"))
+
+
 def _resolve_procedural(rest: str) -> ObjectInstance:
     parts = rest.split("/")
-    if len(parts) != 4 or not parts[3].isdigit() or not parts[0].startswith("v"):
+    if len(parts) != 4 or not _is_index(parts[3]) or not parts[0].startswith("v"):
+        # str.isdigit() alone takes fullwidth and other non-ASCII digits, which int() reads
+        # as numbers: '１' would name instance 1 under a second key
         raise InvalidKeyError(
-            f"procedural key 'proc/{rest}' is not proc/v<N>/<category>/<split>/<index>"
+            f"procedural key 'proc/{rest}' is not proc/v<N>/<category>/<split>/<index> "
+            "(index: ASCII digits without leading zeros)"
         )
     version, category, split, index = parts
     if version != f"v{LIBRARY_VERSION}":
@@ -107,6 +115,12 @@ def _resolve_procedural(rest: str) -> ObjectInstance:
         )
     get_category(category)
     check_split(split)
+    n = DEFAULT_SPLIT_SIZES[split]
+    if int(index) >= n:  # any index would build some object: one the split never has
+        raise InvalidKeyError(
+            f"key 'proc/{rest}': index {index} is out of range, split {split!r} has {n} "
+            f"instances per category (0..{n - 1})"
+        )
     # the process-wide instance, so its generated mesh (~25 ms) is built once per process
     return _cached_procedural(category, int(index), split)
 

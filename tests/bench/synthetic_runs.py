@@ -62,6 +62,7 @@ def write_run(
     kwargs: dict[str, Any] | None = None,
     digest: str | None = None,
     uses_hint: bool = True,
+    privileged: bool = False,
 ) -> dict[str, Any]:
     """Write ``out/results.jsonl`` and ``out/summary.json`` of a finished run; returns the
     summary. ``size`` defaults to the number of items in ``rows``."""
@@ -80,6 +81,7 @@ def write_run(
     summary["track"] = getattr(s, "track", None)
     summary["uses_class_hint"] = uses_hint
     summary["model_digest"] = digest
+    summary["privileged"] = privileged
     summary["provenance"] = {
         "suite": asdict(s),
         "backend_kwargs": kwargs or {},

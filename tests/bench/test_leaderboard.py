@@ -183,3 +183,102 @@ def test_pose_3dof_has_a_table_in_the_form_of_tables_5_1_and_5_2(tmp_path) -> No
         errs = [min(r["rot_err_deg"], 180.0) for r in rows if r["category"] == cat]
         want = f"{np.mean(errs):.1f} / {100 * np.mean(np.array(errs) > 15):.1f}%"
         assert cell.strip() == want
+
+
+def test_a_suite_covered_in_part_says_so_in_its_headings(tmp_path) -> None:
+    """pose-3dof-ood's runs cover 22 of its 550 items: each section's heading, the page's
+    top and the README's entry say *partial*; pose-1dof's runs of its full size do not."""
+    from beo_bench.bench.suites import get_suite
+
+    runs = tmp_path / "runs"
+    ood = {"suite": "pose-3dof-ood", "uses_hint": False}
+    write_run(runs / "ood-given", "hbeo", _rows(0.7), track="class-given", **ood)
+    write_run(runs / "ood-free", "hbeo", _rows(0.7), track="class-free", **ood)
+    full = get_suite("pose-1dof").size
+    write_run(runs / "full", "beo", _rows(0.6), size=full)  # scored as the whole suite
+    regenerate(runs, tmp_path / "board")
+    md = (tmp_path / "board" / "pose-3dof-ood.md").read_text()
+    size = get_suite("pose-3dof-ood").size
+    heading = f"### seed 6000, 22 items (partial: 22 of the suite's {size} items)"
+    assert md.count(heading) == 2  # both tracks' sections
+    note = f"**Partial**: the runs shown first cover 22 of the suite's {size} items."
+    assert note in md.split("## class-given track")[0]  # at the top of the page
+    readme = (tmp_path / "board" / "README.md").read_text()
+    assert "## [pose-3dof-ood](pose-3dof-ood.md) *(partial)*\n" in readme
+    entry = readme.split("## [pose-3dof-ood]")[1]
+    assert note in entry and entry.count(heading.replace("### ", "")) == 2
+    # a suite run at its full size is not marked
+    assert "## [pose-1dof](pose-1dof.md)\n" in readme
+    one = (tmp_path / "board" / "pose-1dof.md").read_text()
+    headings = [ln for ln in one.splitlines() if ln.startswith("#")]
+    assert f"### seed 2000, {full} items" in headings
+    assert not any("partial" in h for h in headings) and "**Partial**" not in one
+
+
+def test_confusion_cells_show_their_counts(tmp_path) -> None:
+    """At 2 views a class a rate hides how few views there were: each cell prints its
+    count (the colour stays the row's rate), legibly at 11 classes."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from beo_bench.bench.leaderboard import confusion_figure
+
+    cats = [f"class{i}" for i in range(11)]
+    conf = 2 * np.eye(11, dtype=int)
+    conf[3] = 0
+    conf[3, 5] = 1
+    conf[3, 3] = 1
+    conf[4, 4], conf[4, 0] = 3, 1  # a row of 4 views
+    fig = confusion_figure(conf.tolist(), cats, "pose-3dof / hbeo")
+    ax = fig.axes[0]
+    cells = {(round(t.get_position()[1]), round(t.get_position()[0])): t for t in ax.texts}
+    assert {k: t.get_text() for k, t in cells.items()} == {
+        (i, j): str(conf[i, j]) for i in range(11) for j in range(11)
+    }
+    assert min(t.get_fontsize() for t in ax.texts) >= 8
+    image = ax.get_images()[0].get_array()
+    assert image[3, 5] == pytest.approx(0.5) and image[0, 0] == 1.0  # the row's rate
+    assert image[4, 4] == pytest.approx(0.75) and image[4, 0] == pytest.approx(0.25)
+    assert [t.get_text() for t in ax.get_yticklabels()][3:5] == ["class3 (2)", "class4 (4)"]
+    plt.close(fig)
+
+
+def test_a_privileged_backend_is_listed_with_the_bounds_and_never_paired(tmp_path) -> None:
+    """A plugin handed the truth (its summary's ``privileged``) is marked, sorted after the
+    methods with the bounds, and gets no verdict, however well it scores."""
+    runs = tmp_path / "runs"
+    write_run(runs / "icp-plain", "icp-plain", _rows(1.0))
+    write_run(runs / "beo", "beo", _rows(0.6))
+    write_run(runs / "cheat", "aaa-cheat", _rows(0.0), privileged=True)
+    write_run(runs / "oracle", "oracle", _rows(0.0), privileged=True)
+    regenerate(runs, tmp_path / "board")
+    md = (tmp_path / "board" / "pose-1dof.md").read_text()
+    names = [r.split(" | ")[0].lstrip("| ") for r in _table(md, "seed 2000")]
+    assert names[0] == "beo" and names[1] == "icp-plain"
+    assert "aaa-cheat *(privileged: given the truth)*" in names[2:]
+    paired = json.loads((tmp_path / "board" / "pose-1dof_paired.json").read_text())
+    assert {v["method"] for v in paired} == {"beo"}
+    listed = json.loads((tmp_path / "board" / "pose-1dof.json").read_text())
+    assert {s["backend"]: s["privileged"] for s in listed}["aaa-cheat"] is True
+
+
+def test_ablations_are_paired_on_their_common_items_and_committed(tmp_path) -> None:
+    """``beo (pose_prior=false)`` over a prefix of the items is paired with ``beo`` on that
+    prefix; the result goes into the paired JSON as an ablation and onto the page."""
+    runs = tmp_path / "runs"
+    write_run(runs / "beo", "beo", _rows(0.5))
+    write_run(runs / "beo-flat", "beo", _rows(1.0, 10), kwargs={"pose_prior": False})
+    regenerate(runs, tmp_path / "board")
+    paired = json.loads((tmp_path / "board" / "pose-1dof_paired.json").read_text())
+    rot = next(
+        v for v in paired if v["pairing"] == "ablation" and v["metric"] == "rot_err_deg_mean"
+    )
+    assert (rot["method"], rot["baseline"], rot["items"]) == ("beo (pose_prior=false)", "beo", 10)
+    capped = np.minimum(ROT[:10], 180) - np.minimum(0.5 * ROT[:10], 180)
+    assert rot["diff"] == pytest.approx(capped.mean()) and rot["verdict"] == "worse"
+    assert (
+        "| beo (pose_prior=false) | beo | BEO's viewpoint prior"
+        in (tmp_path / "board" / "pose-1dof.md").read_text()
+    )

@@ -1,0 +1,127 @@
+"""The leaderboard's ablation pairs: one backend against a variant of itself, paired on the
+items both runs scored (the variant may cover a prefix of the suite, as ``beo
+(pose_prior=false)`` covers 300 of ``pose-3dof``'s 1000 views).
+
+These are the comparisons the docs quote (the silhouette prior of HBEO-MDN, BEO's viewpoint
+prior); the leaderboard writes them into ``<suite>_paired.json`` beside the baseline
+verdicts (``"pairing": "ablation"``), so every paired interval in the docs comes from a
+committed file that ``beo-bench leaderboard`` regenerates.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from beo_bench.bench import compare
+from beo_bench.bench.columns import VERDICT_KEYS
+from beo_bench.errors import UsageError
+
+
+@dataclass(frozen=True)
+class Ablation:
+    """``method`` (a leaderboard label) against ``baseline``, with what the pair isolates."""
+
+    method: str
+    baseline: str
+    what: str
+
+
+ABLATIONS: tuple[Ablation, ...] = (
+    Ablation(
+        "hbeo-mdn-posterior",
+        "hbeo-mdn-likelihood",
+        "the silhouette prior of eq. 5.6 (N = 25 samples)",
+    ),
+    Ablation(
+        "hbeo-mdn-posterior (samples=100)",
+        "hbeo-mdn-likelihood (samples=100)",
+        "the silhouette prior of eq. 5.6 (N = 100 samples)",
+    ),
+    Ablation(
+        "beo (pose_prior=false)", "beo", "BEO's viewpoint prior P(r) of eq. 3.22, made uniform"
+    ),
+)
+
+KEYS: tuple[str, ...] = (*VERDICT_KEYS, "class_acc")
+"""What an ablation is paired on: the verdict metrics and, where both have it, the class."""
+
+
+@dataclass(frozen=True)
+class AblationResult:
+    ablation: Ablation
+    track: str | None
+    result: compare.PairedResult
+
+
+def ablation_results(
+    track: str | None,
+    rows: Sequence[Any],
+    label: Callable[[dict[str, Any]], str],
+    ablations: Sequence[Ablation] = ABLATIONS,
+) -> list[AblationResult]:
+    """Each ablation whose two runs are among ``rows`` (leaderboard rows of one track and
+    seed, with ``summary`` and ``path``), paired on their common items."""
+    by_label = {label(r.summary): r for r in rows if getattr(r, "path", None) is not None}
+    out: list[AblationResult] = []
+    for ab in ablations:
+        m, b = by_label.get(ab.method), by_label.get(ab.baseline)
+        if m is None or b is None:
+            continue
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # a prefix of the suite: paired on it
+                a_run = compare.run_from(Path(b.path), b.summary)
+                b_run = compare.run_from(Path(m.path), m.summary)
+                both = {p.key for p in compare.pairable(a_run.summary, b_run.summary)}
+                keys = [k for k in KEYS if k in both]
+                results = compare.paired_runs(a_run, b_run, keys)
+        except UsageError:  # not pairable (other items or scoring): no result
+            continue
+        out += [AblationResult(ab, track, r) for r in results]
+    return out
+
+
+def ablation_table(results: Sequence[AblationResult]) -> str:
+    """Markdown: a row per ablation and metric, method - baseline [95%] and the verdict."""
+    if not results:
+        return ""
+    lines = [
+        "Ablations (a backend against a variant of itself, paired on the items both scored; "
+        "95% bootstrap intervals that resample items):",
+        "",
+        "| method | baseline | what it isolates | items | metric | method - baseline [95%] "
+        "| verdict |",
+        "|---|---|---|---:|---|---:|---|",
+    ]
+    for x in results:
+        r, spec = x.result, x.result.spec
+        diff = f"{spec.format_diff(r.diff)} [{spec.format_diff(r.lo)}, {spec.format_diff(r.hi)}]"
+        verdict = f"**{r.verdict}**" if r.verdict != "no difference" else r.verdict
+        lines.append(
+            f"| {x.ablation.method} | {x.ablation.baseline} | {x.ablation.what} | {r.n_items} "
+            f"| {spec.label} | {diff} | {verdict} |"
+        )
+    return "\n".join(lines)
+
+
+def ablation_json(x: AblationResult) -> dict[str, Any]:
+    r = x.result
+    return {
+        "pairing": "ablation",
+        "what": x.ablation.what,
+        "track": x.track,
+        "method": x.ablation.method,
+        "baseline": x.ablation.baseline,
+        "metric": r.key,
+        "baseline_value": r.a,
+        "method_value": r.b,
+        "diff": r.diff,
+        "ci95": [r.lo, r.hi],
+        "verdict": r.verdict,
+        "items": r.n_items,
+        "views": r.n_views,
+    }

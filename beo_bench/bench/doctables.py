@@ -1,0 +1,408 @@
+"""The results tables of the README and docs/results.md, made from ``leaderboards/*.json``.
+
+A page marks each generated table with ``<!-- table: NAME -->`` ... ``<!-- /table -->``;
+``python -m beo_bench.bench.doctables README.md docs/results.md`` rewrites what lies between
+the marks (and nothing else), and ``tests/test_doc_figures.py`` checks that every marked
+table equals what the committed leaderboards give, so no figure in them can go stale. The
+dissertation's own figures are citations (chapter and table), written here once.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from beo_bench.bench.campaign import backend_label
+from beo_bench.bench.suites import get_suite
+
+MARK = re.compile(r"(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- /table -->)", re.S)
+
+
+class MissingFigureError(LookupError):
+    """A table asks for a row or metric the leaderboards do not have."""
+
+
+@dataclass(frozen=True)
+class Boards:
+    """The committed leaderboards: each suite's run summaries and paired results."""
+
+    root: Path
+
+    def rows(self, suite: str) -> list[dict[str, Any]]:
+        return json.loads((self.root / f"{suite}.json").read_text())
+
+    def paired(self, suite: str) -> list[dict[str, Any]]:
+        path = self.root / f"{suite}_paired.json"
+        return json.loads(path.read_text()) if path.exists() else []
+
+    def row(self, suite: str, name: str, track: str | None = None) -> dict[str, Any]:
+        """The row labelled ``name`` (``hbeo``, ``beo (pose_prior=false)``) of the suite's own
+        seed and track (default: ``class-free`` where the suite has tracks), with the most
+        items."""
+        s = get_suite(suite)
+        if track is None and s.class_hint:
+            track = "class-free"
+        found = [
+            r
+            for r in self.rows(suite)
+            if backend_label(r["backend"], r["provenance"].get("backend_kwargs") or {}) == name
+            and r.get("track") == track
+            and r.get("seed") == s.seed
+        ]
+        if not found:
+            raise MissingFigureError(f"leaderboards/{suite}.json has no row {name!r} ({track})")
+        return max(found, key=lambda r: r["n"])
+
+    def metric(self, suite: str, name: str, key: str, track: str | None = None) -> float:
+        v = self.row(suite, name, track)["metrics"].get(key)
+        if v is None:
+            raise MissingFigureError(f"leaderboards/{suite}.json: {name!r} has no {key}")
+        return float(v)
+
+    def pair(
+        self, suite: str, method: str, baseline: str, metric: str, track: str | None
+    ) -> dict[str, Any]:
+        for p in self.paired(suite):
+            if (p["method"], p["baseline"], p["metric"], p["track"]) == (
+                method,
+                baseline,
+                metric,
+                track,
+            ):
+                return p
+        raise MissingFigureError(
+            f"leaderboards/{suite}_paired.json has no {method} - {baseline} on {metric} ({track})"
+        )
+
+
+# -- formats ---------------------------------------------------------------------------------
+def pct(v: float) -> str:
+    return f"{100 * v:.1f}%"
+
+
+def deg(v: float) -> str:
+    return f"{v:.1f} deg"
+
+
+def num(v: float, digits: int = 3) -> str:
+    return f"{v:.{digits}f}"
+
+
+def _diff(p: dict[str, Any], rate: bool) -> str:
+    scale, unit = (100.0, " pts") if rate else (1.0, " deg")
+    lo, hi = p["ci95"]
+    verdict = f"**{p['verdict']}**" if p["verdict"] != "no difference" else p["verdict"]
+    return f"{scale * p['diff']:+.1f}{unit} [{scale * lo:+.1f}, {scale * hi:+.1f}] {verdict}"
+
+
+def _table(head: list[str], rows: list[list[str]]) -> str:
+    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(out) + "\n"
+
+
+METHODS = ("beo", "hbeo", "hbeo-mdn-likelihood", "hbeo-mdn-posterior", "icp", "icp-plain")
+
+
+# -- the tables ------------------------------------------------------------------------------
+def headline(b: Boards) -> str:
+    """Every backend on every suite (the pose suites' class-free track)."""
+    head = [
+        "backend",
+        "`known-pose` class acc., IoU",
+        "`pose-1dof` mean, > 15 deg",
+        "`pose-3dof` mean, > 15 deg, class acc.",
+        "`tabletop` mean, > 15 deg, class acc.",
+        "`pick` success",
+    ]
+    rows = []
+    for name in (*METHODS, "random", "oracle"):
+
+        def m(suite: str, key: str, name: str = name) -> float:
+            return b.metric(suite, name, key)
+
+        pick = pct(m("pick", "pick_success"))
+        if name == "oracle":
+            voxels = b.metric("pick", "oracle (mesh=false)", "pick_success")
+            pick += f" ({pct(voxels)} planning on its voxels)"
+        rows.append(
+            [
+                f"`{name}`",
+                f"{pct(m('known-pose', 'class_acc'))}, {num(m('known-pose', 'iou_mean'))}",
+                _pose_cell(b, "pose-1dof", name, False),
+                _pose_cell(b, "pose-3dof", name, True),
+                _pose_cell(b, "tabletop", name, True),
+                pick,
+            ]
+        )
+    return _table(head, rows)
+
+
+def _pose_cell(b: Boards, suite: str, name: str, with_class: bool) -> str:
+    """``mean, > 15 deg`` (and the class accuracy) of one row."""
+    cells = [
+        deg(b.metric(suite, name, "rot_err_deg_mean")),
+        pct(b.metric(suite, name, "gross_err_rate")),
+    ]
+    if with_class:
+        cells.append(pct(b.metric(suite, name, "class_acc")))
+    return ", ".join(cells)
+
+
+def class_given(b: Boards) -> str:
+    """BEO against the dissertation's plain ICP and ours, the class given (Figures 3.6, 4.3)."""
+    head = [
+        "suite, class given",
+        "`beo` mean, > 15 deg",
+        "`icp-plain`",
+        "`icp`",
+        "`beo` - `icp-plain`: mean; > 15 deg",
+        "`beo` - `icp`: mean; > 15 deg",
+    ]
+    rows = []
+    for suite in ("pose-1dof", "pose-3dof", "pose-3dof-ood"):
+        t = "class-given"
+
+        def cell(name: str, suite: str = suite, t: str = t) -> str:
+            mean = b.metric(suite, name, "rot_err_deg_mean", t)
+            return f"{deg(mean)}, {pct(b.metric(suite, name, 'gross_err_rate', t))}"
+
+        diffs = []
+        for base in ("icp-plain", "icp"):
+            mean = b.pair(suite, "beo", base, "rot_err_deg_mean", t)
+            gross = b.pair(suite, "beo", base, "gross_err_rate", t)
+            diffs.append(f"{_diff(mean, False)}; {_diff(gross, True)}")
+        n = b.row(suite, "beo", t)["n"]
+        rows.append([f"`{suite}` ({n} views)", cell("beo"), cell("icp-plain"), cell("icp"), *diffs])
+    return _table(head, rows)
+
+
+def _ablation_rows(
+    b: Boards, suite: str, method: str, baseline: str, tracks: list[str], keys: list[str]
+) -> list[list[str]]:
+    rows = []
+    for t in tracks:
+        cells: list[list[str]] = [[], [], []]
+        for k in keys:
+            p = b.pair(suite, method, baseline, k, t)
+            fmt = deg if k == "rot_err_deg_mean" else pct
+            cells[0].append(fmt(p["baseline_value"]))
+            cells[1].append(fmt(p["method_value"]))
+            cells[2].append(_diff(p, k != "rot_err_deg_mean"))
+        items = b.pair(suite, method, baseline, keys[0], t)["items"]
+        rows.append([f"{t} ({items} views)", *(", ".join(c) for c in cells)])
+    return rows
+
+
+def beo_prior(b: Boards) -> str:
+    """BEO with the suites' viewpoint prior against a uniform P(r) (eq. 3.22)."""
+    head = ["`pose-3dof`", "with the prior", "uniform P(r)", "uniform - prior [95%]"]
+    rows = _ablation_rows(
+        b, "pose-3dof", "beo (pose_prior=false)", "beo", ["class-given"],
+        ["rot_err_deg_mean", "gross_err_rate"],
+    )  # fmt: skip
+    rows += _ablation_rows(
+        b, "pose-3dof", "beo (pose_prior=false)", "beo", ["class-free"],
+        ["rot_err_deg_mean", "gross_err_rate", "class_acc"],
+    )  # fmt: skip
+    return _table(head, rows)
+
+
+def mdn_prior(b: Boards) -> str:
+    """HBEO-MDN's posterior (with eq. 5.6's silhouette prior) against its likelihood."""
+    head = ["`pose-3dof`, class-free", "likelihood", "posterior", "posterior - likelihood [95%]"]
+    rows = []
+    for n in (25, 100):
+        opt = "" if n == 25 else " (samples=100)"
+        for label, key, fmt, rate in (
+            ("mean", "rot_err_deg_mean", deg, False),
+            ("> 15 deg", "gross_err_rate", pct, True),
+        ):
+            p = b.pair(
+                "pose-3dof", f"hbeo-mdn-posterior{opt}", f"hbeo-mdn-likelihood{opt}", key,
+                "class-free",
+            )  # fmt: skip
+            rows.append(
+                [
+                    f"N = {n}, {label}",
+                    fmt(p["baseline_value"]),
+                    fmt(p["method_value"]),
+                    _diff(p, rate),
+                ]
+            )
+    return _table(head, rows)
+
+
+def swap(b: Boards) -> str:
+    """Where each backend's pick gap comes from: one estimated component swapped for the truth."""
+    head = ["backend", "pick success", "true class", "true pose and size", "true shape",
+            "oracle on voxels"]  # fmt: skip
+    voxels = pct(b.metric("pick", "oracle (mesh=false)", "pick_success"))
+    rows = []
+    for base in ("hbeo", "hbeo-mdn-posterior", "icp"):
+        cells = [pct(b.metric("pick", base, "pick_success"))]
+        for truth in ("class", "pose", "shape"):
+            name = f'swap (base="{base}", truth="{truth}")'
+            cells.append(pct(b.metric("pick", name, "pick_success")))
+        rows.append([f"`{base}`", *cells, voxels])
+    return _table(head, rows)
+
+
+def ood(b: Boards) -> str:
+    """Each backend in (``pose-3dof``) and out of distribution (``pose-3dof-ood``)."""
+    head = ["backend", "mean rotation error", "> 15 deg", "class accuracy", "IoU"]
+    rows = []
+    for name in METHODS:
+        cells = []
+        for key, fmt in (
+            ("rot_err_deg_mean", lambda v: f"{v:.1f}"),
+            ("gross_err_rate", lambda v: f"{100 * v:.1f}"),
+            ("class_acc", lambda v: f"{100 * v:.1f}"),
+            ("iou_mean", num),
+        ):
+            a, o = b.metric("pose-3dof", name, key), b.metric("pose-3dof-ood", name, key)
+            unit = " deg" if key == "rot_err_deg_mean" else ("" if key == "iou_mean" else "%")
+            cells.append(f"{fmt(a)} -> {fmt(o)}{unit}")
+        rows.append([f"`{name}`", *cells])
+    return _table(head, rows)
+
+
+def hbeo_detail(b: Boards) -> str:
+    """The HBEO family on ``pose-3dof`` (class-free), beside ``icp`` and ``beo``."""
+    head = ["`pose-3dof`, class-free", "mean rot. error", "> 15 deg", "class acc.", "IoU",
+            "EDT error", "F-score", "ms/view in the runner"]  # fmt: skip
+    rows = []
+    names = [
+        "hbeo",
+        *(f"hbeo-mdn-{m}{o}" for m in ("likelihood", "posterior")
+          for o in (" (samples=5)", "", " (samples=100)")),
+        "icp",
+        "beo",
+    ]  # fmt: skip
+    for name in names:
+
+        def m(key: str, name: str = name) -> float:
+            return b.metric("pose-3dof", name, key)
+
+        rows.append(
+            [
+                f"`{name}`",
+                deg(m("rot_err_deg_mean")),
+                pct(m("gross_err_rate")),
+                pct(m("class_acc")),
+                num(m("iou_mean")),
+                f"{m('edt_err_mean'):.0f}",
+                num(m("fscore_mean")),
+                f"{m('ms_per_view_median'):.1f}",
+            ]
+        )
+    return _table(head, rows)
+
+
+def dissertation(b: Boards) -> str:
+    """Our figures beside the dissertation's (Burchfiel 2019; the tables named)."""
+    kp = {n: pct(b.metric("known-pose", n, "class_acc")) for n in METHODS}
+    p3 = {n: pct(b.metric("pose-3dof", n, "class_acc")) for n in METHODS}
+
+    def ms(suite: str, name: str) -> float:
+        return b.metric(suite, name, "ms_per_view_median")
+
+    def percat(name: str, key: str, fmt: Callable[[float], str]) -> str:
+        per = b.row("pose-3dof-percat", name)["per_category"]
+        return " / ".join(fmt(per[c][key]).split()[0] for c in ("car", "airplane", "sofa"))
+
+    post100 = "hbeo-mdn-posterior (samples=100)"
+    rows = [
+        [
+            "Table 3.1: class accuracy at a known pose",
+            "BEO 76.3% (ModelNet10; 3DShapeNets 54.4%)",
+            f"`beo` {kp['beo']}, `icp` (nearest class-mean shape) {kp['icp']}, `icp-plain` "
+            f"{kp['icp-plain']}, `hbeo` {kp['hbeo']}, `hbeo-mdn` {kp['hbeo-mdn-likelihood']} "
+            "(`known-pose`)",
+        ],
+        [
+            "Table 4.1: class accuracy, 3-DOF",
+            "HBEO 81.8%",
+            f"`hbeo` {p3['hbeo']}, `hbeo-mdn` {p3['hbeo-mdn-likelihood']}, `beo` {p3['beo']} "
+            "(`pose-3dof`, class-free)",
+        ],
+        [
+            "Table 4.2: time per view",
+            "BEO 1-DOF 672.97 s, 3-DOF 3529.88 s; HBEO 0.01 s (GTX1070)",
+            f"`beo` {ms('pose-1dof', 'beo') / 1000:.2f} s and {ms('pose-3dof', 'beo') / 1000:.2f} "
+            f"s; `hbeo` {ms('pose-3dof', 'hbeo'):.1f} ms (median in the runner, one worker per "
+            "core on 2 CPU cores)",
+        ],
+        [
+            "Table 5.1: mean rotation error, car / plane / couch",
+            "HBEO 9.45 / 13.29 / 18.84 deg; MDN posterior N=100 car 3.23 deg (one network per "
+            "category)",
+            f"one network for all 11 classes: `hbeo` {percat('hbeo', 'rot_err_deg_mean', deg)} "
+            f"deg; `hbeo-mdn-posterior` N=100 {percat(post100, 'rot_err_deg_mean', deg)} deg "
+            "(`pose-3dof-percat`, 200 views a class)",
+        ],
+        [
+            "Table 5.2: > 15 deg, car / plane / couch",
+            "HBEO 6.87 / 13.57 / 31.27%; MDN posterior N=100 0.93 / 5.78 / 5.95% (one network "
+            "per category)",
+            f"`hbeo` {percat('hbeo', 'gross_err_rate', pct)}; `hbeo-mdn-posterior` N=100 "
+            f"{percat(post100, 'gross_err_rate', pct)} (the same)",
+        ],
+        [
+            "Table 5.1: MDN posterior time, N=25 / N=100",
+            "0.32 / 1.06 s (1080ti)",
+            f"{ms('pose-3dof', 'hbeo-mdn-posterior'):.0f} / {ms('pose-3dof', post100):.0f} ms "
+            "(median in the runner, 2 CPU cores)",
+        ],
+    ]
+    return _table(["dissertation figure", "dissertation", "ours"], rows)
+
+
+TABLES: dict[str, Callable[[Boards], str]] = {
+    "headline": headline,
+    "class-given": class_given,
+    "beo-prior": beo_prior,
+    "mdn-prior": mdn_prior,
+    "swap": swap,
+    "ood": ood,
+    "hbeo-detail": hbeo_detail,
+    "dissertation": dissertation,
+}
+
+
+def render(text: str, boards: Boards) -> str:
+    """``text`` with every marked table regenerated (an unknown name is an error)."""
+
+    def one(m: re.Match[str]) -> str:
+        name = m.group(2)
+        if name not in TABLES:
+            raise MissingFigureError(
+                f"no generated table named {name!r}: use one of {sorted(TABLES)}"
+            )
+        return m.group(1) + TABLES[name](boards) + m.group(4)
+
+    return MARK.sub(one, text)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Rewrite the marked tables of the files given, from ``leaderboards/``."""
+    args = sys.argv[1:] if argv is None else argv
+    boards = Boards(Path("leaderboards"))
+    for name in args:
+        path = Path(name)
+        new = render(path.read_text(), boards)
+        if new != path.read_text():
+            from beo_bench.atomic import atomic_write_bytes
+
+            atomic_write_bytes(path, new.encode())
+            print(f"rewrote the tables of {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
