@@ -356,3 +356,14 @@ def test_out_of_range_and_non_ascii_instance_keys_are_usage_errors(key, match) -
         instance_from_key(key)
     assert e.value.exit_code == 2  # a usage error: the CLI exits 2
     assert instance_from_key("proc/v1/mug/test/49").key == "proc/v1/mug/test/49"
+
+
+def test_a_library_set_larger_than_its_split_is_refused() -> None:
+    """The library's splits have fixed sizes; a set of more instances a class would hold
+    keys that ``instance_from_key`` refuses, so it is refused where it is asked for."""
+    from beo_bench.errors import UsageError
+    from beo_bench.objects import ObjectSet
+
+    assert ObjectSet("test", ("mug",), per_category=50).count("mug") == 50
+    with pytest.raises(UsageError, match=r"holds 50 instances a class; give 1 to 50"):
+        ObjectSet("test", ("mug",), per_category=51)

@@ -77,6 +77,8 @@ def ablation_results(
                 a_run = compare.run_from(Path(b.path), b.summary)
                 b_run = compare.run_from(Path(m.path), m.summary)
                 both = {p.key for p in compare.pairable(a_run.summary, b_run.summary)}
+                if not both & set(VERDICT_KEYS):
+                    continue  # no pose metric (known-pose): nothing these variants change
                 keys = [k for k in KEYS if k in both]
                 results = compare.paired_runs(a_run, b_run, keys)
         except UsageError:  # not pairable (other items or scoring): no result

@@ -363,7 +363,90 @@ def dissertation(b: Boards) -> str:
     return _table(["dissertation figure", "dissertation", "ours"], rows)
 
 
+def beo_figures(b: Boards) -> str:
+    """``beo`` and ``icp`` on the isolated suites, with the dissertation's figures."""
+
+    def t(ms: float) -> str:
+        return f"{ms / 1000:.2f} s" if ms >= 1000 else f"{ms:.0f} ms"
+
+    def both(suite: str, key: str, fmt: Callable[[float], str]) -> list[str]:
+        return [
+            " / ".join(fmt(b.metric(suite, n, key, tr)) for tr in ("class-given", "class-free"))
+            for n in ("beo", "icp")
+        ]
+
+    def pose(suite: str, track: str, with_class: bool) -> list[str]:
+        out = []
+        for n in ("beo", "icp"):
+            m = b.row(suite, n, track)["metrics"]
+            cell = f"{m['rot_err_deg_mean']:.1f} / {deg(m['rot_err_deg_median'])}, "
+            cell += pct(m["gross_err_rate"])
+            if with_class:
+                cell += f", {pct(m['class_acc'])}"
+            out.append(cell)
+        return out
+
+    kp = [
+        f"{pct(b.metric('known-pose', n, 'class_acc'))}, "
+        f"{num(b.metric('known-pose', n, 'iou_mean'))}"
+        for n in ("beo", "icp")
+    ]
+    rows = [
+        ["known-pose: median per view", *(t(b.metric("known-pose", n, "ms_per_view_median"))
+                                          for n in ("beo", "icp")), "1.13 s"],
+        ["pose-1dof: median per view, class given / class-free",
+         *both("pose-1dof", "ms_per_view_median", t), "672.97 s"],
+        ["pose-3dof: median per view, class given / class-free",
+         *both("pose-3dof", "ms_per_view_median", t), "3529.88 s"],
+        ["known-pose: class accuracy, IoU", kp[0], kp[1] + " (mean shape)", "76.3% (ModelNet10)"],
+        ["pose-1dof, class given: rotation error mean / median, > 15 deg",
+         *pose("pose-1dof", "class-given", False), "n/a"],
+        ["pose-1dof, class-free: mean / median, > 15 deg, class accuracy",
+         *pose("pose-1dof", "class-free", True), "n/a"],
+        ["pose-3dof, class given: mean / median, > 15 deg",
+         *pose("pose-3dof", "class-given", False), "n/a"],
+        ["pose-3dof, class-free: mean / median, > 15 deg, class accuracy",
+         *pose("pose-3dof", "class-free", True), "n/a"],
+    ]  # fmt: skip
+    return _table(["figure", "`beo`", "`icp`", "dissertation"], rows)
+
+
+def ref_accuracy(b: Boards) -> str:
+    """The published networks on ``pose-3dof`` (class-free) beside the dissertation's car."""
+    rows = []
+    for name, what in (
+        ("hbeo", "`hbeo` (published)"),
+        ("hbeo-mdn-likelihood", "`hbeo-mdn-likelihood` N=25 (published)"),
+        ("hbeo-mdn-posterior", "`hbeo-mdn-posterior` N=25 (published)"),
+    ):
+        m = b.row("pose-3dof", name)["metrics"]
+        rows.append(
+            [what, deg(m["rot_err_deg_mean"]), pct(m["gross_err_rate"]), pct(m["class_acc"]),
+             num(m["iou_mean"])]
+        )  # fmt: skip
+    rows.append(["dissertation, HBEO (car; Tables 4.1, 5.1, 5.2)", "9.45 deg", "6.87%",
+                 "81.8% (3-DOF, Table 4.1)", ""])  # fmt: skip
+    rows.append(["dissertation, MDN posterior N=100 (car)", "3.23 deg", "0.93%", "", ""])
+    return _table(["network", "mean rot. error", "> 15 deg", "class acc.", "IoU"], rows)
+
+
+def pick_models(b: Boards) -> str:
+    """``pick`` success of the published networks, and with one component swapped in."""
+    rows = [[f"`{n}`", pct(b.metric("pick", n, "pick_success"))] for n in METHODS[1:4]]
+    for base in ("hbeo-mdn-posterior", "hbeo"):
+        rates = [
+            pct(b.metric("pick", f'swap (base="{base}", truth="{t}")', "pick_success"))
+            for t in ("class", "pose", "shape")
+        ]
+        rows.append([f"`swap:base={base}`, true class / pose / shape", " / ".join(rates)])
+    rows.append(["`oracle` (the truth)", pct(b.metric("pick", "oracle", "pick_success"))])
+    return _table(["backend", "pick success"], rows)
+
+
 TABLES: dict[str, Callable[[Boards], str]] = {
+    "ref-accuracy": ref_accuracy,
+    "pick-models": pick_models,
+    "beo-figures": beo_figures,
     "headline": headline,
     "class-given": class_given,
     "beo-prior": beo_prior,

@@ -514,35 +514,30 @@ def _results(
 
 
 # -- the run ---------------------------------------------------------------------------------
-def _git(*args: str) -> str:
-    """Output of a git command run in the package's checkout ("" when there is none)."""
-    try:
-        return subprocess.run(
-            ["git", *args],
-            capture_output=True,
-            text=True,
-            cwd=Path(__file__).resolve().parent,
-            timeout=5,
-        ).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        return ""
-
-
-def git_diff_sha256() -> str | None:
-    """SHA-256 of ``git diff HEAD --binary`` (the tracked changes a dirty checkout runs
-    with), so a row scored on uncommitted code names exactly which code; None without git."""
+def git_state(where: Path | None = None) -> dict[str, Any]:
+    """The checkout the package runs from (``where``: a directory inside it): its commit,
+    whether tracked files differ from it, and then the SHA-256 of ``git diff HEAD --binary``,
+    so a row scored on uncommitted code names exactly which code. Empty without git."""
     import hashlib
 
-    try:
-        diff = subprocess.run(
-            ["git", "diff", "HEAD", "--binary"],
-            capture_output=True,
-            cwd=Path(__file__).resolve().parent,
-            timeout=30,
-        )
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return hashlib.sha256(diff.stdout).hexdigest() if diff.returncode == 0 else None
+    cwd = Path(__file__).resolve().parent if where is None else Path(where)
+
+    def git(*args: str) -> subprocess.CompletedProcess[bytes] | None:
+        try:
+            return subprocess.run(["git", *args], capture_output=True, cwd=cwd, timeout=30)
+        except (OSError, subprocess.SubprocessError):
+            return None
+
+    head = git("rev-parse", "HEAD")
+    if head is None or head.returncode != 0:
+        return {"git_commit": None, "git_dirty": None}
+    status = git("status", "--porcelain", "--untracked-files=no")
+    dirty = status is None or status.returncode != 0 or bool(status.stdout.strip())
+    out: dict[str, Any] = {"git_commit": head.stdout.decode().strip(), "git_dirty": dirty}
+    diff = git("diff", "HEAD", "--binary") if dirty else None
+    if diff is not None and diff.returncode == 0:
+        out["git_diff_sha256"] = hashlib.sha256(diff.stdout).hexdigest()
+    return out
 
 
 def provenance(cfg: RunConfig) -> dict[str, Any]:
@@ -554,11 +549,8 @@ def provenance(cfg: RunConfig) -> dict[str, Any]:
         except md.PackageNotFoundError:
             return None
 
-    commit, dirty = _git("rev-parse", "HEAD"), _git("status", "--porcelain", "--untracked-files=no")
     return {
-        "git_commit": commit or None,
-        "git_dirty": bool(dirty) if commit else None,
-        **({"git_diff_sha256": git_diff_sha256()} if commit and dirty else {}),
+        **git_state(),
         "versions": {
             n: version(n)
             for n in ("beo-bench", "mujoco", "numpy", "scipy", "trimesh", "torch", "gymnasium")

@@ -183,6 +183,16 @@ class ObjectSet:
         for c in names:
             get_category(c)
         n = DEFAULT_SPLIT_SIZES[split] if per_category is None else int(per_category)
+        if not 0 < n <= DEFAULT_SPLIT_SIZES[split]:
+            # the library's splits have fixed sizes (their keys name an index in the split,
+            # which instance_from_key refuses beyond it)
+            from beo_bench.errors import UsageError
+
+            raise UsageError(
+                f"per_category={per_category} for the library's {split!r} split: it holds "
+                f"{DEFAULT_SPLIT_SIZES[split]} instances a class; give 1 to "
+                f"{DEFAULT_SPLIT_SIZES[split]} (--per-category)"
+            )
         self._counts = {c: n for c in names}
         self._get: Callable[[str, int], ObjectInstance] = functools.partial(
             _cached_procedural, split=split

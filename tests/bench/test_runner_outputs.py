@@ -97,3 +97,31 @@ def test_pick_gap_table_reads_the_swap_runs() -> None:
     lines = gap_table(rows).splitlines()
     assert lines[-1] == "| icp | 50% | 70% | 60% | - | 85% | 90% |"
     assert gap_table(rows[:1]) == ""
+
+
+def test_provenance_names_the_uncommitted_code_a_run_used(tmp_path) -> None:
+    """A clean checkout records its commit; a dirty one also the SHA-256 of its diff, so a
+    row scored on uncommitted code says exactly which code."""
+    import hashlib
+    import subprocess
+
+    from beo_bench.bench.runner import git_state
+
+    def git(*args: str) -> bytes:
+        return subprocess.run(
+            ["git", "-c", "user.name=t", "-c", "user.email=t@example.org", *args],
+            cwd=tmp_path, check=True, capture_output=True,
+        ).stdout  # fmt: skip
+
+    assert git_state(tmp_path) == {"git_commit": None, "git_dirty": None}  # no repository
+    git("init", "-q")
+    (tmp_path / "a.py").write_text("x = 1\n")
+    git("add", "a.py")
+    git("commit", "-q", "-m", "one")
+    head = git("rev-parse", "HEAD").decode().strip()
+    assert git_state(tmp_path) == {"git_commit": head, "git_dirty": False}
+    (tmp_path / "a.py").write_text("x = 2\n")
+    state = git_state(tmp_path)
+    diff = git("diff", "HEAD", "--binary")
+    assert state["git_dirty"] is True and state["git_commit"] == head
+    assert state["git_diff_sha256"] == hashlib.sha256(diff).hexdigest()

@@ -84,8 +84,9 @@ def test_a_second_run_into_a_locked_directory_is_refused_naming_the_holder(tmp_p
         [sys.executable, "-c", textwrap.dedent("""
             import sys
             from pathlib import Path
-            from beo_bench.bench.runner import lock_run_dir
-            with lock_run_dir(Path(sys.argv[1])):
+            from beo_bench.bench.runner import _run_dir, lock_run_dir
+            # as a run does: claim the directory (its marker), then lock it
+            with lock_run_dir(_run_dir(Path(sys.argv[1]))):
                 print("locked", flush=True)
                 sys.stdin.read()
             """), str(out)],
