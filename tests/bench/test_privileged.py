@@ -17,7 +17,6 @@ from beo_bench.bench.suites import get_suite
 from beo_bench.cli import build_parser
 from beo_bench.types import Estimate, GroundTruth
 
-
 FAST = {"mean_instances": 4}
 """The random bound's class means from 4 instances a class (the default uses the split)."""
 
