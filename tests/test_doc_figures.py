@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parent.parent
 BOARDS = ROOT / "leaderboards"
 PAGES = {
     "README.md": {"headline"},
-    "docs/results.md": set(TABLES) - {"beo-figures", "ref-accuracy", "pick-models"},
+    "docs/results.md": set(TABLES) - {"beo-figures", "ref-accuracy", "pick-models", "beo-prior"},
     "docs/backends.md": {"beo-figures"},
     "docs/reference-models.md": {"ref-accuracy", "pick-models"},
 }

@@ -58,6 +58,15 @@ class Boards:
             raise MissingFigureError(f"leaderboards/{suite}.json has no row {name!r} ({track})")
         return max(found, key=lambda r: r["n"])
 
+    def has(self, suite: str, name: str, track: str | None = None) -> bool:
+        """Whether the leaderboards have the row (tables leave out rows of runs this
+        version's leaderboards do not hold)."""
+        try:
+            self.row(suite, name, track)
+        except MissingFigureError:
+            return False
+        return True
+
     def metric(self, suite: str, name: str, key: str, track: str | None = None) -> float:
         v = self.row(suite, name, track)["metrics"].get(key)
         if v is None:
@@ -167,6 +176,8 @@ def class_given(b: Boards) -> str:
     rows = []
     for suite in ("pose-1dof", "pose-3dof", "pose-3dof-ood"):
         t = "class-given"
+        if not b.has(suite, "beo", t):
+            continue  # not in this version's leaderboards (docs/reference-models.md)
 
         def cell(name: str, suite: str = suite, t: str = t) -> str:
             mean = b.metric(suite, name, "rot_err_deg_mean", t)
@@ -258,6 +269,8 @@ def ood(b: Boards) -> str:
     head = ["backend", "mean rotation error", "> 15 deg", "class accuracy", "IoU"]
     rows = []
     for name in METHODS:
+        if not b.has("pose-3dof-ood", name):
+            continue
         cells = []
         for key, fmt in (
             ("rot_err_deg_mean", lambda v: f"{v:.1f}"),
@@ -285,6 +298,8 @@ def hbeo_detail(b: Boards) -> str:
         "beo",
     ]  # fmt: skip
     for name in names:
+        if not b.has("pose-3dof", name):
+            continue
 
         def m(key: str, name: str = name) -> float:
             return b.metric("pose-3dof", name, key)
