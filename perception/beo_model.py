@@ -271,19 +271,9 @@ def _array_problem(arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> str |
     """What is wrong with a model's arrays (names, shapes, values, digest), or None."""
     if set(arrays) != set(ARRAYS):
         return f"arrays {sorted(arrays)}, expected {sorted(ARRAYS)}"
-    try:
-        C, D, k = len(meta["config"]["categories"]), int(meta["config"]["resolution"]), meta["k"]
-    except (KeyError, TypeError, ValueError):
+    want = _shapes(meta)
+    if want is None:
         return "config.json lacks categories, resolution or k"
-    want = {
-        "basis": (D**3, k),
-        "mean": (D**3,),
-        "class_mean": (C, k),
-        "class_cov": (C, k, k),
-        "class_size": (C, 3),
-        "components": (C,),
-        "shrinkage": (C, 2),
-    }
     for name, shape in want.items():
         a = arrays[name]
         if a.shape != shape or a.dtype.kind not in "fiu":

@@ -111,19 +111,5 @@ def ablation_table(results: Sequence[AblationResult]) -> str:
 
 
 def ablation_json(x: AblationResult) -> dict[str, Any]:
-    r = x.result
-    return {
-        "pairing": "ablation",
-        "what": x.ablation.what,
-        "track": x.track,
-        "method": x.ablation.method,
-        "baseline": x.ablation.baseline,
-        "metric": r.key,
-        "baseline_value": r.a,
-        "method_value": r.b,
-        "diff": r.diff,
-        "ci95": [r.lo, r.hi],
-        "verdict": r.verdict,
-        "items": r.n_items,
-        "views": r.n_views,
-    }
+    out = compare.paired_json(x.result, "ablation", x.track, x.ablation.method, x.ablation.baseline)
+    return {**out, "what": x.ablation.what}

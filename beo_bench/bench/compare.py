@@ -208,6 +208,26 @@ class PairedResult:
         return spec(self.key)
 
 
+def paired_json(
+    r: PairedResult, pairing: str, track: str | None, method: str, baseline: str
+) -> dict[str, Any]:
+    """One paired result as ``<suite>_paired.json`` holds it (verdicts and ablations)."""
+    return {
+        "pairing": pairing,
+        "track": track,
+        "method": method,
+        "baseline": baseline,
+        "metric": r.key,
+        "baseline_value": r.a,
+        "method_value": r.b,
+        "diff": r.diff,
+        "ci95": [r.lo, r.hi],
+        "verdict": r.verdict,
+        "items": r.n_items,
+        "views": r.n_views,
+    }
+
+
 def verdict(lo: float, hi: float, higher_is_better: bool) -> str:
     """``better`` / ``worse`` when the interval ``[lo, hi]`` of B - A excludes 0."""
     if lo > 0:

@@ -566,21 +566,7 @@ def verdict_table(verdicts: list[Verdict]) -> str:
 
 
 def _verdict_json(v: Verdict) -> dict[str, Any]:
-    r = v.result
-    return {
-        "pairing": "baseline",
-        "track": v.track,
-        "method": v.method,
-        "baseline": v.baseline,
-        "metric": r.key,
-        "baseline_value": r.a,
-        "method_value": r.b,
-        "diff": r.diff,
-        "ci95": [r.lo, r.hi],
-        "verdict": r.verdict,
-        "items": r.n_items,
-        "views": r.n_views,
-    }
+    return compare.paired_json(v.result, "baseline", v.track, v.method, v.baseline)
 
 
 # -- the other tables ----------------------------------------------------------------------------
