@@ -12,7 +12,7 @@ GL_STAMP := $(VENV)/.gl-ok
 export MUJOCO_GL ?= egl
 export PYOPENGL_PLATFORM ?= egl
 
-.PHONY: demo test bench lint setup setup-dev clean-venv
+.PHONY: demo test bench lint mypy-path setup setup-dev clean-venv
 
 demo: setup
 	$(VENV)/bin/beo-bench demo
@@ -26,6 +26,21 @@ bench: setup
 lint: setup-dev
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
+	@$(MAKE) --no-print-directory mypy-path
+	$(VENV)/bin/mypy
+
+# mypy cannot follow package-dir (the editable install maps envs/, scenes/ and perception/ into
+# beo_bench with an import hook), so it reads the package through a tree of relative symlinks:
+# beo_bench's own entries and the three mapped folders side by side ([tool.mypy] mypy_path).
+# Rebuilt on every lint, so that new modules are seen.
+MYPY_PATH := $(VENV)/mypy-path
+mypy-path:
+	@rm -rf $(MYPY_PATH)
+	@mkdir -p $(MYPY_PATH)/beo_bench
+	@for p in beo_bench/* envs scenes perception; do \
+	  case $$p in */__pycache__) continue;; esac; \
+	  ln -s ../../../$$p $(MYPY_PATH)/beo_bench/; \
+	done
 
 setup: $(STAMP) $(GL_STAMP)
 

@@ -48,8 +48,8 @@ def main() -> None:
     backend = get_backend("beo")
     backend.prepare(cats)
     for name, n, target_ms, theirs in CASES:
-        ev = Evaluator(get_suite(name), "beo")
-        views = [ev.isolated_view(i)[0] for i in range(n)]
+        ev = Evaluator.of(get_suite(name), "beo")
+        views = [ev.items.isolated_view(i)[0] for i in range(n)]
         ev.close()
         ms = median_ms_per_item(backend.predict, views)
         report(
@@ -74,12 +74,12 @@ def diagnose(backend, cats: tuple[str, ...]) -> None:
     from beo_bench.perception.beo_observe import Observation
 
     model, full, coarse = backend._model(cats)
-    ev = Evaluator(get_suite("pose-1dof"), "beo")
+    ev = Evaluator.of(get_suite("pose-1dof"), "beo")
     classes = list(range(len(cats)))
     right = {"true cube": [], "true centre": [], "estimated cube": []}
     first = {"coarse EDT error": [], "fine density": []}
     for i in range(DIAG_VIEWS):
-        view, gt = ev.isolated_view(i)
+        view, gt = ev.items.isolated_view(i)
         obs = Observation.from_view(view)
         t0, e0 = backend.start_box(obs)
         R = gt.R_cam[None]

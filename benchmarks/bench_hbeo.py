@@ -71,8 +71,8 @@ def main() -> None:
             f"kept epoch {m.info.get('epoch_kept', len(m.info['history']))}",
         )
 
-    ev = Evaluator(get_suite("pose-3dof"), "oracle")
-    views = [ev.isolated_view(i)[0] for i in range(VIEWS)]
+    ev = Evaluator.of(get_suite("pose-3dof"), "oracle")
+    views = [ev.items.isolated_view(i)[0] for i in range(VIEWS)]
     ev.close()
     for name, n, target, theirs in CASES:
         backend = get_backend(name, **({} if n is None else {"samples": n}))
@@ -106,8 +106,8 @@ def half_precision_cost(cats: tuple[str, ...]) -> None:
     from beo_bench.metrics import rotation_error
     from beo_bench.perception.hbeo_train import load_hbeo, model_path
 
-    ev = Evaluator(get_suite("pose-3dof"), "oracle")
-    pairs = [ev.isolated_view(i) for i in range(HALF_VIEWS)]
+    ev = Evaluator.of(get_suite("pose-3dof"), "oracle")
+    pairs = [ev.items.isolated_view(i) for i in range(HALF_VIEWS)]
     ev.close()
     for kind, backend_name in (("hbeo", "hbeo"), ("hbeo-mdn", "hbeo-mdn-likelihood")):
         name = f"reference-{kind}"
@@ -153,13 +153,13 @@ def diagnose(cats: tuple[str, ...]) -> None:
     from beo_bench.perception.hbeo import PRIOR_EPS, sdf_errors, silhouettes
 
     backend = get_backend("hbeo-mdn-posterior", samples=DIAG_SAMPLES)
-    ev = Evaluator(get_suite("pose-3dof"), "oracle")
+    ev = Evaluator.of(get_suite("pose-3dof"), "oracle")
     rules = ("heaviest mean", "likelihood", "posterior", "prior alone", "true-shape posterior",
              "best sample")  # fmt: skip
     errs: dict[str, list[float]] = {r: [] for r in rules}
     differ = recoverable = gross = 0
     for i in range(DIAG_VIEWS):
-        view, gt = ev.isolated_view(i)
+        view, gt = ev.items.isolated_view(i)
         f = backend.forward(view)
         s = backend.rotation_samples(view, f)
         err = np.array([rotation_error(R, gt.R_cam, gt.symmetry) for R in s.R])

@@ -19,6 +19,7 @@ from beo_bench.backend import list_backends, register_backend
 from beo_bench.bench.evaluate import Evaluator
 from beo_bench.bench.runner import RunConfig, WorkerPool, read_rows, run
 from beo_bench.bench.suites import get_suite
+from beo_bench.objects import ObjectSet
 from beo_bench.scenes import OBJECT_RIG
 from beo_bench.types import Estimate, View
 
@@ -30,9 +31,9 @@ def main() -> None:
     suite = get_suite("pose-3dof").with_overrides(size=VIEWS)
 
     # raw render rate of the suite's views (128x128 depth + mask) of one bound instance
-    ev = Evaluator(suite, "oracle")
-    r = ev._isolated()
-    inst = ev._objects.get("mug", 0)
+    ev = Evaluator.of(suite, "oracle")
+    r = ev.items.renderer
+    inst = ObjectSet("test", ["mug"]).get("mug", 0)
     rng = np.random.default_rng(0)
     cams = [OBJECT_RIG.sample(rng, np.zeros(3)) for _ in range(50)]
     r.render(inst, cams[0])

@@ -22,6 +22,7 @@ from harness import report
 
 from beo_bench import metrics
 from beo_bench.bench import evaluate as E
+from beo_bench.bench import scoring as S
 from beo_bench.bench.suites import get_suite
 from beo_bench.objects import ObjectSet
 from beo_bench.types import Estimate, GroundTruth
@@ -38,24 +39,24 @@ def _cpu_ms(fn, n: int) -> float:
 def per_view() -> None:
     suite = get_suite("pose-3dof").with_overrides(size=VIEWS)
     for backend, kwargs in (("oracle", {}), ("random", {"mean_instances": 4})):
-        ev = E.Evaluator(suite, backend, kwargs)
+        ev = E.Evaluator.of(suite, backend, kwargs)
         for i in range(VIEWS):  # warm: meshes, voxels, this process's truth cache
             ev.run_item(i)
         whole = _cpu_ms(lambda: [ev.run_item(i) for i in range(VIEWS)], VIEWS)  # noqa: B023
-        cases = [ev.isolated_view(i) for i in range(VIEWS)]
+        cases = [ev.items.isolated_view(i) for i in range(VIEWS)]
         ests = [ev.predict(i, 0, v)[0] for i, (v, _) in enumerate(cases)]
-        truths = [E.truth_shape(gt.key, suite.resolution) for _, gt in cases]
-        shapes = [E._resample(e.shape, suite.resolution) for e in ests]
+        truths = [S.truth_shape(gt.key, suite.resolution) for _, gt in cases]
+        shapes = [S.resample(e.shape, suite.resolution) for e in ests]
         surf = _cpu_ms(
             lambda: [
-                metrics.surface_scores(E.grid_surface(s), t.surface)
+                metrics.surface_scores(S.grid_surface(s), t.surface)
                 for s, t in zip(shapes, truths, strict=True)  # noqa: B023
             ],
             VIEWS,
         )
         pose = _cpu_ms(
             lambda: [
-                E.score_pose(e, gt, t, v.K)
+                S.score_pose(e, gt, t, v.K)
                 for (v, gt), e, t in zip(cases, ests, truths, strict=True)  # noqa: B023
             ],
             VIEWS,
@@ -71,14 +72,14 @@ def no_floor() -> None:
     perfect, itself, floor = [], [], []
     for cat in objects.categories:
         inst = objects.get(cat, 3)
-        truth = E.truth_shape(inst.key, 32)
+        truth = S.truth_shape(inst.key, 32)
         gt = GroundTruth.of(inst, objects.categories, np.eye(3), np.array([0.0, 0.0, 0.6]))
         probs = np.full(len(objects.categories), 1 / len(objects.categories))
         shape = np.where(truth.voxels, 0.9, 0.1).astype(np.float32)
-        perfect.append(E.score_shape(Estimate(probs, gt.R_cam, gt.t_cam, gt.size, shape), gt,
+        perfect.append(S.score_shape(Estimate(probs, gt.R_cam, gt.t_cam, gt.size, shape), gt,
                                      truth)["fscore"])  # fmt: skip
-        mesh = E.grid_mesh(truth.voxels)
-        points = np.asarray(trimesh.sample.sample_surface(mesh, E.SURFACE_POINTS, seed=1)[0])
+        mesh = S.grid_mesh(truth.voxels)
+        points = np.asarray(trimesh.sample.sample_surface(mesh, S.SURFACE_POINTS, seed=1)[0])
         other = metrics.Surface(mesh.vertices, mesh.faces, points)
         itself.append(metrics.fscore(other, truth.surface))
         floor.append(metrics.fscore(points, truth.surface.samples))

@@ -66,7 +66,7 @@ def atomic_write(
     path = Path(path)
     fd, tmp = _create_temp(path, perms)
     try:
-        with os.fdopen(fd, mode, **({"encoding": "utf-8"} if mode == "w" else {})) as f:
+        with os.fdopen(fd, mode, encoding="utf-8" if mode == "w" else None) as f:
             yield f
             f.flush()
             if durable:

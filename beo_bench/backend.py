@@ -1,29 +1,43 @@
-"""Perception backends: the protocol, the registry and the conformance check.
+"""Perception backends: the contract, the registry and the conformance check.
 
-In-tree backends register with :func:`register_backend`; third-party packages declare an
-entry point in the group ``beo_bench.backends`` whose object is a backend class or factory
-(``name = "pkg.module:Factory"``); :func:`load_plugins` loads them (the CLI and the runner
-call it explicitly, so importing ``beo_bench`` never imports foreign code). A plugin that
-fails to load is named in one :class:`PluginWarning` and skipped, so one broken package
-does not take the others down; asking for it by name then raises :class:`PluginError`.
+A backend is registered as a :class:`BackendSpec`: its factory, its typed options
+(a frozen dataclass, :mod:`beo_bench.options`) and its :class:`Capabilities` (class hint,
+privileged, diagnostic, the model it loads), which the runner reads without building the
+backend. The backend itself is a :class:`Backend`: ``name``, ``predict(view)``, and
+``prepare(ctx)`` / ``model_digest()`` with defaults. In-tree backends register with
+:func:`register`; third-party packages declare an entry point in the group
+``beo_bench.backends`` whose object is a spec, or a plain backend class or factory (wrapped:
+:meth:`BackendSpec.from_factory`) (``name = "pkg.module:SPEC"``); :func:`load_plugins` loads
+them (the CLI and the runner call it explicitly, so importing ``beo_bench`` never imports
+foreign code). A plugin that fails to load is named in one :class:`PluginWarning` and
+skipped, so one broken package does not take the others down; asking for it by name then
+raises :class:`PluginError`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import inspect
 import multiprocessing
 import numbers
 import warnings
-from collections.abc import Callable
-from dataclasses import dataclass
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, replace
+from enum import Enum
 from importlib.metadata import EntryPoint, entry_points
-from typing import Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 
 from beo_bench.errors import BackendError, BeoBenchError, EstimateError, PluginError, UsageError
+from beo_bench.options import as_bool, describe_options, parse_options
 from beo_bench.types import Estimate, View
+
+if TYPE_CHECKING:
+    from beo_bench.bench.runs import RunContext
+
 
 ENTRY_POINT_GROUP = "beo_bench.backends"
 
@@ -86,30 +100,215 @@ _IN_TREE = tuple(dict.fromkeys(b.module for b in IN_TREE.values()))
 """Modules whose import registers the in-tree backends."""
 
 
+class ClassHint(Enum):
+    """Whether a backend uses the true class that a suite's ``class-given`` track hands out
+    (``View.class_hint``; the hint belongs to the track, never to an option)."""
+
+    NONE = "none"
+    """It never reads the hint: it runs in the ``class-free`` track only."""
+    OPTIONAL = "optional"
+    """It uses the hint when a view carries one: it runs in both tracks."""
+    REQUIRED = "required"
+    """It cannot work without it (per-category networks): ``class-given`` only."""
+
+
+@dataclass(frozen=True)
+class Capabilities:
+    """What the runner must know about a backend before it builds one: read from its
+    :class:`BackendSpec` (for its parsed options), never from a built instance."""
+
+    class_hint: ClassHint = ClassHint.NONE
+    privileged: bool = False
+    """It is handed the view's ground truth (in-tree bounds; a plugin only with
+    ``--allow-privileged``); its rows are listed with the bounds, never ranked."""
+    diagnostic: bool = False
+    """A tool wrapping another backend (``swap``): not one of "every backend"."""
+    model: str | None = None
+    """The kind of trained model it loads (``beo``, ``hbeo``, ``hbeo-mdn``; None: none),
+    whose content digest every run records."""
+
+    @property
+    def wants_class_hint(self) -> bool:
+        return self.class_hint is not ClassHint.NONE
+
+    @property
+    def needs_class_hint(self) -> bool:
+        return self.class_hint is ClassHint.REQUIRED
+
+
+class Backend(ABC):
+    """The backend contract: ``name``, ``predict(view) -> Estimate``, and two members with
+    defaults: ``prepare(ctx)``, called once in every process that will predict (the driver
+    first, which may build what is slow and cache it on disk with progress bars; workers then
+    load it), with the run's :class:`~beo_bench.bench.runs.RunContext` (its class list,
+    dataset, suite); and ``model_digest()``, the content digest of the trained model the last
+    ``prepare`` loaded (None: no learned model). What the runner needs before building it
+    (class hint, privileged, ...) is the spec's :class:`Capabilities`."""
+
+    name: str = ""
+
+    def prepare(self, ctx: RunContext) -> None:  # noqa: B027 (a default: nothing to prepare)
+        """Build or load what is slow for ``ctx`` (default: nothing)."""
+
+    def model_digest(self) -> str | None:
+        """The content digest of the loaded model (default: None, no learned model)."""
+        return None
+
+    @abstractmethod
+    def predict(self, view: View) -> Estimate: ...
+
+
 @runtime_checkable
 class PerceptionBackend(Protocol):
-    """Estimates class, pose, size and shape of the object in one segmented depth view.
-
-    Optional members the runner honours:
-
-    - ``privileged`` (default False): the runner gives the view's ``ground_truth`` only to
-      backends that set it (the ``oracle`` bound);
-    - ``wants_class_hint`` (default False): the backend can use ``View.class_hint``, which
-      views carry only in a suite's ``class-given`` track (``Suite.track``);
-    - ``description``: one line saying what it is, for listings (``beo-bench --help``;
-      default: the first sentence of its docstring);
-    - ``prepare(categories)``: build or load what is slow (trained models, class means) for
-      that class list, caching it on disk; the runner calls it once in its own process before
-      workers start, so they do not all build it at once.
-    """
+    """What any object needs to be scored by :func:`check_backend`: a ``name`` and
+    ``predict(view)``. Registered backends are :class:`Backend` instances (a plain class of
+    a plugin is wrapped, see :class:`LegacyBackend`)."""
 
     name: str
 
     def predict(self, view: View) -> Estimate: ...
 
 
-Factory = Callable[..., PerceptionBackend]
-_REGISTRY: dict[str, tuple[Factory, str]] = {}  # name -> (factory, origin)
+@dataclass(frozen=True)
+class NoOptions:
+    """The options of a backend that takes none."""
+
+
+@dataclass(frozen=True)
+class LegacyOptions:
+    """The options of a plain backend class or factory (registered without a
+    :class:`BackendSpec`): its keyword arguments as given, checked against its signature."""
+
+    values: tuple[tuple[str, Any], ...] = ()
+
+    def kwargs(self) -> dict[str, Any]:
+        return dict(self.values)
+
+
+@dataclass(frozen=True)
+class BackendSpec:
+    """A registered backend: how to build one from its typed options, the options'
+    dataclass (:mod:`beo_bench.options`), and its capabilities (a value, or a function of
+    the parsed options when they change them: ``hbeo``'s ``per_category``).
+
+    ``build(options)`` returns a :class:`Backend`. Plugins register one through the
+    ``beo_bench.backends`` entry-point group (its object is the spec; a plain class or
+    factory is still accepted, see :meth:`from_factory`)."""
+
+    name: str
+    build: Callable[[Any], Backend]
+    options: type = NoOptions
+    capabilities: Capabilities | Callable[[Any], Capabilities] = Capabilities()
+    description: str = ""
+    origin: str = "in-tree"
+    module: str = ""
+    """Where the spec is defined (a spawned worker imports it to find the backend again)."""
+    parser: Callable[[Mapping[str, Any]], Any] | None = None
+    """Parses the options instead of :func:`~beo_bench.options.parse_options` (``swap``,
+    whose options include its base backend's)."""
+
+    def parse(self, raw: Mapping[str, Any] | None = None) -> Any:
+        """``raw`` (``--opt`` values) as this backend's options; a :class:`UsageError`
+        listing the valid options for an unknown key or a bad value."""
+        if self.parser is not None:
+            return self.parser(dict(raw or {}))
+        if self.options is LegacyOptions:
+            return _legacy_options(self, dict(raw or {}))
+        return parse_options(self.options, dict(raw or {}), self.name)
+
+    def capabilities_of(self, options: Any) -> Capabilities:
+        caps = self.capabilities
+        return caps(options) if callable(caps) else caps
+
+    def make(self, options: Any) -> Backend:
+        """A new backend built with parsed ``options``; a ``ValueError`` of its own checks
+        is a :class:`UsageError`."""
+        try:
+            backend = self.build(options)
+        except BeoBenchError:
+            raise
+        except ValueError as e:  # the backend's own check of an option value
+            raise UsageError(f"backend {self.name!r}: {e} ({self.options_hint()})") from e
+        except TypeError as e:
+            if "keyword argument" not in str(e):
+                raise  # a bug in the backend, not an option the user gave
+            raise UsageError(f"backend {self.name!r}: {e} ({self.options_hint()})") from e
+        if not isinstance(backend, PerceptionBackend):
+            raise BackendError(
+                f"backend {self.name!r} has no `name` attribute or `predict(view)` method"
+            )
+        return backend
+
+    def options_hint(self) -> str:
+        if self.options is LegacyOptions:
+            return _legacy_hint(self)
+        return describe_options(self.options)
+
+    @classmethod
+    def from_factory(cls, name: str, factory: Callable[..., Any], origin: str) -> BackendSpec:
+        """The spec of a plain backend class or factory (today's plugins): its options
+        are its keyword arguments, checked against its signature; its capabilities are its
+        class attributes ``privileged``, ``wants_class_hint``, ``needs_class_hint`` and
+        ``diagnostic``, read once here (docs/backends.md, "Migrating a plain class"); the
+        backend it builds is wrapped in a :class:`LegacyBackend`."""
+        needs = bool(getattr(factory, "needs_class_hint", False))
+        wants = needs or bool(getattr(factory, "wants_class_hint", False))
+        caps = Capabilities(
+            class_hint=ClassHint.REQUIRED
+            if needs
+            else (ClassHint.OPTIONAL if wants else ClassHint.NONE),
+            privileged=bool(getattr(factory, "privileged", False)),
+            diagnostic=bool(getattr(factory, "diagnostic", False)),
+        )
+        text = getattr(factory, "description", None) or inspect.getdoc(factory) or ""
+        first = " ".join(str(text).split("\n\n", 1)[0].split())
+
+        def build(options: LegacyOptions) -> Backend:
+            obj = factory(**options.kwargs())
+            if isinstance(obj, Backend) or not isinstance(obj, PerceptionBackend):
+                return obj  # make() refuses a non-backend
+            return LegacyBackend(obj)
+
+        build.factory = factory  # type: ignore[attr-defined]  # what buildable_... inspects
+        return cls(
+            name=name,
+            build=build,
+            options=LegacyOptions,
+            capabilities=caps,
+            description=first.split(". ", 1)[0].rstrip("."),
+            origin=origin,
+            module=getattr(factory, "__module__", "") or "",
+        )
+
+    @property
+    def factory(self) -> Callable[..., Any]:
+        """What was registered (the class or function; for a spec, its ``build``)."""
+        return getattr(self.build, "factory", self.build)
+
+
+class LegacyBackend(Backend):
+    """A plain backend object (a plugin class without :class:`Backend` as its base) under
+    the contract: ``prepare(ctx)`` calls its ``prepare(categories)`` with the run's class
+    list when it has one, ``model_digest()`` its own when it has one."""
+
+    def __init__(self, inner: Any) -> None:
+        self.inner = inner
+        self.name = str(inner.name)
+
+    def prepare(self, ctx: RunContext) -> None:
+        prep = getattr(self.inner, "prepare", None)
+        if callable(prep):
+            prep(tuple(ctx.categories))
+
+    def model_digest(self) -> str | None:
+        digest = getattr(self.inner, "model_digest", None)
+        return digest() if callable(digest) else None
+
+    def predict(self, view: View) -> Estimate:
+        return self.inner.predict(view)
+
+
+_REGISTRY: dict[str, BackendSpec] = {}
 _BROKEN: dict[tuple[str, str], str] = {}  # (entry-point name, value) -> why it was skipped
 _loaded_in_tree = False
 
@@ -119,30 +318,46 @@ class PluginWarning(UserWarning):
     backend, or takes a name already registered); the other backends still load."""
 
 
-def register_backend(name: str, origin: str = "in-tree") -> Callable[[Factory], Factory]:
-    """Class/factory decorator: ``@register_backend("mine")``. A taken name raises."""
+def register(spec: BackendSpec) -> BackendSpec:
+    """Register ``spec`` under its name; a taken name raises :class:`BackendError`."""
+    _add(spec)
+    return spec
 
-    def deco(factory: Factory) -> Factory:
-        _add(name, factory, origin)
+
+def register_backend(
+    name: str, origin: str = "in-tree"
+) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """Class/factory decorator for a plain backend class: ``@register_backend("mine")``
+    (:meth:`BackendSpec.from_factory`). A taken name raises."""
+
+    def deco(factory: Callable[..., Any]) -> Callable[..., Any]:
+        _add(BackendSpec.from_factory(name, factory, origin))
         return factory
 
     return deco
 
 
-def _add(name: str, factory: Factory, origin: str) -> None:
-    if name in _REGISTRY and _REGISTRY[name][0] is not factory:
+def unregister_backend(name: str) -> None:
+    """Forget backend ``name`` (one registered at run time: a test, a notebook)."""
+    _REGISTRY.pop(name, None)
+
+
+def _add(spec: BackendSpec) -> None:
+    name = spec.name
+    old = _REGISTRY.get(name)
+    if old is not None and old.factory is not spec.factory:
         raise BackendError(
-            f"a backend named {name!r} is already registered (from {_REGISTRY[name][1]}); "
+            f"a backend named {name!r} is already registered (from {old.origin}); "
             "choose another name"
         )
     listed = IN_TREE.get(name)
-    if listed is not None and getattr(factory, "__module__", None) != listed.module:
+    if listed is not None and spec.module != listed.module:
         # an in-tree name is taken whether or not its module has been imported yet
         raise BackendError(
             f"a backend named {name!r} is already registered (in-tree, {listed.module}); "
             "choose another name"
         )
-    _REGISTRY[name] = (factory, origin)
+    _REGISTRY[name] = spec
 
 
 def _ensure_in_tree() -> None:
@@ -155,8 +370,9 @@ def _ensure_in_tree() -> None:
 
 def load_plugins() -> list[str]:
     """Register every backend advertised in the ``beo_bench.backends`` entry-point group;
-    returns the names registered. A plugin that fails to import, whose object is not a
-    backend class or factory, or whose name is taken is skipped with one
+    returns the names registered. An entry point's object is a :class:`BackendSpec` (whose
+    name must be the entry point's) or a plain backend class or factory. A plugin that fails
+    to import, whose object is not a backend, or whose name is taken is skipped with one
     :class:`PluginWarning` naming it (the runner calls this in every worker: a broken
     package must not stop the others); :func:`get_backend` of its name says why. The
     in-tree backends are not imported here: their names are known (:data:`IN_TREE`)."""
@@ -165,14 +381,27 @@ def load_plugins() -> list[str]:
         if (ep.name, ep.value) in _BROKEN:
             continue  # already warned about in this process
         try:
-            factory = ep.load()
-            _check_plugin_object(ep, factory)
-            _add(ep.name, factory, _plugin_origin(ep))
+            obj = ep.load()
+            _add(_plugin_spec(ep, obj))
         except Exception as e:  # whatever a foreign import raises: skip that plugin only
             _skip_plugin(ep, e)
             continue
         names.append(ep.name)
     return names
+
+
+def _plugin_spec(ep: EntryPoint, obj: object) -> BackendSpec:
+    """The spec an entry point advertises: its :class:`BackendSpec` (renamed to nothing:
+    the names must agree), or one made from a plain class or factory."""
+    if isinstance(obj, BackendSpec):
+        if obj.name != ep.name:
+            raise PluginError(
+                f"{ep.value} is the spec of backend {obj.name!r}, but its entry point is named "
+                f"{ep.name!r}: give both the same name"
+            )
+        return replace(obj, origin=_plugin_origin(ep))
+    _check_plugin_object(ep, obj)
+    return BackendSpec.from_factory(ep.name, obj, _plugin_origin(ep))  # type: ignore[arg-type]
 
 
 def _skip_plugin(ep: EntryPoint, e: Exception) -> None:
@@ -199,8 +428,9 @@ def _check_plugin_object(ep: EntryPoint, obj: object) -> None:
     non-callable, or a class without ``predict``."""
     if not callable(obj) or (inspect.isclass(obj) and not callable(getattr(obj, "predict", 0))):
         raise PluginError(
-            f"{ep.value} is a {type(obj).__name__}, not a backend class or factory (a class "
-            "with `name` and `predict(view)`, or a function returning such an object)"
+            f"{ep.value} is a {type(obj).__name__}, not a backend spec, class or factory (a "
+            "BackendSpec, a class with `name` and `predict(view)`, or a function returning "
+            "such an object)"
         )
 
 
@@ -210,68 +440,59 @@ def buildable_in_fresh_process(name: str, imports: tuple[str, ...] = ()) -> bool
     run time in this process (a test, a notebook, a function defined inside another) exists
     only here. An unknown name counts as buildable: the fresh process then says it is
     unknown."""
-    entry = _REGISTRY.get(name)
-    if entry is None:
+    spec = _REGISTRY.get(name)
+    if spec is None:
         return True
-    factory, origin = entry
-    if "<locals>" in getattr(factory, "__qualname__", ""):
+    if "<locals>" in getattr(spec.factory, "__qualname__", ""):
         return False
-    module = getattr(factory, "__module__", "") or ""
-    return origin.startswith("plugin") or module in (*_IN_TREE, *imports)
+    return spec.origin.startswith("plugin") or spec.module in (*_IN_TREE, *imports)
 
 
 def list_backends(diagnostic: bool = True) -> list[str]:
     """Names of the registered backends, sorted; without the diagnostic tools that wrap
-    another backend (a class attribute ``diagnostic = True``, e.g. ``swap``) when
-    ``diagnostic`` is False. The in-tree backends come from :data:`IN_TREE` without
-    importing their modules (plugins are in the registry once :func:`load_plugins` ran)."""
+    another backend (``Capabilities.diagnostic``, e.g. ``swap``) when ``diagnostic`` is
+    False. The in-tree backends come from :data:`IN_TREE` without importing their modules
+    (plugins are in the registry once :func:`load_plugins` ran)."""
     names = {n for n, b in IN_TREE.items() if diagnostic or not b.diagnostic}
     names |= {
         name
-        for name, (f, _) in _REGISTRY.items()
-        if name not in IN_TREE and (diagnostic or not getattr(f, "diagnostic", False))
+        for name, spec in _REGISTRY.items()
+        if name not in IN_TREE and (diagnostic or not _static_caps(spec).diagnostic)
     }
     return sorted(names)
 
 
+def _static_caps(spec: BackendSpec) -> Capabilities:
+    """The spec's capabilities at its default options."""
+    return spec.capabilities_of(spec.parse({}) if spec.options is not LegacyOptions else None)
+
+
 def describe_backend(name: str) -> str:
     """One line saying what backend ``name`` is, for listings (``beo-bench --help``): its
-    factory's ``description`` attribute (in-tree backends and plugins may set one), else the
-    first sentence of the factory's docstring, else ``""``. Builds nothing, and imports
-    nothing for an in-tree backend (:data:`IN_TREE`)."""
+    spec's ``description`` (a plain class's: its ``description`` attribute, else the first
+    sentence of its docstring), else ``""``. Builds nothing, and imports nothing for an
+    in-tree backend (:data:`IN_TREE`)."""
     if name in IN_TREE:
         return IN_TREE[name].description
-    if name not in _REGISTRY:
-        _ensure_in_tree()  # only so that the error lists them: they cannot add ``name``
-        raise _unknown_backend(name)
-    factory = _REGISTRY[name][0]
-    text = getattr(factory, "description", None) or inspect.getdoc(factory) or ""
-    first = " ".join(str(text).split("\n\n", 1)[0].split())
-    return first.split(". ", 1)[0].rstrip(".")
+    return get_spec(name).description
 
 
-def get_backend(name: str, **kwargs: Any) -> PerceptionBackend:
-    """A new backend ``name`` built with ``kwargs``. An unknown option, or a value of the
-    wrong type for an option whose default says its type, raises :class:`UsageError`
-    listing the backend's options; so does a ``ValueError`` of the backend's own checks."""
+def get_spec(name: str) -> BackendSpec:
+    """The registered spec of backend ``name`` (importing the in-tree backends first); a
+    :class:`BackendError` listing the registered names for an unknown one."""
     _ensure_in_tree()
     if name not in _REGISTRY:
         raise _unknown_backend(name)
-    factory = _REGISTRY[name][0]
-    _check_options(name, factory, kwargs)
-    try:
-        backend = factory(**kwargs)
-    except BeoBenchError:
-        raise
-    except ValueError as e:  # the backend's own check of an option value
-        raise UsageError(f"backend {name!r}: {e} ({_options_hint(factory)})") from e
-    except TypeError as e:
-        if "keyword argument" not in str(e):
-            raise  # a bug in the backend, not an option the user gave
-        raise UsageError(f"backend {name!r}: {e} ({_options_hint(factory)})") from e
-    if not isinstance(backend, PerceptionBackend):
-        raise BackendError(f"backend {name!r} has no `name` attribute or `predict(view)` method")
-    return backend
+    return _REGISTRY[name]
+
+
+def get_backend(name: str, **kwargs: Any) -> Backend:
+    """A new backend ``name`` built with options ``kwargs`` (parsed into its options
+    dataclass). An unknown option, or a value not of the option's type, raises
+    :class:`UsageError` listing the backend's options; so does a ``ValueError`` of the
+    backend's own checks."""
+    spec = get_spec(name)
+    return spec.make(spec.parse(kwargs))
 
 
 def _unknown_backend(name: str) -> BackendError:
@@ -286,26 +507,27 @@ def _unknown_backend(name: str) -> BackendError:
 
 def backend_options(name: str) -> dict[str, Any] | None:
     """The options of backend ``name`` with their defaults (``inspect.Parameter.empty``
-    for a required one), or None when its factory takes arbitrary ``**kwargs``."""
-    _ensure_in_tree()
-    if name not in _REGISTRY:
-        raise _unknown_backend(name)
-    return _signature_options(_REGISTRY[name][0])
+    for a required one of a plain class), or None when a plain factory takes arbitrary
+    ``**kwargs``."""
+    spec = get_spec(name)
+    if spec.options is LegacyOptions:
+        return _signature_options(spec.factory)
+    return {f.name: f.default for f in dataclasses.fields(spec.options)}
 
 
-def _signature_options(factory: Factory) -> dict[str, Any] | None:
+def _signature_options(factory: Callable[..., Any]) -> dict[str, Any] | None:
     try:
         params = inspect.signature(factory).parameters.values()
     except (TypeError, ValueError):  # a builtin or C callable: nothing to read
         return None
     if any(p.kind is p.VAR_KEYWORD for p in params):
-        return None  # passes options on (swap, hbeo): the receiver checks them
+        return None  # passes options on: the receiver checks them
     keyword = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
     return {p.name: p.default for p in params if p.kind in keyword}
 
 
-def _options_hint(factory: Factory) -> str:
-    opts = _signature_options(factory)
+def _legacy_hint(spec: BackendSpec) -> str:
+    opts = _signature_options(spec.factory)
     if opts is None:
         return "see the backend's documentation for its options"
     if not opts:
@@ -314,30 +536,31 @@ def _options_hint(factory: Factory) -> str:
     return f"its options, with their defaults: {shown}"
 
 
-def _check_options(name: str, factory: Factory, kwargs: dict[str, Any]) -> None:
-    opts = _signature_options(factory)
-    if opts is None:
-        return
-    unknown = sorted(set(kwargs) - set(opts))
-    if unknown:
-        raise UsageError(
-            f"backend {name!r} has no option {', '.join(map(repr, unknown))}; "
-            f"{_options_hint(factory)} (on the command line: --opt KEY=VALUE)"
-        )
-    for key, value in kwargs.items():
-        expected = _type_mismatch(opts[key], value)
-        if expected:
+def _legacy_options(spec: BackendSpec, kwargs: dict[str, Any]) -> LegacyOptions:
+    """A plain class's options, checked against its signature: an unknown key, or a value
+    that cannot be of the type its default shows (booleans, integers, reals)."""
+    opts = _signature_options(spec.factory)
+    if opts is not None:
+        unknown = sorted(set(kwargs) - set(opts))
+        if unknown:
             raise UsageError(
-                f"backend {name!r} option {key}={value!r}: expected {expected} (default "
-                f"{opts[key]!r})"
+                f"backend {spec.name!r} has no option {', '.join(map(repr, unknown))}; "
+                f"{_legacy_hint(spec)} (on the command line: --opt KEY=VALUE)"
             )
+        for key, value in kwargs.items():
+            expected = _type_mismatch(opts[key], value)
+            if expected:
+                raise UsageError(
+                    f"backend {spec.name!r} option {key}={value!r}: expected {expected} "
+                    f"(default {opts[key]!r})"
+                )
+    return LegacyOptions(tuple(sorted(kwargs.items())))
 
 
 def _type_mismatch(default: Any, value: Any) -> str | None:
     """What ``value`` should have been when the option's default shows its type and the
     value cannot be one (booleans, integers, reals); else None. A None default or any other
-    type is left to the backend, and so is a None value (``--opt threads=null``: several
-    options take None for "the default" or "leave it alone")."""
+    type is left to the backend, and so is a None value."""
     if value is None:
         return None
     if isinstance(default, bool):
@@ -355,47 +578,23 @@ def _type_mismatch(default: Any, value: Any) -> str | None:
     return None
 
 
-_TRUE = ("1", "true", "yes", "on")
-_FALSE = ("0", "false", "no", "off")
-
-
-def as_bool(x: object) -> bool:
-    """A boolean backend option, also from its command-line spelling (``--opt mesh=no``).
-    Anything else (``"maybe"``, ``2``, a list) raises :class:`UsageError` (a ValueError)."""
-    if isinstance(x, str) and x.lower() in _TRUE + _FALSE:
-        return x.lower() in _TRUE
-    if isinstance(x, (bool, np.bool_)) or (isinstance(x, numbers.Integral) and x in (0, 1)):
-        return bool(x)
-    raise UsageError(
-        f"expected a boolean, got {x!r}: use one of {', '.join(_TRUE)} (true) or "
-        f"{', '.join(_FALSE)} (false)"
-    )
-
-
 class PrivilegeError(UsageError):
-    """A plugin that declares ``privileged = True`` run without ``--allow-privileged``."""
+    """A plugin that declares ``privileged`` run without ``--allow-privileged``."""
 
 
-def check_privileged(name: str, backend: PerceptionBackend, allow: bool = False) -> bool:
-    """Whether ``backend`` is privileged (handed the ground truth). An in-tree bound
-    (``oracle``, ``swap``) may be; any other backend only with ``allow`` (``--allow-privileged``),
-    because a privileged backend is given the answer: its rows are then listed with the
-    bounds and never ranked (docs/benchmark.md, "What a backend is told")."""
-    privileged = bool(getattr(backend, "privileged", False))
-    if privileged and not allow and name not in IN_TREE:
+def check_privileged(name: str, caps: Capabilities, allow: bool = False) -> bool:
+    """Whether backend ``name`` with capabilities ``caps`` is privileged (handed the ground
+    truth). An in-tree bound (``oracle``, ``swap``) may be; any other backend only with
+    ``allow`` (``--allow-privileged``), because a privileged backend is given the answer:
+    its rows are then listed with the bounds and never ranked (docs/benchmark.md, "What a
+    backend is told")."""
+    if caps.privileged and not allow and name not in IN_TREE:
         raise PrivilegeError(
             f"backend {name!r} declares privileged = True, so the runner would hand it the "
             "ground truth of every view: pass --allow-privileged to run it as a bound (its "
             "rows are listed with the bounds and never ranked), or drop `privileged`"
         )
-    return privileged
-
-
-def prepare_backend(backend: PerceptionBackend, categories: tuple[str, ...]) -> None:
-    """Call the backend's optional ``prepare(categories)`` (see :class:`PerceptionBackend`)."""
-    prep = getattr(backend, "prepare", None)
-    if callable(prep):
-        prep(tuple(categories))
+    return caps.privileged
 
 
 # -- the Estimate contract ------------------------------------------------------------------
@@ -459,15 +658,21 @@ def _same(a: Estimate, b: Estimate) -> bool:
     return len(A) == len(B) and all(np.array_equal(x, y) for x, y in zip(A, B, strict=True))
 
 
-def check_backend(backend: PerceptionBackend, views: list[View] | None = None) -> None:
+def check_backend(
+    backend: PerceptionBackend, views: list[View] | None = None, privileged: bool | None = None
+) -> None:
     """The conformance test: on each view, ``predict`` returns an ``Estimate`` obeying the
     contract (types, shapes, ranges, a proper rotation, probabilities summing to 1), and the
     same input gives the same output. Raises :class:`EstimateError` on the first failure.
-    Without ``views``, two rendered views of test-split instances are used."""
+    Without ``views``, two rendered views of test-split instances are used. Views keep
+    their ground truth only for a privileged backend (``privileged``; default: as its
+    registered spec says)."""
     if not isinstance(backend, PerceptionBackend):
         raise EstimateError("a backend needs a `name` attribute and a `predict(view)` method")
     views = views if views is not None else sample_views()
-    privileged = bool(getattr(backend, "privileged", False))
+    if privileged is None:  # a registered backend's spec says; anything else is not
+        spec = _REGISTRY.get(backend.name)
+        privileged = spec is not None and _static_caps(spec).privileged
     for view in views:
         if not privileged and view.ground_truth is not None:
             view = _without_truth(view)

@@ -21,6 +21,7 @@ from beo_bench.bench.columns import brief_columns
 from beo_bench.errors import BeoBenchError, UsageError
 
 if TYPE_CHECKING:
+    from beo_bench.bench.runs import Summary
     from beo_bench.perception.hbeo_train import HBEOConfig, Kind
 
 
@@ -246,12 +247,9 @@ def cmd_pick_check(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from beo_bench.backend import check_privileged, get_backend, load_plugins
-    from beo_bench.bench.campaign import parse_options, run_name
-    from beo_bench.bench.runner import RunConfig, run
-    from beo_bench.bench.suites import check_track
+    from beo_bench.bench.runner import run
+    from beo_bench.bench.runs import RunConfig, RunContext, parse_option_pairs, run_name
 
-    load_plugins()
     suite = _suite(args.suite).with_overrides(
         size=args.episodes, seed=args.seed, track=args.track
     )  # --track on a suite without tracks is a usage error here
@@ -259,32 +257,27 @@ def cmd_run(args: argparse.Namespace) -> int:
     _split_needs_dataset(args, dataset)
     if dataset is not None:
         suite = suite.with_dataset(dataset, args.split)
-    kwargs = parse_options(args.opt)
-    backend = get_backend(args.backend, **kwargs)  # fail here, not in a worker
-    check_privileged(args.backend, backend, args.allow_privileged)
-    check_track(
-        suite,
-        args.backend,
-        bool(getattr(backend, "wants_class_hint", False)),
-        bool(getattr(backend, "needs_class_hint", False)),
-    )
+    kwargs = parse_option_pairs(args.opt)
+    cfg = RunConfig(suite, args.backend, kwargs, args.allow_privileged)
+    # resolved once: a bad option, a privileged plugin without leave or a track the backend
+    # cannot run in fails here, before any directory is made
+    ctx = RunContext.of(cfg, progress=True)
     name = run_name(suite.name, args.backend, kwargs, args.seed, suite.track)
     out = Path(args.out) if args.out else Path("runs") / name
-    cfg = RunConfig(suite, args.backend, kwargs, args.allow_privileged)
     summary = run(
-        cfg,
+        ctx,
         out,
         workers=args.workers,
         resume=args.resume,
         use_ray=args.ray,
-        **_timeout(args),
+        item_timeout=args.item_timeout,
     )
     print(format_runs([summary]))
     print(f"\nresults: {out / 'results.jsonl'}\nsummary: {out / 'summary.json'}")
     if args.rerun:
         from beo_bench.bench.recording import log_run
 
-        path = log_run(cfg, args.rerun)
+        path = log_run(ctx, args.rerun)
         print(f"recording of the first views: {path}  (open with `rerun {path}`)")
     return 0
 
@@ -303,11 +296,12 @@ def dataset_suites() -> list[str]:
     """The suites ``all --objects`` runs by default: the isolated ones that draw from every
     class of a split (not a fixed class subset, not the procedural ``ood`` split)."""
     from beo_bench.bench.suites import SUITES
+    from beo_bench.bench.suites import Kind as SuiteKind
 
     return [
         n
         for n, s in sorted(SUITES.items())
-        if s.kind == "isolated" and s.categories is None and s.split != "ood"
+        if s.kind is SuiteKind.ISOLATED and s.categories is None and s.split != "ood"
     ]
 
 
@@ -321,21 +315,17 @@ def _suite(name: str) -> Any:
         raise UsageError(str(e)) from e
 
 
-def _timeout(args: argparse.Namespace) -> dict[str, float]:
-    """``item_timeout`` for the runner, only when ``--item-timeout`` was given (otherwise
-    the runner's own default holds)."""
-    return {} if args.item_timeout is None else {"item_timeout": args.item_timeout}
-
-
 COLUMNS = brief_columns()
 """The plain-text table's metric columns (``bench.columns``: one list for every table)."""
 
 
-def format_runs(summaries: list[dict]) -> str:
+def format_runs(runs: Sequence[Summary | dict[str, Any]]) -> str:
     """A plain table of runs: one row per run (its suite and track, backend and options),
     the columns that any of them measured."""
-    from beo_bench.bench.campaign import backend_label
     from beo_bench.bench.compare import track_of
+    from beo_bench.bench.runs import Summary, backend_label
+
+    summaries = [s.to_json() if isinstance(s, Summary) else s for s in runs]
 
     def where(s: dict) -> str:
         track = track_of(s)
@@ -401,8 +391,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def cmd_all(args: argparse.Namespace) -> int:
-    from beo_bench.bench.campaign import Campaign, parse_backend_spec, run_campaign
+    from beo_bench.bench.campaign import Campaign, run_campaign
     from beo_bench.bench.leaderboard import check_out
+    from beo_bench.bench.runs import parse_backend_spec
     from beo_bench.bench.suites import list_suites
     from beo_bench.reports import every_backend, leaderboard_text
 
@@ -426,34 +417,36 @@ def cmd_all(args: argparse.Namespace) -> int:
         dataset=dataset,
         split=args.split,
         allow_privileged=args.allow_privileged,
-        **_timeout(args),
+        item_timeout=args.item_timeout,
     )
     print(leaderboard_text(run_campaign(c), c.leaderboards))
     return 0
 
 
-def _categories(args: argparse.Namespace) -> tuple[str, ...]:
-    from beo_bench.envs.pick import default_categories
-    from beo_bench.objects import registry
+def _train_request(args: argparse.Namespace) -> Any:
+    """The ``train`` command's options as a :class:`~beo_bench.training.TrainRequest`."""
+    from beo_bench.training import TrainRequest
 
-    cats = tuple(args.categories) if args.categories else default_categories()
-    for c in cats:
-        registry.get_category(c)  # an unknown name raises, listing the known ones
-    return cats
-
-
-def _dataset_categories(args: argparse.Namespace, dataset: Any, split: str) -> tuple[str, ...]:
-    """The classes to train on a user's dataset: ``--categories`` (each must be in it) or
-    every class of the dataset (the class list its suites' views carry); each needs models
-    in ``split``."""
-    objects = dataset.objects(split, args.categories or dataset.categories(), args.per_category)
-    empty = [c for c in objects.categories if objects.count(c) == 0]
-    if empty or not objects.categories:
-        raise UsageError(
-            f"the {split!r} split of {dataset.root} has no models of "
-            f"{', '.join(empty) or 'any class'}: use --split all (every model), or add files"
-        )
-    return objects.categories
+    dataset = _dataset(args)
+    _split_needs_dataset(args, dataset)
+    return TrainRequest(
+        dataset=dataset,
+        split=args.split,
+        categories=tuple(args.categories) if args.categories else None,
+        per_category=args.per_category,
+        resolution=getattr(args, "resolution", 32),
+        variance_fraction=getattr(args, "variance_fraction", 0.6),
+        images=getattr(args, "images", None),
+        val_images=getattr(args, "val_images", None),
+        epochs=getattr(args, "epochs", None),
+        recipe=getattr(args, "recipe", None),
+        seed=getattr(args, "seed", None),
+        crop=getattr(args, "crop", None),
+        size=getattr(args, "size", None),
+        rotation=getattr(args, "rotation", None),
+        batch_size=getattr(args, "batch_size", None),
+        projection_weighting=getattr(args, "projection_weighting", None),
+    )
 
 
 def cmd_train(args: argparse.Namespace) -> int:
@@ -461,21 +454,15 @@ def cmd_train(args: argparse.Namespace) -> int:
     looks for, so training it ahead of time only saves the first run the wait)."""
     if args.model != "beo":
         return _train_hbeo(args)
-    from beo_bench.perception.beo_model import BEOConfig, default_name, model_path, train_beo
+    from beo_bench.perception.beo_model import default_name, model_path, train_beo
+    from beo_bench.training import beo_config
 
-    dataset = _dataset(args)
-    _split_needs_dataset(args, dataset)
-    split = args.split or "train"
-    cats = _categories(args) if dataset is None else _dataset_categories(args, dataset, split)
-    cfg = BEOConfig(
-        categories=cats,
-        resolution=args.resolution,
-        per_category=args.per_category,
-        variance_fraction=args.variance_fraction,
-    )
-    name = args.name or default_name(cats, args.resolution, args.per_category, dataset)
+    req = _train_request(args)
+    cfg = beo_config(req)
+    cats = cfg.categories
+    name = args.name or default_name(cats, args.resolution, args.per_category, req.dataset)
     t0 = time.perf_counter()
-    model = train_beo(cfg, progress=True, dataset=dataset, split=split)
+    model = train_beo(cfg, progress=True, dataset=req.dataset, split=req.train_split)
     path = model.save(model_path(name))
     print(
         f"BEO model {name!r}: {len(cats)} classes at {args.resolution}^3, subspace k={model.k} "
@@ -486,40 +473,10 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def _hbeo_config(args: argparse.Namespace, kind: Kind) -> HBEOConfig:
-    """The HBEO training set-up the options describe; with ``--objects``, rendered from
-    that dataset (made this process's active one, so the BEO subspace it regresses is the
-    dataset's: ``beo-bench train beo --objects ROOT`` first)."""
-    from beo_bench.objects.dataset import activate
-    from beo_bench.perception.hbeo_train import default_config, with_overrides
+    """The HBEO training set-up the options describe (:func:`beo_bench.training.hbeo_config`)."""
+    from beo_bench.training import hbeo_config
 
-    dataset = _dataset(args)
-    _split_needs_dataset(args, dataset)
-    activate(dataset)
-    split = args.split or "train"
-    cats = _categories(args) if dataset is None else _dataset_categories(args, dataset, split)
-    # a folder too small for a hash split validates on what it trains on (--split all)
-    splits = {} if dataset is None else {"split": split, "val_split": split}
-    if dataset is not None and split == "train":
-        splits["val_split"] = "val"
-    base = default_config(
-        kind,
-        cats,
-        instances=args.per_category,
-        images=args.images,
-        epochs=getattr(args, "epochs", None),
-        recipe=getattr(args, "recipe", None) or "default",
-    )
-    return with_overrides(
-        base,
-        val_images=args.val_images,
-        seed=args.seed,
-        crop=getattr(args, "crop", None),
-        size=getattr(args, "size", None),
-        rotation=getattr(args, "rotation", None),
-        batch_size=getattr(args, "batch_size", None),
-        projection_weighting=getattr(args, "projection_weighting", None),
-        **splits,
-    )
+    return hbeo_config(_train_request(args), kind)
 
 
 def _train_hbeo(args: argparse.Namespace) -> int:
@@ -553,8 +510,9 @@ def cmd_publish(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else published.PUBLISHED_DIR
     if args.model == "beo":
         from beo_bench.perception.beo_model import BEOModel, model_dir
+        from beo_bench.training import library_categories
 
-        cats = _categories(args)
+        cats = library_categories(args.categories)
         path = model_dir(args.name, cats, 32)
         sha = published.publish_beo(BEOModel.load(path), out)
     else:
@@ -1073,11 +1031,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         except KeyboardInterrupt:
             hint = RESUME_HINTS.get(args.command, "run the command again to start over")
             return _fail(f"interrupted; {hint}", 130, what="")
-        finally:
-            # a run on a user's dataset made it this process's (for its backends' models);
-            # a later call in the same process (tests, notebooks) starts from the library
-            if "beo_bench.objects.dataset" in sys.modules:
-                sys.modules["beo_bench.objects.dataset"].activate(None)
 
 
 def _fail(message: str, code: int, what: str = "error: ") -> int:

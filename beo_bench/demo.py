@@ -39,7 +39,7 @@ def picked_seed(split: str = DEMO_SPLIT, start: int = 0, limit: int = SEED_SEARC
     exactly what ``beo-bench pick-check`` counts as a success; deterministic)."""
     from beo_bench.envs.pickcheck import ground_truth_pick_check
 
-    skipped = []
+    skipped: list[tuple[int, str]] = []
     for seed in range(start, start + limit):
         episode = ground_truth_pick_check(episodes=1, seed=seed, split=split).episodes[0]
         if episode.success:

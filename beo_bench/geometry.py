@@ -103,8 +103,8 @@ def symmetry_transformations(symmetry: Symmetry, max_step_deg: float = 5.0) -> l
 
 def _about_point(R: Mat3, p: tuple[float, float, float] | list[float]) -> Mat4:
     """The rotation R about the point p as a 4x4 transform."""
-    p = np.asarray(p, dtype=np.float64)
-    return rigid(R, p - R @ p)
+    q = np.asarray(p, dtype=np.float64)
+    return rigid(R, q - R @ q)
 
 
 def super_fibonacci(n: int) -> np.ndarray:

@@ -120,7 +120,9 @@ _ROT_ATOL = 1e-3
 # --------------------------------------------------------------------------- validation
 
 
-def _array(x: ArrayLike, name: str, shape: tuple[int | None, ...] | None = None) -> np.ndarray:
+def _array(
+    x: ArrayLike | Sequence[ArrayLike], name: str, shape: tuple[int | None, ...] | None = None
+) -> np.ndarray:
     """``x`` as a float64 array, checking ``shape`` (None entries match any length)."""
     a = np.asarray(x, dtype=np.float64)
     if shape is not None and (
@@ -403,7 +405,8 @@ def nocs_accuracies(rot_err_deg: ArrayLike, trans_err_cm: ArrayLike) -> dict[str
 def _continuous_axes(symmetry: Symmetry | None) -> list[tuple[np.ndarray, np.ndarray]]:
     """Each continuous symmetry's (unit axis, offset), as BOP lists them."""
     out = []
-    for k, c in enumerate((symmetry or {}).get("continuous", []) or []):
+    continuous = symmetry.get("continuous", []) if symmetry else []
+    for k, c in enumerate(continuous or []):
         a = _array(c["axis"], f"symmetry['continuous'][{k}]['axis']", (3,))
         n = np.linalg.norm(a)
         if not np.isfinite(n) or n == 0:

@@ -109,10 +109,11 @@ def select_objects(
 ) -> tuple[ObjectSet, dict[str, str] | None]:
     """The object set to summarise (the built-in library, a mesh folder ``root``, or a
     user's ``dataset``) and, for a dataset, per category its models per split."""
-    from beo_bench.objects import ObjectSet
+    from beo_bench.objects.dataset import object_set, open_dataset
 
     if dataset is None:
-        return ObjectSet(split, categories, root=root, per_category=per_category), None
+        folder = open_dataset(root) if root is not None else None
+        return object_set(folder, split, categories, per_category), None
     objects = dataset.objects(split, categories, per_category)
     per_split = [dataset.objects(s, objects.categories) for s in ("train", "val", "test")]
     counts = {c: "/".join(str(o.count(c)) for o in per_split) for c in objects.categories}

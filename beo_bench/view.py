@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import gymnasium as gym
 import numpy as np
@@ -23,6 +23,7 @@ from beo_bench.scenes.camera import backproject
 from beo_bench.scenes.gripper import GRIPPER
 
 if TYPE_CHECKING:
+    from beo_bench.envs.pick import BEOPickEnv
     from beo_bench.objects import ObjectSet
 
 # label 0 black, label i the colour the scene gives object i - 1 (so the PNG's segmentation
@@ -228,10 +229,10 @@ def view_scene(
     env = gym.make("BEOPick-v0", render_mode="rgb_array", **env_kwargs)
     try:
         obs, _ = env.reset(seed=seed)
-        u = env.unwrapped
+        u = cast("BEOPickEnv", env.unwrapped)
         grasps = u.ground_truth_grasps()
         best = grasps[0] if grasps else None
-        rgb = env.render()
+        rgb = cast(np.ndarray, env.render())  # render_mode="rgb_array": one (H, W, 3) frame
         target = u.categories[obs["target_class"]]
         names = tuple(g.category for g in u.ground_truth())
         title = (

@@ -30,14 +30,20 @@ from beo_bench.envs import RegisteredSteps
 from beo_bench.errors import ActionError, BeoBenchError, EnvConfigError
 from beo_bench.grasping import Grasp, plan_grasps
 from beo_bench.objects import ObjectSet
-from beo_bench.objects import categories as registered_categories
-from beo_bench.scenes.builder import Scene, TableConfig, build_tabletop
+from beo_bench.scenes.builder import Scene, TableConfig
 from beo_bench.scenes.camera import CameraRig, Intrinsics, pixels_to_points
-from beo_bench.scenes.execute import GraspOutcome, execute_grasp, park, release, settle
+from beo_bench.scenes.execute import GraspOutcome, execute_grasp, release, settle
 from beo_bench.scenes.gripper import MAX_OPENING
-from beo_bench.scenes.layout import ObjectTooLargeError, PlacementError, place_objects
 from beo_bench.scenes.noise import DepthNoise, apply_noise
-from beo_bench.scenes.renderer import UINT8_LABELS, Renderer, mujoco
+from beo_bench.scenes.renderer import UINT8_LABELS, Frame, Renderer, mujoco
+
+# the "X as X" names are re-exported: they were this module's before scenes.tabletop held them
+from beo_bench.scenes.tabletop import CAMERA_DRAWS as CAMERA_DRAWS
+from beo_bench.scenes.tabletop import SCENE_DRAWS as SCENE_DRAWS
+from beo_bench.scenes.tabletop import MIN_TARGET_PIXELS_640x480 as MIN_TARGET_PIXELS_640x480
+from beo_bench.scenes.tabletop import NoVisibleTargetError as NoVisibleTargetError
+from beo_bench.scenes.tabletop import TabletopScenes, default_min_target_pixels
+from beo_bench.scenes.tabletop import default_categories as default_categories
 from beo_bench.types import Mat4, ObjectState
 
 FAR_CLIP = 20.0
@@ -46,18 +52,6 @@ FAR_CLIP = 20.0
 OPENING_TOLERANCE = 1e-6
 """How far (m) a finger opening may stray outside [0, ``MAX_OPENING``] and still be taken
 (clipped): float32 rounding of a bound, not a user's mistake."""
-
-SCENE_DRAWS = 20
-"""Object draws ``reset`` tries before giving up (placement failures and scenes whose
-target stays hidden both count)."""
-
-CAMERA_DRAWS = 10
-"""Camera poses ``reset`` tries per scene for a visible target before drawing a new scene
-(a target hidden behind a larger object is usually seen from another side)."""
-
-MIN_TARGET_PIXELS_640x480 = 50
-"""Default least number of target pixels at 640x480 (the suites' ``min_pixels``: a
-scored view needs at least as many), scaled by image area for other sizes."""
 
 OBS_MODES = ("image", "pointcloud")
 """The observation modes: ``image`` (depth + segmentation images) and ``pointcloud``
@@ -74,11 +68,6 @@ DEFAULT_NUM_POINTS = 4096
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 """What a copy of the env restores of the physics: everything ``mj_step`` reads (time,
 qpos, qvel, actuator state, warm start, controls, applied forces, mocap poses)."""
-
-
-class NoVisibleTargetError(BeoBenchError, RuntimeError):
-    """``reset`` found no scene whose target shows at least ``min_target_pixels`` pixels:
-    an episode without a visible target cannot be solved, so none is produced."""
 
 
 class EnvStateError(BeoBenchError, RuntimeError):
@@ -197,7 +186,9 @@ class BEOPickEnv(gym.Env):
       ``max_episode_steps``).
     """
 
-    metadata: ClassVar[dict[str, Any]] = {
+    # gymnasium annotates Env.metadata as an instance attribute, but it is the class's (read
+    # from the class by gym.make and the wrappers, shared by every instance)
+    metadata: ClassVar[dict[str, Any]] = {  # type: ignore[misc]
         "render_modes": list(RENDER_MODES),
         "render_fps": 4,
     }
@@ -278,8 +269,7 @@ class BEOPickEnv(gym.Env):
         self.max_attempts = 1 if max_attempts is None else int(max_attempts)
         self.table = table or TableConfig()
         if min_target_pixels is None:
-            area = width * height / (640 * 480)
-            min_target_pixels = max(1, round(MIN_TARGET_PIXELS_640x480 * area))
+            min_target_pixels = default_min_target_pixels(self.intrinsics)
         if _whole(min_target_pixels, "min_target_pixels") < 1:
             raise EnvConfigError(
                 f"min_target_pixels={min_target_pixels}: give at least 1 (an episode needs a "
@@ -305,15 +295,19 @@ class BEOPickEnv(gym.Env):
         low = np.array([-half[0], -half[1], 0.0, -1, -1, -1, -1, 0.0], np.float32)
         high = np.array([half[0], half[1], 2.0, 1, 1, 1, 1, MAX_OPENING], np.float32)
         self.action_space = spaces.Box(low, high, dtype=np.float32)
-        self._renderer: Renderer | None = None
-        self._bound: Scene | None = None  # the scene the renderer holds
-        self._scene: Scene | None = None
-        self._draw: tuple[list[tuple[str, int]], list[Mat4]] | None = None
-        self._cam = np.eye(4)
+        # the scenes (drawing, settling, rendering) and the current one with its renderer
+        self._tabletop = TabletopScenes(
+            self.objects,
+            self.categories,
+            num_objects=self.num_objects,
+            intrinsics=self.intrinsics,
+            rig=self.rig,
+            table=self.table,
+            min_target_pixels=self.min_target_pixels,
+        )
         self._image: dict[str, np.ndarray] | None = None  # depth + segmentation, either mode
         self._obs: dict[str, Any] | None = None
         self._rest = np.zeros(0)
-        self._target = 0
         self._attempts = 0
         self._terminated = False
 
@@ -347,6 +341,25 @@ class BEOPickEnv(gym.Env):
             }
         )
 
+    # -- the current scene (held by the TabletopScenes) ------------------------------------------
+    @property
+    def _scene(self) -> Scene | None:
+        return self._tabletop.scene
+
+    @property
+    def _cam(self) -> Mat4:
+        """cam_to_world of the current view (OpenCV axes)."""
+        return self._tabletop.cam
+
+    @property
+    def _target(self) -> int:
+        return self._tabletop.target
+
+    @property
+    def _renderer(self) -> Renderer | None:
+        """The scenes' renderer (None until the first render, after ``close`` and in a copy)."""
+        return self._tabletop.renderer
+
     # -- public state --------------------------------------------------------------------------
     @property
     def model(self) -> Any:
@@ -372,28 +385,7 @@ class BEOPickEnv(gym.Env):
         visible pixels in the current observation. Never part of the observation."""
         if self._scene is None or self._image is None:
             raise EnvStateError("call reset() before ground_truth()")
-        world_to_cam = np.linalg.inv(self._cam)
-        seg = self._image["segmentation"]
-        counts = np.bincount(seg.ravel(), minlength=len(self._scene.instances) + 1)
-        out = []
-        for i, inst in enumerate(self._scene.instances):
-            Tw = self._scene.object_pose(i)
-            Tc = world_to_cam @ Tw
-            out.append(
-                ObjectState(
-                    label=i + 1,
-                    category=inst.category,
-                    key=inst.key,
-                    symmetry=inst.symmetry,
-                    size=np.asarray(inst.size, dtype=np.float64),
-                    R_cam=Tc[:3, :3].copy(),
-                    t_cam=Tc[:3, 3].copy(),
-                    R_world=Tw[:3, :3].copy(),
-                    t_world=Tw[:3, 3].copy(),
-                    pixels=int(counts[i + 1]),
-                )
-            )
-        return out
+        return self._tabletop.ground_truth(self._image["segmentation"])
 
     def object_mesh_world(self, label: int) -> trimesh.Trimesh:
         """The ground-truth mesh of object ``label`` posed in the world frame (a copy)."""
@@ -429,105 +421,32 @@ class BEOPickEnv(gym.Env):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         super().reset(seed=seed)
-        rng = self.np_random
-        placed, best = 0, (-1, "")
-        look_at = np.array([0.0, 0.0, self.table.table_height])
-        # Draws happen in the order they always did, so a seed whose first scene and camera
-        # show the target gives the episode it gave before the visibility guarantee.
-        for _ in range(SCENE_DRAWS):
-            k = int(rng.integers(self.num_objects[0], self.num_objects[1] + 1))
-            cats = [self.categories[j] for j in rng.choice(len(self.categories), k, replace=False)]
-            drawn = [(c, int(rng.integers(self.objects.count(c)))) for c in cats]
-            insts = [self.objects.get(c, i) for c, i in drawn]
-            try:
-                poses = place_objects(
-                    insts,
-                    rng,
-                    self.table.table_height,
-                    self.table.area_half,
-                    table_half=self.table.table_half,
-                )
-            except ObjectTooLargeError:
-                raise  # no other draw makes this object fit: say which one it is
-            except PlacementError:
-                continue  # these did not fit: draw another set (deterministic under the seed)
-            placed += 1
-            self._scene = build_tabletop(insts, poses, self.intrinsics, self.table)
-            self._draw = (drawn, [np.array(T, dtype=np.float64) for T in poses])
-            park(self._scene)
-            settle(self._scene)
-            self._cam = self.rig.sample(rng, look_at)
-            self._target = int(rng.integers(k)) + 1
-            for view in range(CAMERA_DRAWS):
-                if view:
-                    self._cam = self.rig.sample(rng, look_at)
-                frame = self._render_frame()
-                pixels = int(np.count_nonzero(frame.segmentation == self._target))
-                if pixels >= self.min_target_pixels:
-                    break
-                if pixels > best[0]:
-                    best = (pixels, f"{cats[self._target - 1]} among {cats}")
-            else:
-                continue  # hidden from every camera pose: draw another scene
-            break
-        else:
-            if not placed:
-                raise PlacementError(
-                    f"{SCENE_DRAWS} draws of objects did not fit on the table without overlap; "
-                    "use fewer objects (num_objects) or a larger TableConfig.area_half"
-                )
-            raise NoVisibleTargetError(
-                f"BEOPick-v0 reset: in {placed} scenes x {CAMERA_DRAWS} camera poses the target "
-                f"never showed {self.min_target_pixels} pixels (best {best[0]}: {best[1]}); "
-                f"lower min_target_pixels, use a larger image_size, or a camera rig that "
-                f"frames the table (camera=...)"
-            )
+        frame, pixels = self._tabletop.draw(self.np_random)
+        assert self._scene is not None  # the draw made it
         self._attempts = 0
         self._terminated = False
         obs = self._observe(frame)
+        k = len(self._scene.instances)
         return _copy(obs), {"num_objects": k, "attempt": 0, "target_pixels": pixels}
 
-    def _bound_renderer(self) -> Renderer:
-        """The renderer, (re)created when there is none (first reset, after ``close`` or in a
-        copy) and bound to the current scene."""
-        assert self._scene is not None
-        if self._renderer is None:
-            self._renderer = Renderer(self.intrinsics)
-            self._bound = None
-        if self._bound is not self._scene:
-            self._renderer.bind(self._scene.model, self._scene.geom_labels)
-            self._bound = self._scene
-        return self._renderer
-
-    def _render_frame(self) -> Any:
-        """Depth and segmentation of the current scene."""
-        assert self._scene is not None
-        return self._bound_renderer().render(self._scene.data, self._cam)
-
-    def _observe(self, frame: Any = None) -> dict[str, Any]:
+    def _observe(self, frame: Frame | None = None) -> dict[str, Any]:
         """The observation of the current scene; ``frame``: its rendering if reset has just
         made it (rendering twice would cost a second pass)."""
         assert self._scene is not None
         if frame is None:
-            frame = self._render_frame()
-        depth = frame.depth
+            frame = self._tabletop.render()
+        # depth, segmentation (seg_dtype), target_class, intrinsics, cam_to_world
+        view = self._tabletop.observation(frame)
+        depth, seg = view.pop("depth"), view.pop("segmentation")
         if self.noise is not None:
             depth = apply_noise(depth, self.np_random, self.noise)
-        # the renderer may already give uint8 labels: then this is no copy
-        seg = frame.segmentation.astype(self.seg_dtype, copy=False)
         self._image = {"depth": depth, "segmentation": seg}
-        target_cat = self._scene.instances[self._target - 1].category
         self._rest = self._scene.object_heights()
-        common = {
-            "target_class": int(self.categories.index(target_cat)),
-            "intrinsics": self.intrinsics.K,
-            "cam_to_world": self._cam.copy(),
-        }
         if self.obs_mode == "image":
-            self._obs = {"depth": depth, "segmentation": seg, **common}
+            self._obs = {"depth": depth, "segmentation": seg, **view}
         else:
             points, labels = self._sample_points(depth, seg)
-            self._obs = {"points": points, "point_labels": labels, **common}
+            self._obs = {"points": points, "point_labels": labels, **view}
         return self._obs
 
     def _sample_points(self, depth: np.ndarray, seg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -599,15 +518,10 @@ class BEOPickEnv(gym.Env):
             raise EnvStateError("call reset() before render()")
         if self.render_mode == "depth_array":
             return np.array(self._image["depth"], dtype=np.float32, copy=True)
-        return self._bound_renderer().render_rgb(self._scene.data, self._cam)
+        return self._tabletop.render_rgb()
 
     def close(self) -> None:
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
-        self._bound = None
-        self._scene = None
-        self._draw = None
+        self._tabletop.close()  # the renderer and the scene; a later reset makes new ones
         self._image = None
         self._obs = None
         super().close()
@@ -619,14 +533,15 @@ class BEOPickEnv(gym.Env):
     # the RNG). The renderer is not copied; the copy makes its own when it next renders.
     def __getstate__(self) -> dict[str, Any]:
         episode = None
-        if self._scene is not None and self._draw is not None and self._obs is not None:
+        drawn = self._tabletop.drawn
+        if self._scene is not None and drawn is not None and self._obs is not None:
             model, data = self._scene.model, self._scene.data
             physics = np.empty(mujoco.mj_stateSize(model, _STATE))
             mujoco.mj_getState(model, data, physics, _STATE)
             assert self._image is not None
             episode = {
-                "drawn": list(self._draw[0]),
-                "poses": list(self._draw[1]),
+                "drawn": list(drawn[0]),
+                "poses": list(drawn[1]),
                 "physics": physics,
                 "cam": self._cam,
                 "target": self._target,
@@ -648,6 +563,7 @@ class BEOPickEnv(gym.Env):
         }
 
     def __setstate__(self, state: dict[str, Any]) -> None:
+        # rebuilt by its own class's constructor (mypy: calling __init__ on an instance is unsound)
         self.__init__(**state["config"])  # type: ignore[misc]
         self.max_attempts = state["max_attempts"]
         self.spec = state["spec"]
@@ -656,14 +572,11 @@ class BEOPickEnv(gym.Env):
         episode = state["episode"]
         if episode is None:
             return
-        insts = [self.objects.get(c, i) for c, i in episode["drawn"]]
-        self._scene = build_tabletop(insts, episode["poses"], self.intrinsics, self.table)
-        self._draw = (episode["drawn"], episode["poses"])
-        model, data = self._scene.model, self._scene.data
-        mujoco.mj_setState(model, data, episode["physics"], _STATE)
-        mujoco.mj_forward(model, data)
-        self._cam = episode["cam"]
-        self._target = episode["target"]
+        scene = self._tabletop.restore(
+            episode["drawn"], episode["poses"], episode["cam"], episode["target"]
+        )
+        mujoco.mj_setState(scene.model, scene.data, episode["physics"], _STATE)
+        mujoco.mj_forward(scene.model, scene.data)
         self._attempts = episode["attempts"]
         self._terminated = episode["terminated"]
         self._rest = episode["rest"]
@@ -812,18 +725,6 @@ def _category_names(categories: Any) -> tuple[str, ...]:
 def _copy(obs: dict[str, Any]) -> dict[str, Any]:
     # users keep what they are given: never hand out the env's own arrays
     return {k: v.copy() if isinstance(v, np.ndarray) else v for k, v in obs.items()}
-
-
-def default_categories() -> tuple[str, ...]:
-    """The env's default ``categories`` (the ``target_class`` list): every registered
-    category meant to be picked."""
-    return tuple(c for c in registered_categories() if _pickable(c))
-
-
-def _pickable(category: str) -> bool:
-    from beo_bench.objects import get_category
-
-    return get_category(category).pickable
 
 
 def parse_action(action: Any) -> tuple[np.ndarray, float]:

@@ -11,10 +11,13 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import gymnasium as gym
 from tqdm import tqdm
+
+if TYPE_CHECKING:
+    from beo_bench.envs.pick import BEOPickEnv
 
 
 @dataclass(frozen=True)
@@ -71,11 +74,12 @@ def ground_truth_pick_check(
     """Run ``episodes`` episodes with seeds ``seed, seed + 1, ...`` (deterministic)."""
     env_kwargs.setdefault("split", "test")
     env = gym.make("BEOPick-v0", **env_kwargs)
-    u = env.unwrapped
+    u = cast("BEOPickEnv", env.unwrapped)
     result = PickCheck()
     try:
         for s in tqdm(range(seed, seed + episodes), desc="pick-check", disable=not progress):
             _, info = env.reset(seed=s)
+            assert u.scene is not None  # reset built it
             target = u.scene.instances[u.target_label - 1]
             grasps = u.ground_truth_grasps()
             if grasps:

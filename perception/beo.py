@@ -54,13 +54,15 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import torch
 
-from beo_bench.backend import as_bool, register_backend
+from beo_bench.backend import IN_TREE, Backend, BackendSpec, Capabilities, ClassHint, register
 from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
 from beo_bench.names import check_name
+from beo_bench.options import option
 from beo_bench.perception.beo_model import BEOModel, load_model
 from beo_bench.perception.beo_observe import (
     Observation,
@@ -71,6 +73,10 @@ from beo_bench.perception.beo_observe import (
 from beo_bench.perception.beo_project import Subspace, project
 from beo_bench.perception.digest import state_digest
 from beo_bench.types import Estimate, View, ViewpointPrior
+
+if TYPE_CHECKING:
+    from beo_bench.bench.runs import RunContext
+    from beo_bench.objects.dataset import Dataset
 
 PRIOR_MARGIN_DEG = 5.0
 """How far beyond the prior's elevation range (and its 3-sigma roll) the coarse 3-DOF
@@ -112,100 +118,111 @@ class Completion:
     """(B, d) back-projections W o' + mu (not clipped)."""
 
 
-@register_backend("beo")
-class BEOBackend:
-    """Bayesian Eigenobjects: joint class, pose and completion by search (module docstring).
+@dataclass(frozen=True)
+class BEOOptions:
+    """The options of ``beo`` (``beo-bench run --opt KEY=VALUE``; the module docstring says
+    what each step does)."""
 
-    Keyword arguments (``beo-bench run --opt KEY=VALUE``):
+    model: str | None = option(
+        None,
+        "a model name (beo-bench train beo --name; a name under the cache's models, never a "
+        "path); null: the default model for the view's categories (the published one, or for "
+        "another resolution or instances the one beo-bench train beo made)",
+    )
+    resolution: int = option(
+        32,
+        "D of the voxel grids (must match the model; with no model, another D than the "
+        "published model's is the one beo-bench train beo --resolution D made)",
+    )
+    lasso: float = option(0.02, "weight of the L1 term of the partial projection (eq. 3.19)")
+    coarse_factor: int = option(2, "the coarse step's grid is D / coarse_factor per edge")
+    yaw_step_deg: float = option(10.0, "1-DOF coarse resolution (degrees)")
+    fine_deg: float = option(1.0, "fine resolution (degrees)")
+    so3_samples: int = option(512, "3-DOF coarse rotations")
+    refine_rounds: int = option(4, "3-DOF pattern-search rounds of the fine step")
+    top_k: int = option(3, "coarse hypotheses refined")
+    size_rounds: int = option(2, "translation and size refinements per survivor")
+    coarse_box_rounds: int = option(1, "cube refits of each coarse candidate")
+    chunk: int = option(32, "hypotheses per batched computation (bounds memory)")
+    fine: Literal["density", "edt"] = option(
+        "density",
+        "the fine step's score: the joint pose-class density of eq. 3.22, or edt (the "
+        "coarse step's EDT error at full resolution)",
+    )
+    coarse_components: int = option(48, "leading subspace directions used by the coarse step")
+    instances: int | None = option(
+        None,
+        "the default model trained on this many instances per class by beo-bench train beo "
+        "--per-category N (a run never trains it); null: every training instance",
+    )
+    pose_prior: bool = option(
+        True,
+        "use the suite's viewpoint distribution (View.viewpoint_prior) as P(R) in the 3-DOF "
+        "coarse and fine steps; false: uniform over SO(3)",
+    )
+    twins: bool = option(
+        True,
+        "when the class is given, also score each coarse survivor's twin turned 180 "
+        "degrees about its up and keep the better of the two",
+    )
 
-    - ``model`` (None): a model name (``beo-bench train beo --name``; a name under the
-      cache's models, never a path); None uses the default model for the view's
-      categories: the published one, or for other ``resolution`` or ``instances`` the one
-      ``beo-bench train beo`` made;
-    - ``resolution`` (32): D of the voxel grids (must match the model; with no ``model``,
-      another D than the published model's is the one ``beo-bench train beo --resolution D``
-      made, never trained in a run);
-    - ``pose_prior`` (True): use the suite's viewpoint distribution
-      (``View.viewpoint_prior``) as P(R) in the 3-DOF coarse and fine steps (module
-      docstring, 6.); False: uniform over SO(3);
-    - ``twins`` (True): when the class is given, the fine step also scores each coarse
-      survivor's twin turned 180 degrees about its up and keeps the better of the two
-      (module docstring, 4.; :meth:`_better_twins`);
-    - ``lasso`` (0.02): weight of the L1 term of the partial projection (eq. 3.19);
-    - ``coarse_factor`` (2): the coarse step's grid is D / coarse_factor per edge;
-    - ``yaw_step_deg`` (10): 1-DOF coarse resolution; ``fine_deg`` (1): fine resolution;
-    - ``so3_samples`` (512): 3-DOF coarse rotations; ``refine_rounds`` (4);
-    - ``top_k`` (3): coarse hypotheses refined; ``size_rounds`` (2): translation and size
-      refinements per survivor;
-    - ``coarse_components`` (48): leading subspace directions used by the coarse step;
-    - ``fine`` ("density"): the fine step's score: the joint pose-class density of eq. 3.22,
-      or "edt" (the coarse step's EDT error at full resolution);
-    - ``instances`` (None): the default model trained on this many instances per class by
-      ``beo-bench train beo --per-category N``; a run never trains it
-      (:class:`~beo_bench.errors.TrainingInRunError` names that command);
-    - ``chunk`` (32): hypotheses per batched computation (bounds memory).
-    """
-
-    name = "beo"
-    wants_class_hint = True
-    """It uses ``View.class_hint`` (given in the ``class-given`` track) to fix the class."""
-
-    def __init__(
-        self,
-        model: str | None = None,
-        resolution: int = 32,
-        lasso: float = 0.02,
-        coarse_factor: int = 2,
-        yaw_step_deg: float = 10.0,
-        fine_deg: float = 1.0,
-        so3_samples: int = 512,
-        refine_rounds: int = 4,
-        top_k: int = 3,
-        size_rounds: int = 2,
-        coarse_box_rounds: int = 1,
-        chunk: int = 32,
-        fine: str = "density",
-        coarse_components: int = 48,
-        instances: int | None = None,
-        pose_prior: bool = True,
-        twins: bool = True,
-    ) -> None:
-        self.model_name = (
-            None if model in (None, "", "None", "default") else check_name(str(model), "model")
-        )
-        self.resolution = int(resolution)
-        self.pose_prior = as_bool(pose_prior)
-        self.twins = as_bool(twins)
-        self.lasso = float(lasso)
-        self.coarse_factor = int(coarse_factor)
-        self.yaw_step_deg = float(yaw_step_deg)
-        self.fine_deg = float(fine_deg)
-        self.so3_samples = int(so3_samples)
-        self.refine_rounds = int(refine_rounds)
-        self.top_k = int(top_k)
-        self.size_rounds = int(size_rounds)
-        self.coarse_box_rounds = int(coarse_box_rounds)
-        self.fine = str(fine)
-        self.coarse_components = int(coarse_components)
-        self.instances = None if instances in (None, "None") else int(instances)
-        self.chunk = int(chunk)
+    def __post_init__(self) -> None:
+        if self.model is not None:
+            check_name(self.model, "model")
         if self.lasso < 0:
             raise ValueError(f"lasso={self.lasso} must be >= 0")
         if self.resolution % self.coarse_factor:
-            raise ValueError(f"coarse_factor={coarse_factor} must divide resolution={resolution}")
+            raise ValueError(
+                f"coarse_factor={self.coarse_factor} must divide resolution={self.resolution}"
+            )
         if min(self.top_k, self.so3_samples, self.chunk) < 1 or self.yaw_step_deg <= 0:
             raise ValueError("top_k, so3_samples and chunk must be >= 1, yaw_step_deg > 0")
         if not 0 < self.fine_deg <= self.yaw_step_deg:
-            raise ValueError(f"fine_deg={fine_deg} must be in (0, yaw_step_deg]")
+            raise ValueError(f"fine_deg={self.fine_deg} must be in (0, yaw_step_deg]")
+
+
+class BEOBackend(Backend):
+    """Bayesian Eigenobjects: joint class, pose and completion by search (module docstring;
+    options: :class:`BEOOptions`). It uses ``View.class_hint`` (given in the
+    ``class-given`` track) to fix the class."""
+
+    name = "beo"
+
+    def __init__(self, options: BEOOptions | None = None, **kwargs: Any) -> None:
+        self.options = options if options is not None else BEOOptions(**kwargs)
+        o = self.options
+        self.model_name = o.model
+        self.resolution = o.resolution
+        self.pose_prior = o.pose_prior
+        self.twins = o.twins
+        self.lasso = o.lasso
+        self.coarse_factor = o.coarse_factor
+        self.yaw_step_deg = o.yaw_step_deg
+        self.fine_deg = o.fine_deg
+        self.so3_samples = o.so3_samples
+        self.refine_rounds = o.refine_rounds
+        self.top_k = o.top_k
+        self.size_rounds = o.size_rounds
+        self.coarse_box_rounds = o.coarse_box_rounds
+        self.fine = o.fine
+        self.coarse_components = o.coarse_components
+        self.instances = o.instances
+        self.chunk = o.chunk
+        self._dataset: Dataset | None = None
         self._models: dict[tuple[str, ...], tuple[BEOModel, Subspace, Subspace]] = {}
         self._digest: str | None = None
         self._digests: dict[int, str] = {}
 
     # -- model ----------------------------------------------------------------------------
-    def prepare(self, categories: tuple[str, ...]) -> None:
-        """Load (or train, on first use, with progress) the model for ``categories``."""
-        cats = tuple(categories)
-        m = self._model(cats, progress=True)[0]
+    def prepare(self, ctx: RunContext) -> None:
+        """Load the model for the run's classes and dataset (the published default, or one
+        ``beo-bench train beo`` made; a default model of the library's for other settings
+        trains on first use, with progress bars where ``ctx.progress``)."""
+        if ctx.dataset != self._dataset:  # another dataset's models are not these
+            self._dataset = ctx.dataset
+            self._models.clear()
+        cats = tuple(ctx.categories)
+        m = self._model(cats, progress=ctx.progress)[0]
         if id(m) not in self._digests:  # the weights as loaded (published or cached)
             self._digests[id(m)] = state_digest(m.arrays())
         self._digest = self._digests[id(m)]
@@ -228,6 +245,7 @@ class BEOBackend:
                 # the published default, or one trained with `beo-bench train`: not here
                 train_default=not self._training_options(),
                 per_category=self.instances,
+                dataset=self._dataset,
             )
             self._models[cats] = (
                 m,
@@ -246,19 +264,19 @@ class BEOBackend:
         """With :meth:`_training_options` and no default model trained for them (on the
         library: a dataset's missing model is :func:`load_model`'s error), the usage error
         that names the ``beo-bench train beo`` command making it: nothing trains in a run."""
-        from beo_bench.envs.pick import default_categories
         from beo_bench.errors import TrainingInRunError
-        from beo_bench.objects.dataset import active_dataset, train_command
+        from beo_bench.objects import pickable_categories
+        from beo_bench.objects.dataset import train_command
         from beo_bench.perception.beo_model import model_dir
 
-        given = self._training_options()
-        if not given or self.model_name is not None or active_dataset() is not None:
+        given: dict[str, object] = dict(self._training_options())
+        if not given or self.model_name is not None or self._dataset is not None:
             return
         if (model_dir(None, cats, self.resolution, self.instances) / "config.json").exists():
             return
         how = train_command(
             "beo",
-            () if cats == default_categories() else cats,
+            () if cats == pickable_categories() else cats,
             resolution=given.get("resolution"),
             per_category=self.instances,
         )
@@ -652,3 +670,15 @@ def _recentre(grid: torch.Tensor, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         grid[None, None].float(), g, mode="bilinear", padding_mode="zeros", align_corners=False
     )
     return out[0, 0].numpy()
+
+
+register(
+    BackendSpec(
+        name="beo",
+        build=BEOBackend,
+        options=BEOOptions,
+        capabilities=Capabilities(class_hint=ClassHint.OPTIONAL, model="beo"),
+        description=IN_TREE["beo"].description,
+        module=__name__,
+    )
+)

@@ -24,6 +24,7 @@ addressed by name under :func:`models_root`, never by a path.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import time
@@ -37,9 +38,9 @@ from threadpoolctl import threadpool_limits
 from beo_bench.atomic import atomic_dir
 from beo_bench.errors import CheckpointError
 from beo_bench.names import inside
-from beo_bench.objects.dataset import Dataset, active_dataset, train_command
+from beo_bench.objects.dataset import Dataset, train_command
 from beo_bench.perception import modeldir
-from beo_bench.perception.digest import state_digest
+from beo_bench.perception.digest import BEO_ARRAYS, beo_array_shapes, read_beo_arrays, state_digest
 from beo_bench.perception.means import training_voxels
 from beo_bench.perception.shrinkage import shrinkage_covariance
 from beo_bench.perception.vbpca import VBPCAConfig, fit_vbpca
@@ -48,8 +49,8 @@ FORMAT_VERSION = 1
 DEFAULT_NAME = "default"
 FILES = frozenset({"config.json", "arrays.npz"})
 """Exactly what a BEO model directory holds."""
-ARRAYS = ("basis", "mean", "class_mean", "class_cov", "class_size", "components", "shrinkage")
-"""The arrays of ``arrays.npz``."""
+ARRAYS = BEO_ARRAYS
+"""The arrays of ``arrays.npz`` (defined in :mod:`.digest`, which reads them too)."""
 
 
 @dataclass(frozen=True)
@@ -149,7 +150,9 @@ class BEOModel:
             meta = self.stored_meta()
             (tmp / "config.json").write_text(json.dumps(meta, indent=2) + "\n")
             with open(tmp / "arrays.npz", "wb") as f:
-                np.savez(f, **self.arrays())
+                # numpy's stubs read the names as savez's allow_pickle (numpy >= 2.1)
+                savez: Any = np.savez
+                savez(f, **self.arrays())
         return path
 
     @classmethod
@@ -163,7 +166,7 @@ class BEOModel:
         )
         try:
             meta = json.loads((path / "config.json").read_text())
-            arrays = read_arrays(path, meta)
+            arrays = read_beo_arrays(path, meta)  # headers checked first
         except FileNotFoundError as e:
             raise CheckpointError(
                 f"no BEO model at {path}: train one with `beo-bench train beo` "
@@ -233,45 +236,11 @@ class BEOModel:
             )
 
 
-def _shapes(meta: Any) -> dict[str, tuple[int, ...]] | None:
-    """The shape of each array that ``config.json`` (``meta``) implies, None when it does not
-    say (no categories, resolution or k)."""
-    try:
-        C, D, k = len(meta["config"]["categories"]), int(meta["config"]["resolution"]), meta["k"]
-        k = int(k)
-    except (KeyError, TypeError, ValueError):
-        return None
-    return {
-        "basis": (D**3, k),
-        "mean": (D**3,),
-        "class_mean": (C, k),
-        "class_cov": (C, k, k),
-        "class_size": (C, 3),
-        "components": (C,),
-        "shrinkage": (C, 2),
-    }
-
-
-def read_arrays(path: Path, meta: Any) -> dict[str, np.ndarray]:
-    """The arrays of the model directory ``path``'s ``arrays.npz``, each member's header
-    checked against the names, real dtypes and shapes its ``config.json`` (``meta``)
-    declares before it is unpacked (:func:`beo_bench.safe_npz.read_npz`): a tampered file
-    cannot make the reader unpack gigabytes. :class:`~beo_bench.safe_npz.UnsafeArrayError`
-    otherwise."""
-    from beo_bench.safe_npz import UnsafeArrayError, read_npz
-
-    want = _shapes(meta)
-    if want is None:
-        raise UnsafeArrayError("config.json lacks categories, resolution or k")
-    budget = 8 * sum(int(np.prod(s)) for s in want.values())  # float64 at most
-    return read_npz(path / "arrays.npz", budget=budget, kinds="fiu", shapes=want, names=ARRAYS)
-
-
 def _array_problem(arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> str | None:
     """What is wrong with a model's arrays (names, shapes, values, digest), or None."""
     if set(arrays) != set(ARRAYS):
         return f"arrays {sorted(arrays)}, expected {sorted(ARRAYS)}"
-    want = _shapes(meta)
+    want = beo_array_shapes(meta)
     if want is None:
         return "config.json lacks categories, resolution or k"
     for name, shape in want.items():
@@ -399,6 +368,45 @@ def train_beo(
     return model
 
 
+def published_model() -> BEOModel | None:
+    """The published default BEO model (:mod:`.published`: the subspace every published
+    HBEO model regresses), read and checked once per version of the published files; None
+    when none is published. :class:`CheckpointError` for an altered or unreadable file."""
+    from beo_bench.perception import published
+
+    files = published.manifest()
+    if "beo.npz" not in files:
+        return None
+    return _read_published(published.PUBLISHED_DIR, tuple(sorted(files.items())))
+
+
+@functools.cache
+def _read_published(root: Path, files: tuple[tuple[str, str], ...]) -> BEOModel:
+    """The published BEO model under ``root``; ``files`` (the manifest: name, SHA-256) is
+    part of the cache key, so publishing anew (:func:`.published.write`) reads it again."""
+    from beo_bench.perception import published
+
+    meta, arrays = published.read("beo", root)
+    return BEOModel.from_stored(meta, arrays, f"{root}/beo", published._restore("beo"))
+
+
+def published_for(
+    categories: tuple[str, ...], resolution: int, per_category: int | None
+) -> BEOModel | None:
+    """The published BEO model when it is the default model for these settings (the
+    default training configuration on these categories, resolution and instances), else
+    None (the caller trains its own)."""
+    from beo_bench.objects import LIBRARY_VERSION
+
+    want = BEOConfig(categories=tuple(categories), resolution=resolution, per_category=per_category)
+    model = published_model()
+    if model is None or model.config != want:
+        return None
+    if model.info.get("library_version") != LIBRARY_VERSION:
+        return None  # published for another object library: the default is retrained
+    return model
+
+
 def load_model(
     name: str | None,
     categories: tuple[str, ...],
@@ -406,23 +414,21 @@ def load_model(
     progress: bool = False,
     train_default: bool = True,
     per_category: int | None = None,
+    dataset: Dataset | None = None,
 ) -> BEOModel:
     """The model called ``name`` (a plain name under :func:`models_root`; a path is refused
     with :class:`~beo_bench.errors.InvalidNameError`), or with ``name=None`` the default
     model for ``categories`` and ``resolution``: the published one (:mod:`.published`) where
     it was trained for these settings, otherwise trained and stored on first use (on the
     first ``per_category`` training instances of each class, or all of them). On a user's
-    dataset (:func:`~beo_bench.objects.dataset.active_dataset`) the default model is the
-    one ``beo-bench train beo --objects ROOT`` stored, never trained here (a
-    :class:`CheckpointError` names that command). Raises :class:`CheckpointError` for a
-    missing, damaged or mismatched model."""
+    ``dataset`` (None: the procedural library) the default model is the one ``beo-bench
+    train beo --objects ROOT`` stored, never trained here (a :class:`CheckpointError` names
+    that command). Raises :class:`CheckpointError` for a missing, damaged or mismatched
+    model."""
     from beo_bench.objects import LIBRARY_VERSION
 
-    dataset = active_dataset()
     if name is None and dataset is None:
-        from beo_bench.perception import published
-
-        model = published.beo_for(tuple(categories), int(resolution), per_category)
+        model = published_for(tuple(categories), int(resolution), per_category)
         if model is not None:  # the published default: nothing to train
             return model
     path = model_dir(name, categories, resolution, per_category, dataset)

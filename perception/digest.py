@@ -50,10 +50,8 @@ def model_digest(path: Path) -> str:
         raise CheckpointError(f"{path} holds no model (no arrays.npz or weights.pt)")
     try:
         if npz.exists():
-            from beo_bench.perception.beo_model import read_arrays
-
             # headers checked before unpacking: the digest reads the file before the model
-            state: Any = read_arrays(path, json.loads((path / "config.json").read_text()))
+            state: Any = read_beo_arrays(path, json.loads((path / "config.json").read_text()))
         else:
             import torch
 
@@ -63,3 +61,43 @@ def model_digest(path: Path) -> str:
             f"{path}: unreadable model ({type(e).__name__}: {e}); delete it and retrain"
         ) from e
     return state_digest(state)
+
+
+# -- a BEO model's arrays (here, below beo_model, which imports them: the digest of a model
+# directory reads them without importing the model module) ---------------------------------
+BEO_ARRAYS = ("basis", "mean", "class_mean", "class_cov", "class_size", "components", "shrinkage")
+"""The arrays of a BEO model's ``arrays.npz``."""
+
+
+def beo_array_shapes(meta: Any) -> dict[str, tuple[int, ...]] | None:
+    """The shape of each BEO array that ``config.json`` (``meta``) implies, None when it does
+    not say (no categories, resolution or k)."""
+    try:
+        C, D, k = len(meta["config"]["categories"]), int(meta["config"]["resolution"]), meta["k"]
+        k = int(k)
+    except (KeyError, TypeError, ValueError):
+        return None
+    return {
+        "basis": (D**3, k),
+        "mean": (D**3,),
+        "class_mean": (C, k),
+        "class_cov": (C, k, k),
+        "class_size": (C, 3),
+        "components": (C,),
+        "shrinkage": (C, 2),
+    }
+
+
+def read_beo_arrays(path: Path, meta: Any) -> dict[str, np.ndarray]:
+    """The arrays of the BEO model directory ``path``'s ``arrays.npz``, each member's header
+    checked against the names, real dtypes and shapes its ``config.json`` (``meta``)
+    declares before it is unpacked (:func:`beo_bench.safe_npz.read_npz`): a tampered file
+    cannot make the reader unpack gigabytes. :class:`~beo_bench.safe_npz.UnsafeArrayError`
+    otherwise."""
+    from beo_bench.safe_npz import UnsafeArrayError, read_npz
+
+    want = beo_array_shapes(meta)
+    if want is None:
+        raise UnsafeArrayError("config.json lacks categories, resolution or k")
+    budget = 8 * sum(int(np.prod(s)) for s in want.values())  # float64 at most
+    return read_npz(path / "arrays.npz", budget=budget, kinds="fiu", shapes=want, names=BEO_ARRAYS)

@@ -22,12 +22,11 @@ normalised scores (density, or density x prior).
 
 from __future__ import annotations
 
+import functools
 import hashlib
-import inspect
 import zlib
-from collections.abc import Callable
 from dataclasses import dataclass, fields
-from typing import Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import cv2
 import numpy as np
@@ -36,10 +35,11 @@ import torch.nn.functional as F
 from scipy.spatial.transform import Rotation
 from scipy.special import logsumexp
 
-from beo_bench.backend import as_bool, register_backend
+from beo_bench.backend import IN_TREE, Backend, BackendSpec, Capabilities, ClassHint, register
 from beo_bench.errors import UsageError
 from beo_bench.geometry import orthonormalise
 from beo_bench.names import check_name
+from beo_bench.options import option
 from beo_bench.perception.beo_observe import grid_centres
 from beo_bench.perception.digest import state_digest
 from beo_bench.perception.hbeo_crop import Crop, make_crop
@@ -47,84 +47,125 @@ from beo_bench.perception.hbeo_net import Mixture, Output, point_rotation
 from beo_bench.perception.hbeo_train import HBEOModel, load_hbeo
 from beo_bench.types import Estimate, View
 
+if TYPE_CHECKING:
+    from beo_bench.bench.runs import RunContext
+    from beo_bench.objects.dataset import Dataset
+
 Mode = Literal["hbeo", "likelihood", "posterior"]
+NAMES: dict[Mode, str] = {
+    "hbeo": "hbeo",
+    "likelihood": "hbeo-mdn-likelihood",
+    "posterior": "hbeo-mdn-posterior",
+}
+"""The registered backend name of each mode."""
+DEVICES = ("cpu", "cuda", "auto")
 PRIOR_EPS = 1e-6
 """eps of the silhouette prior 1 / (e^4 + eps) (eq. 5.8)."""
 
 
-class HBEOBackend:
-    """HBEO / HBEO-MDN (module docstring). Keyword arguments (``--opt KEY=VALUE``):
+@dataclass(frozen=True)
+class HBEOOptions:
+    """The options of ``hbeo``, ``hbeo-mdn-likelihood`` and ``hbeo-mdn-posterior``
+    (``beo-bench run --opt KEY=VALUE``)."""
 
-    - ``model`` (None): a model name (``beo-bench train hbeo|hbeo-mdn --name``; a name
-      under the cache's models, never a path); None uses the default small model: the
-      published reference one, or for the options below the one ``beo-bench train`` made;
-    - ``samples`` (25, MDN modes): N, the rotation samples drawn per view;
-    - ``seed`` (0): with the crop's bytes, seeds the sampling (same view, same estimate);
-    - ``size`` (``small``): with no ``model``, the default network's size: ``small`` or
-      ``dissertation`` (Figure 4.2's widths: the ``reference`` recipe's, trained once on a GPU
-      into the cache, never here; a missing one is an error naming the command);
-    - ``per_category`` (False): chapter 5's protocol (Tables 5.1/5.2): one network per
-      category, chosen by the view's class hint, so the backend runs in the class-given
-      track only. Each class's network is the ``per-category`` recipe's (``beo-bench train
-      hbeo-mdn --categories car --recipe per-category``), regressing that class's own BEO
-      subspace; it is never trained here (a missing one is an error naming the command);
-    - ``instances``, ``images``, ``epochs`` (None): the default model trained on this many
-      instances per class, crops and epochs (quick checks; None: the default's) by
-      ``beo-bench train hbeo|hbeo-mdn --per-category N --images N --epochs N``; a run never
-      trains it (:class:`~beo_bench.errors.TrainingInRunError` names that command);
-    - ``device`` (``cpu``): where the network runs: ``cpu``, ``cuda`` or ``auto`` (CUDA when
-      available). The sampling and scoring stay on the CPU in float64;
-    - ``threads`` (1): torch intra-op threads for this process. One image at a time is
-      fastest on one thread: on 2 cores, two torch threads spinning beside numpy's BLAS
-      threads made a prediction 2.4x slower (8.0 vs 3.3 ms, ``benchmarks/bench_hbeo.py``).
-      None leaves torch's setting alone.
-    """
+    model: str | None = option(
+        None,
+        "a model name (beo-bench train hbeo|hbeo-mdn --name; a name under the cache's "
+        "models, never a path); null: the default small model (the published reference "
+        "one, or for the options below the one beo-bench train made)",
+    )
+    samples: int = option(25, "MDN modes: N, the rotation samples drawn per view")
+    seed: int = option(0, "with the crop's bytes, seeds the sampling (same view, same estimate)")
+    threads: int | None = option(
+        1,
+        "torch intra-op threads for this process (one image at a time is fastest on one "
+        "thread); null leaves torch's setting alone",
+    )
+    instances: int | None = option(
+        None,
+        "the default model trained on this many instances per class by beo-bench train "
+        "--per-category N (a run never trains it); null: the default's",
+    )
+    images: int | None = option(
+        None, "the default model trained on this many crops (beo-bench train --images N)"
+    )
+    epochs: int | None = option(
+        None, "the default model trained for this many epochs (beo-bench train --epochs N)"
+    )
+    device: str = option(
+        "cpu",
+        "where the network runs: cpu, cuda or auto (CUDA when available); the sampling and "
+        "scoring stay on the CPU in float64",
+    )
+    size: Literal["small", "dissertation"] = option(
+        "small",
+        "with no model, the default network's size: small, or dissertation (Figure 4.2's "
+        "widths, trained once on a GPU into the cache, never here)",
+    )
+    per_category: bool = option(
+        False,
+        "chapter 5's protocol (Tables 5.1/5.2): one network per category, chosen by the "
+        "view's class hint (class-given track only; each is the per-category recipe's, "
+        "never trained here)",
+    )
 
-    def __init__(
-        self,
-        mode: Mode,
-        model: str | None = None,
-        samples: int = 25,
-        seed: int = 0,
-        threads: int | None = 1,
-        instances: int | None = None,
-        images: int | None = None,
-        epochs: int | None = None,
-        device: str = "cpu",
-        size: str = "small",
-        per_category: bool = False,
-    ) -> None:
-        from beo_bench.perception.hbeo_train import resolve_device
-
-        self.mode = mode
-        self.device = resolve_device(str(device))
-        self.name = "hbeo" if mode == "hbeo" else f"hbeo-mdn-{mode}"
-        self.kind = "hbeo" if mode == "hbeo" else "hbeo-mdn"
-        self.model_name = (
-            None if model in (None, "", "None", "default") else check_name(str(model), "model")
-        )
-        if size not in ("small", "dissertation"):
-            raise ValueError(f"size={size!r}: use 'small' or 'dissertation'")
-        self.size = str(size)
-        self.per_category = as_bool(per_category)
-        if self.per_category and self.model_name is not None:
+    def __post_init__(self) -> None:
+        if self.model is not None:
+            check_name(self.model, "model")
+        if self.size not in ("small", "dissertation"):
+            raise ValueError(f"size={self.size!r}: use 'small' or 'dissertation'")
+        if self.per_category and self.model is not None:
             raise ValueError(
                 "per_category=true picks each class's per-category network itself: leave "
                 "model unset"
             )
-        # the class hint chooses the network: no hint, no estimate (class-given track only)
-        self.wants_class_hint = self.needs_class_hint = self.per_category
-        self.samples = int(samples)
-        self.seed = int(seed)
         if self.samples < 1:
-            raise ValueError(f"samples={samples}: draw at least one rotation sample")
-        self.small = {
-            k: None if v in (None, "None") else int(v)  # type: ignore[arg-type]
-            for k, v in (("instances", instances), ("images", images), ("epochs", epochs))
+            raise ValueError(f"samples={self.samples}: draw at least one rotation sample")
+        if self.device not in DEVICES:
+            raise ValueError(f"device {self.device!r}: use auto, cpu or cuda")
+
+
+def hbeo_capabilities(mode: Mode, options: HBEOOptions) -> Capabilities:
+    """What the runner must know of an HBEO backend of ``mode`` with ``options``: with
+    ``per_category`` the class hint chooses the network (no hint, no estimate: the
+    class-given track only), otherwise it never reads the hint."""
+    return Capabilities(
+        class_hint=ClassHint.REQUIRED if options.per_category else ClassHint.NONE,
+        model="hbeo" if mode == "hbeo" else "hbeo-mdn",
+    )
+
+
+class HBEOBackend(Backend):
+    """HBEO / HBEO-MDN (module docstring; options: :class:`HBEOOptions`). ``threads``: one
+    image at a time is fastest on one thread: on 2 cores, two torch threads spinning beside
+    numpy's BLAS threads made a prediction 2.4x slower (8.0 vs 3.3 ms,
+    ``benchmarks/bench_hbeo.py``)."""
+
+    def __init__(
+        self, mode: Mode = "hbeo", options: HBEOOptions | None = None, **kwargs: Any
+    ) -> None:
+        from beo_bench.perception.hbeo_train import resolve_device
+
+        self.options = options if options is not None else HBEOOptions(**kwargs)
+        o = self.options
+        self.mode = mode
+        self.device = resolve_device(o.device)
+        self.name = NAMES[mode]
+        self.kind: Literal["hbeo", "hbeo-mdn"] = "hbeo" if mode == "hbeo" else "hbeo-mdn"
+        self.model_name = o.model
+        self.size = o.size
+        self.per_category = o.per_category
+        self.samples = o.samples
+        self.seed = o.seed
+        self.small: dict[str, int | None] = {
+            "instances": o.instances,
+            "images": o.images,
+            "epochs": o.epochs,
         }
-        self.threads = None if threads in (None, "None") else int(threads)  # type: ignore[arg-type]
+        self.threads = o.threads
         if self.threads is not None:
             torch.set_num_threads(max(1, self.threads))
+        self._dataset: Dataset | None = None
         # class list -> (model, decoder A, b, the model's index of each class in the list)
         self._models: dict[
             tuple[str, ...], tuple[HBEOModel, np.ndarray, np.ndarray, np.ndarray]
@@ -132,13 +173,18 @@ class HBEOBackend:
         self._digest: str | None = None
         self._digests: dict[int, str] = {}
 
-    def prepare(self, categories: tuple[str, ...]) -> None:
-        """Load (or train on first use, with progress bars) the model for ``categories``;
-        with ``per_category``, each class's network (never trained here)."""
-        groups = [(c,) for c in categories] if self.per_category else [tuple(categories)]
+    def prepare(self, ctx: RunContext) -> None:
+        """Load the model for the run's classes and dataset (the published default, or one
+        ``beo-bench train`` made; progress bars where ``ctx.progress``); with
+        ``per_category``, each class's network (never trained here)."""
+        if ctx.dataset != self._dataset:  # another dataset's models are not these
+            self._dataset = ctx.dataset
+            self._models.clear()
+        categories = tuple(ctx.categories)
+        groups = [(c,) for c in categories] if self.per_category else [categories]
         digests = []
         for cats in groups:
-            m = self._model(cats, progress=True)[0]
+            m = self._model(cats, progress=ctx.progress)[0]
             if id(m) not in self._digests:  # the weights as loaded (published or cached)
                 self._digests[id(m)] = state_digest(m.state())
             digests.append(self._digests[id(m)])
@@ -161,13 +207,14 @@ class HBEOBackend:
             self._refuse_training(cats)
             m = load_hbeo(
                 self.model_name,
-                self.kind,  # type: ignore[arg-type]
+                self.kind,
                 cats,
                 progress,
                 # the quick options select a trained model: never one trained here
                 train_default=all(v is None for v in self.small.values()),
                 size=self.size,
                 recipe="per-category" if self.per_category else "default",
+                dataset=self._dataset,
                 **self.small,
             )
             m.net.to(self.device)
@@ -187,9 +234,9 @@ class HBEOBackend:
         """With ``instances``, ``images`` or ``epochs`` and no model trained for them (on the
         library: a dataset's missing model is :func:`load_hbeo`'s error), the usage error
         that names the ``beo-bench train`` command making it: nothing trains in a run."""
-        from beo_bench.envs.pick import default_categories
         from beo_bench.errors import TrainingInRunError
-        from beo_bench.objects.dataset import active_dataset, train_command
+        from beo_bench.objects import pickable_categories
+        from beo_bench.objects.dataset import train_command
         from beo_bench.perception.hbeo_train import (
             default_config,
             default_name,
@@ -197,18 +244,20 @@ class HBEOBackend:
             with_overrides,
         )
 
-        given = {k: v for k, v in self.small.items() if v is not None}
+        given: dict[str, object] = {k: v for k, v in self.small.items() if v is not None}
         if not given or self.model_name is not None or self.per_category:
             return  # a named model, or per-category networks: load_hbeo never trains them
-        if active_dataset() is not None:
+        if self._dataset is not None:
             return
-        cfg = with_overrides(default_config(self.kind, cats, **self.small), size=self.size)  # type: ignore[arg-type]
+        small = self.small
+        base = default_config(self.kind, cats, small["instances"], small["images"], small["epochs"])
+        cfg = with_overrides(base, size=self.size)
         if (model_path(default_name(cfg)) / "weights.pt").exists():
             return
         big = self.size != "small"
         how = train_command(
             self.kind,
-            () if cats == default_categories() else cats,
+            () if cats == pickable_categories() else cats,
             per_category=given.get("instances"),
             images=given.get("images"),
             epochs=given.get("epochs"),
@@ -405,7 +454,7 @@ def sdf_errors(observed: np.ndarray, masks: np.ndarray) -> np.ndarray:
     distance to nothing, so it gets the largest error of any present one times two."""
     ref = signed_distance(observed).astype(np.float64)
     e = np.empty(len(masks))
-    empty = ~masks.reshape(len(masks), -1).any(1)
+    empty = np.asarray(~masks.reshape(len(masks), -1).any(1))
     for i, m in enumerate(masks):
         # numpy's pairwise sum, not BLAS: a threaded dot product is not bit-reproducible
         diff = ref - signed_distance(m)
@@ -415,19 +464,15 @@ def sdf_errors(observed: np.ndarray, masks: np.ndarray) -> np.ndarray:
     return e
 
 
-def _factory(mode: Mode) -> Callable[..., HBEOBackend]:
-    def make(**kw: object) -> HBEOBackend:
-        return HBEOBackend(mode, **kw)  # type: ignore[arg-type]
-
-    # the options a user may pass are HBEOBackend's without ``mode``: published as the
-    # factory's signature, `beo-bench run --opt bogus=1` lists them and type-checks values
-    params = list(inspect.signature(HBEOBackend.__init__).parameters.values())
-    make.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
-        [p for p in params if p.name not in ("self", "mode")]
+for _mode, _name in NAMES.items():
+    register(
+        BackendSpec(
+            name=_name,
+            build=functools.partial(HBEOBackend, _mode),
+            options=HBEOOptions,
+            capabilities=functools.partial(hbeo_capabilities, _mode),
+            description=IN_TREE[_name].description,
+            module=__name__,
+        )
     )
-    return make
-
-
-register_backend("hbeo")(_factory("hbeo"))
-register_backend("hbeo-mdn-likelihood")(_factory("likelihood"))
-register_backend("hbeo-mdn-posterior")(_factory("posterior"))
+del _mode, _name

@@ -7,8 +7,8 @@ Two kinds of shard (docs/design.md "Perception backends"; dissertation section 4
   degrees), 128x128 like the pose suites; ``views_per_instance`` views per instance so a
   compiled model serves several renders;
 - *tabletop*: BEOPick-v0 scenes of the split (1-4 objects, clutter, occlusion by each
-  other and the table edge), 640x480; every object with at least ``min_pixels`` visible
-  pixels is one crop.
+  other and the table edge; ``beo_bench.scenes.tabletop``, which the env runs too), 640x480;
+  every object with at least ``min_pixels`` visible pixels is one crop.
 
 A share ``noise_share`` of the images get the depth-sensor noise model. Shard ``i`` is
 generated from ``SeedSequence([seed, i])`` alone, by whichever worker renders it, so a
@@ -212,7 +212,9 @@ class Shard:
     def save(self, path: Path) -> None:
         """Write the shard with its checksum, atomically (temporary file, then rename)."""
         with atomic_write(path) as f:
-            np.savez_compressed(f, **cache.with_checksum(self.arrays()))
+            # allow_pickle is numpy's default, given by name so that the type checker does not
+            # take an array of the ** mapping for it
+            np.savez_compressed(f, allow_pickle=True, **cache.with_checksum(self.arrays()))
 
     @classmethod
     def load(cls, path: Path, n: int | None = None) -> Shard:
@@ -351,32 +353,31 @@ def _isolated_shard(config: DatasetConfig, split: str, rng: np.random.Generator,
 
 
 def _tabletop_shard(config: DatasetConfig, split: str, rng: np.random.Generator, n: int) -> Shard:
-    from beo_bench.envs.pick import BEOPickEnv
     from beo_bench.scenes.noise import DepthNoise, apply_noise
+    from beo_bench.scenes.tabletop import TabletopScenes
 
     # the dataset's content and loading options (the same files loaded another way are
     # other objects)
     digest = config.objects.short if config.objects is not None else ""
     key = f"tabletop-{split}-{config.categories}-{config.per_category}-{digest}"
     if key not in _WORKER:
-        objects = config.object_set(split)
-        _WORKER[key] = BEOPickEnv(
-            objects=objects,
-            categories=config.categories,
+        # BEOPick-v0's scenes (640x480, its camera rig and table), without sensor noise
+        _WORKER[key] = TabletopScenes(
+            config.object_set(split),
+            config.categories,
             num_objects=(1, min(4, len(config.categories))),
-            noise=False,
         )
-    env = _WORKER[key]
+    scenes: TabletopScenes = _WORKER[key]
     col = _Collector(config.categories, config.crop)
     noisy: list[bool] = []
     noise = DepthNoise()
     while len(col.rows) < n:
-        obs, _ = env.reset(seed=int(rng.integers(2**31)))
+        obs, truths = scenes.reset(seed=int(rng.integers(2**31)))
         depth = obs["depth"]
         is_noisy = bool(rng.random() < config.noise_share)
         if is_noisy:
             depth = apply_noise(depth, rng, noise)
-        for g in env.ground_truth():
+        for g in truths:
             mask = (obs["segmentation"] == g.label) & (depth > 0)
             if g.pixels < config.min_pixels or mask.sum() < config.min_pixels // 2:
                 continue

@@ -25,6 +25,7 @@ differs from the one asked for.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import io
 import json
@@ -32,7 +33,7 @@ import os
 import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import torch
@@ -41,7 +42,7 @@ from beo_bench.atomic import atomic_dir, atomic_write_bytes
 from beo_bench.errors import CheckpointError, UsageError
 from beo_bench.names import inside
 from beo_bench.perception import modeldir
-from beo_bench.perception.beo_model import BEOModel, load_model
+from beo_bench.perception.beo_model import BEOModel, load_model, published_model
 from beo_bench.perception.digest import state_digest
 from beo_bench.perception.hbeo_data import DatasetConfig, Shard, load_split, render_dataset
 from beo_bench.perception.hbeo_net import (
@@ -51,6 +52,9 @@ from beo_bench.perception.hbeo_net import (
     losses,
     point_rotation,
 )
+
+if TYPE_CHECKING:
+    from beo_bench.objects.dataset import Dataset
 
 Kind = Literal["hbeo", "hbeo-mdn"]
 KINDS: tuple[str, ...] = ("hbeo", "hbeo-mdn")
@@ -261,7 +265,11 @@ class HBEOModel:
             )
         if beo is None:
             beo = load_model(
-                cfg.beo_model, cfg.categories, cfg.resolution, per_category=cfg.beo_instances
+                cfg.beo_model,
+                cfg.categories,
+                cfg.resolution,
+                per_category=cfg.beo_instances,
+                dataset=cfg.dataset.objects,
             )
         if meta.get("subspace") != fingerprint(beo):
             raise CheckpointError(
@@ -363,17 +371,17 @@ def default_config(
     images: int | None = None,
     epochs: int | None = None,
     recipe: str = "default",
+    dataset: Dataset | None = None,
 ) -> HBEOConfig:
     """The ``recipe`` model of ``kind`` for ``categories`` (:data:`RECIPES`); ``instances``
     per class (for the subspace and the crops), ``images`` (training crops; a fifth as many
-    validation crops) and ``epochs`` shrink it for quick checks."""
+    validation crops) and ``epochs`` shrink it for quick checks. ``dataset``: a user's
+    dataset (``train --objects``, a run's), whose objects the crops and the BEO subspace
+    come from (None: the procedural library)."""
     if recipe not in RECIPES:
         raise ValueError(f"recipe {recipe!r}: use one of {sorted(RECIPES)}")
-    from beo_bench.objects.dataset import active_dataset
-
-    # on a user's dataset (made active by the runner or `train --objects`), its crops
     cfg = HBEOConfig(
-        kind=kind, dataset=DatasetConfig(categories=tuple(categories), objects=active_dataset())
+        kind=kind, dataset=DatasetConfig(categories=tuple(categories), objects=dataset)
     )
     cfg = with_overrides(cfg, **RECIPES[recipe])
     if instances is not None:
@@ -403,11 +411,12 @@ def default_name(config: HBEOConfig) -> str:
 
 
 # -- training ---------------------------------------------------------------------------------
-def _coefficients(beo: BEOModel, keys: list[str]) -> np.ndarray:
-    """(n, k) o' = W^T (o - mu) of each instance's voxels (eq. 4.1)."""
+def _coefficients(beo: BEOModel, keys: list[str], dataset: Dataset | None = None) -> np.ndarray:
+    """(n, k) o' = W^T (o - mu) of each instance's voxels (eq. 4.1); ``dataset``: where
+    the keys of a user's dataset are looked up (None: the procedural library)."""
     from beo_bench.objects import instance_from_key
 
-    grids = np.stack([instance_from_key(k).voxels(beo.D).reshape(-1) for k in keys])
+    grids = np.stack([instance_from_key(k, dataset).voxels(beo.D).reshape(-1) for k in keys])
     return (grids.astype(np.float32) - beo.mean) @ beo.basis
 
 
@@ -689,11 +698,16 @@ def _load_data(config: HBEOConfig, beo: BEOModel, device: torch.device) -> _Data
     the training split's mean and spread."""
     train = load_split(config.dataset, config.dataset.split)
     val = load_split(config.dataset, config.dataset.val_split)
-    codes_tr = _coefficients(beo, train.keys)
+    objects = config.dataset.objects
+    codes_tr = _coefficients(beo, train.keys, objects)
     mean, std = codes_tr.mean(0), codes_tr.std(0) + 1e-3
     w = config.projection_weighting
     tr = _tensors(train, codes_tr, mean, std, w, device)
-    va = _tensors(val, _coefficients(beo, val.keys), mean, std, w, device) if len(val) else None
+    va = (
+        _tensors(val, _coefficients(beo, val.keys, objects), mean, std, w, device)
+        if len(val)
+        else None
+    )
     return _Data(beo, mean, std, tr, va)
 
 
@@ -805,6 +819,7 @@ def _train(
         config.resolution,
         progress=progress,
         per_category=config.beo_instances,
+        dataset=config.dataset.objects,
     )
     # the checkpoint is checked before the minutes of rendering: a bad one fails fast
     subspace = fingerprint(beo)
@@ -863,6 +878,54 @@ def _cpu_state(net: HBEONet) -> dict[str, torch.Tensor]:
     return {k: v.detach().to("cpu", copy=True) for k, v in net.state_dict().items()}
 
 
+def published_hbeo(kind: str) -> HBEOModel | None:
+    """The published ``kind`` model (:mod:`.published`), read and checked once per version
+    of the published files; None when none is published. :class:`CheckpointError` for an
+    altered or unreadable file."""
+    from beo_bench.perception import published
+
+    files = published.manifest()
+    if f"{kind}.npz" not in files:
+        return None
+    return _read_published(kind, published.PUBLISHED_DIR, tuple(sorted(files.items())))
+
+
+@functools.cache
+def _read_published(kind: str, root: Path, files: tuple[tuple[str, str], ...]) -> HBEOModel:
+    """The published ``kind`` model under ``root``, regressing the published BEO subspace;
+    ``files`` (the manifest: name, SHA-256) is part of the cache key, so publishing anew
+    (:func:`.published.write`) reads it again."""
+    from beo_bench.perception import published
+
+    meta, arrays = published.read(kind, root)
+    try:
+        cfg = HBEOConfig.from_json(meta["config"])
+    except Exception as e:
+        raise CheckpointError(f"the published {kind} model's config is unreadable ({e})") from e
+    if cfg.kind != kind or meta.get("kind") != kind:
+        raise CheckpointError(
+            f"the published {kind}.json holds a {cfg.kind} model; {published._restore(kind)}"
+        )
+    state = published._state(arrays)
+    beo = published_model()
+    where = f"{root}/{kind}"
+    return HBEOModel.from_stored(meta, cfg, state, where, published._restore(kind), beo)
+
+
+def published_for(kind: str, categories: tuple[str, ...]) -> HBEOModel | None:
+    """The published ``kind`` model when it was trained for ``categories`` or a superset of
+    them (a suite on some of the classes is answered by the network that knows them all, its
+    class scores restricted to them), else None."""
+    from beo_bench.objects import LIBRARY_VERSION
+
+    model = published_hbeo(kind)
+    if model is None or not set(categories) <= set(model.categories):
+        return None
+    if model.info.get("library_version") != LIBRARY_VERSION:
+        return None
+    return model
+
+
 def load_hbeo(
     name: str | None,
     kind: Kind,
@@ -871,6 +934,7 @@ def load_hbeo(
     train_default: bool = True,
     size: str = "small",
     recipe: str = "default",
+    dataset: Dataset | None = None,
     **small: int | None,
 ) -> HBEOModel:
     """The model called ``name`` (a plain name under :func:`models_root`; a path is refused
@@ -880,15 +944,15 @@ def load_hbeo(
     recipe's (made smaller by ``small``: :func:`default_config`'s ``instances``, ``images``,
     ``epochs``), trained on first use; or, with another ``recipe`` or ``train_default=False``,
     the trained one (:class:`CheckpointError` naming the ``beo-bench train`` command that
-    makes it when there is none)."""
+    makes it when there is none). On a user's ``dataset`` (None: the procedural library)
+    the default model is the one ``beo-bench train ... --objects ROOT`` stored, never
+    trained here."""
     from beo_bench.objects import LIBRARY_VERSION
 
     quick = any(v is not None for v in small.values())
     if name is None and recipe == "default" and not quick:
         if size == "small":
-            from beo_bench.perception import published
-
-            model = published.hbeo_for(kind, tuple(categories))
+            model = published_for(kind, tuple(categories))
             if model is not None:  # the published reference model: nothing to train
                 return model
         else:
@@ -897,11 +961,11 @@ def load_hbeo(
             recipe = "reference"
     cfg = None
     if name is None:
-        cfg = with_overrides(default_config(kind, categories, recipe=recipe, **small), size=size)
+        base = default_config(kind, categories, recipe=recipe, dataset=dataset, **small)
+        cfg = with_overrides(base, size=size)
     path = model_path(default_name(cfg) if cfg is not None else str(name))
-    from beo_bench.objects.dataset import active_dataset, train_command
+    from beo_bench.objects.dataset import train_command
 
-    dataset = active_dataset()
     if cfg is not None and not (path / "weights.pt").exists():
         if dataset is not None or not train_default or recipe != "default":
             big = size != "small"

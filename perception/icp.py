@@ -35,7 +35,7 @@ the **class-mean shape** (the 0.5 iso-surface of the mean training occupancy, se
   and clipped to the range. Partial views constrain size weakly; on our library it made
   the size error worse (20% vs 17%), hence off.
 - *Class*: given whenever the view carries ``View.class_hint`` (one-hot probabilities; the
-  backend declares ``wants_class_hint``, and the runner gives the hint in the
+  backend's capabilities say ``ClassHint.OPTIONAL``, and the runner gives the hint in the
   ``class-given`` track of a pose suite only), or else the class whose mean shape fits best:
   every class is aligned and ``class_probs`` = softmax(-score_mm / ``temperature_mm``); the
   default temperature of 1 mm makes a fit 1 mm worse e times less likely.
@@ -57,18 +57,22 @@ chooses the class when it is not given.
 
 from __future__ import annotations
 
-import inspect
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from beo_bench.backend import as_bool, register_backend
+from beo_bench.backend import IN_TREE, Backend, BackendSpec, Capabilities, ClassHint, register
 from beo_bench.errors import ViewError
 from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
+from beo_bench.options import option
 from beo_bench.perception.means import ClassMeans, class_means
 from beo_bench.types import Estimate, Mat3, Points, View
+
+if TYPE_CHECKING:
+    from beo_bench.bench.runs import RunContext
+    from beo_bench.objects.dataset import Dataset
 
 _EZ = np.array([0.0, 0.0, 1.0])
 LOOKUP_CELLS = 48
@@ -374,67 +378,41 @@ class _Aligner:
         return dR, v
 
 
-@register_backend("icp")
-class ICPBackend:
-    """Multi-start trimmed ICP of the observed partial cloud to the class-mean surface.
+@dataclass(frozen=True)
+class ICPOptions:
+    """The options of ``icp`` (``beo-bench run --opt KEY=VALUE``)."""
 
-    The class is taken from ``View.class_hint`` whenever a view carries one (the runner
-    gives it in the ``class-given`` track); otherwise every class is fitted and the best fit
-    chosen.
+    resolution: int = option(32, "D of the class-mean occupancy (and of Estimate.shape)")
+    mean_instances: int | None = option(
+        None, "training instances per class in the class means (null: all)"
+    )
+    starts: int = option(
+        24,
+        "starting rotations (yaw angles with View.up_hint; one start is the identity, or "
+        "yaw 0 about the up)",
+    )
+    iterations: int = option(30, "ICP iterations in all (coarse + fine)")
+    trim: float = option(0.8, "fraction of closest correspondences kept per iteration")
+    point_to_plane: bool = option(True, "point-to-plane steps, else point-to-point (Kabsch)")
+    max_points: int = option(500, "observed points used (thinned by even striding)")
+    coarse_points: int = option(120, "observed points of the coarse stage")
+    refine_starts: int = option(3, "best starts refined by the fine stage")
+    scale_range: tuple[float, float] | None = option(
+        None,
+        "e.g. [0.7, 1.4] fits an isotropic scale of the class-mean size in that range "
+        "(point-to-plane only); null keeps the class-mean size",
+    )
+    temperature_mm: float = option(
+        1.0, "softmax temperature of the class probabilities when the class is chosen by fit"
+    )
+    model_points: int = option(800, "surface samples of each class-mean shape")
+    free_space: float = option(
+        1.0,
+        "weight of the free-space term in choosing among starts and classes (0: the plain "
+        "trimmed ICP residual)",
+    )
 
-    Keyword arguments (``beo-bench run --opt KEY=VALUE``):
-
-    - ``resolution`` (32): D of the class-mean occupancy (and of ``Estimate.shape``);
-    - ``mean_instances`` (None = all): training instances per class in the means;
-    - ``starts`` (24): starting rotations (yaw angles with ``View.up_hint``; one start is
-      the identity, or yaw 0 about the up);
-    - ``iterations`` (30): ICP iterations in all (coarse + fine);
-    - ``trim`` (0.8): fraction of closest correspondences kept per iteration;
-    - ``point_to_plane`` (True): point-to-plane steps, else point-to-point (Kabsch);
-    - ``max_points`` (500): observed points used (thinned by even striding);
-    - ``coarse_points`` (120), ``refine_starts`` (3): the coarse-to-fine schedule;
-    - ``scale_range`` (None): e.g. (0.7, 1.4) fits an isotropic scale of the class-mean size
-      in that range (point-to-plane only); None keeps the class-mean size;
-    - ``temperature_mm`` (1.0): softmax temperature of the class probabilities when the
-      class is chosen by fit;
-    - ``model_points`` (800): surface samples of each class-mean shape;
-    - ``free_space`` (1.0): weight of the free-space term in choosing among starts and
-      classes (0: the plain trimmed ICP residual).
-    """
-
-    name = "icp"
-    wants_class_hint = True
-    """It can use ``View.class_hint`` (the runner gives it in the ``class-given`` track)."""
-
-    def __init__(
-        self,
-        resolution: int = 32,
-        mean_instances: int | None = None,
-        starts: int = 24,
-        iterations: int = 30,
-        trim: float = 0.8,
-        point_to_plane: bool = True,
-        max_points: int = 500,
-        coarse_points: int = 120,
-        refine_starts: int = 3,
-        scale_range: tuple[float, float] | None = None,
-        temperature_mm: float = 1.0,
-        model_points: int = 800,
-        free_space: float = 1.0,
-    ) -> None:
-        self.resolution = int(resolution)
-        self.mean_instances = None if mean_instances is None else int(mean_instances)
-        self.starts = int(starts)
-        self.iterations = int(iterations)
-        self.trim = float(trim)
-        self.point_to_plane = as_bool(point_to_plane)
-        self.max_points = int(max_points)
-        self.coarse_points = int(coarse_points)
-        self.refine_starts = int(refine_starts)
-        self.scale_range = None if scale_range is None else tuple(map(float, scale_range))
-        self.temperature_mm = float(temperature_mm)
-        self.model_points = int(model_points)
-        self.free_space = float(free_space)
+    def __post_init__(self) -> None:
         if self.starts < 1 or self.iterations < 1 or self.max_points < 3:
             raise ValueError("starts and iterations must be >= 1 and max_points >= 3")
         if not 0.0 < self.trim <= 1.0:
@@ -444,18 +422,55 @@ class ICPBackend:
         lo, hi = self.scale_range or (1.0, 1.0)
         if not 0 < lo <= 1 <= hi:
             raise ValueError(f"scale_range={self.scale_range} must hold 1 and be positive")
+
+
+class ICPBackend(Backend):
+    """Multi-start trimmed ICP of the observed partial cloud to the class-mean surface
+    (options: :class:`ICPOptions`).
+
+    The class is taken from ``View.class_hint`` whenever a view carries one (the runner
+    gives it in the ``class-given`` track: its capabilities say ``ClassHint.OPTIONAL``);
+    otherwise every class is fitted and the best fit chosen.
+    """
+
+    name = "icp"
+
+    def __init__(self, options: ICPOptions | None = None, **kwargs: Any) -> None:
+        self.options = options if options is not None else ICPOptions(**kwargs)
+        o = self.options
+        self.resolution = o.resolution
+        self.mean_instances = o.mean_instances
+        self.starts = o.starts
+        self.iterations = o.iterations
+        self.trim = o.trim
+        self.point_to_plane = o.point_to_plane
+        self.max_points = o.max_points
+        self.coarse_points = o.coarse_points
+        self.refine_starts = o.refine_starts
+        self.scale_range = o.scale_range
+        self.temperature_mm = o.temperature_mm
+        self.model_points = o.model_points
+        self.free_space = o.free_space
+        self._dataset: Dataset | None = None
         self._means: dict[tuple[str, ...], ClassMeans] = {}
         self._surfaces: dict[tuple[tuple[str, ...], int], MeanSurface] = {}
 
     # -- models -------------------------------------------------------------------------
     def _class_means(self, cats: tuple[str, ...], progress: bool = False) -> ClassMeans:
         if cats not in self._means:
-            self._means[cats] = class_means(cats, self.resolution, self.mean_instances, progress)
+            self._means[cats] = class_means(
+                cats, self.resolution, self.mean_instances, progress, self._dataset
+            )
         return self._means[cats]
 
-    def prepare(self, categories: tuple[str, ...]) -> None:
-        """Compute (or load) the class means once, with a progress bar."""
-        self._class_means(tuple(categories), progress=True)
+    def prepare(self, ctx: RunContext) -> None:
+        """Compute (or load) the class means of the run's classes and dataset once (with a
+        progress bar where ``ctx.progress``)."""
+        if ctx.dataset != self._dataset:  # another dataset's means and surfaces are not these
+            self._dataset = ctx.dataset
+            self._means.clear()
+            self._surfaces.clear()
+        self._class_means(tuple(ctx.categories), progress=ctx.progress)
 
     def surface(self, cats: tuple[str, ...], c: int) -> MeanSurface:
         """The mean surface of class ``c`` of ``cats`` (built on first use, then kept)."""
@@ -596,24 +611,54 @@ PLAIN_DEFAULTS: dict[str, object] = {
 point-to-point steps, the plain residual alone."""
 
 
-@register_backend("icp-plain")
+@dataclass(frozen=True)
+class PlainICPOptions(ICPOptions):
+    """The options of ``icp-plain``: ``icp``'s, with :data:`PLAIN_DEFAULTS`."""
+
+    starts: int = option(
+        PLAIN_DEFAULTS["starts"], "starting rotations (1: upright facing the camera, or yaw 0)"
+    )
+    trim: float = option(PLAIN_DEFAULTS["trim"], "fraction of closest pairs kept (1: all)")
+    point_to_plane: bool = option(
+        PLAIN_DEFAULTS["point_to_plane"], "point-to-plane steps, else point-to-point (Kabsch)"
+    )
+    refine_starts: int = option(
+        PLAIN_DEFAULTS["refine_starts"], "best starts refined by the fine stage"
+    )
+    free_space: float = option(
+        PLAIN_DEFAULTS["free_space"], "weight of the free-space term (0: the plain residual)"
+    )
+
+
 class PlainICPBackend(ICPBackend):
     """``icp`` with :data:`PLAIN_DEFAULTS` (the dissertation's ICP baseline, see the module
     docstring); every ``icp`` option can still be given."""
 
     name = "icp-plain"
 
-    def __init__(self, **kwargs: Any) -> None:
-        super().__init__(**{**PLAIN_DEFAULTS, **kwargs})
+    def __init__(self, options: ICPOptions | None = None, **kwargs: Any) -> None:
+        super().__init__(options if options is not None else PlainICPOptions(**kwargs))
 
 
-# its options are icp's with the plain defaults: what `get_backend` checks options against
-# and lists in its messages (a bare **kwargs would let any misspelt option through)
-PlainICPBackend.__signature__ = inspect.signature(ICPBackend).replace(  # type: ignore[attr-defined]
-    parameters=[
-        p.replace(default=PLAIN_DEFAULTS.get(p.name, p.default))
-        for p in inspect.signature(ICPBackend).parameters.values()
-    ]
+register(
+    BackendSpec(
+        name="icp",
+        build=ICPBackend,
+        options=ICPOptions,
+        capabilities=Capabilities(class_hint=ClassHint.OPTIONAL),
+        description=IN_TREE["icp"].description,
+        module=__name__,
+    )
+)
+register(
+    BackendSpec(
+        name="icp-plain",
+        build=PlainICPBackend,
+        options=PlainICPOptions,
+        capabilities=Capabilities(class_hint=ClassHint.OPTIONAL),
+        description=IN_TREE["icp-plain"].description,
+        module=__name__,
+    )
 )
 
 

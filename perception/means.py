@@ -38,12 +38,13 @@ def class_means(
     resolution: int = 32,
     per_category: int | None = None,
     progress: bool = False,
+    dataset: Dataset | None = None,
 ) -> ClassMeans:
     """Means over the first ``per_category`` (default: all) ``train`` instances of each
-    category (see :func:`training_voxels`), cached. On a user's dataset (the active one,
-    :func:`~beo_bench.objects.dataset.active_dataset`) its instances instead: its ``train``
-    split, or every model when a class has none there (a small folder's hash split)."""
-    from beo_bench.objects.dataset import active_dataset, reference_split
+    category (see :func:`training_voxels`), cached. On a user's ``dataset`` (None: the
+    procedural library) its instances instead: its ``train`` split, or every model when a
+    class has none there (a small folder's hash split)."""
+    from beo_bench.objects.dataset import reference_split
 
     settings: dict[str, object] = {
         "version": MEANS_VERSION,
@@ -51,7 +52,7 @@ def class_means(
         "D": resolution,
         "n": per_category,
     }
-    dataset, split = active_dataset(), "train"
+    split = "train"
     if dataset is not None:  # only then: the library's cache keys stay as they were
         split = reference_split(dataset, categories)
         settings["dataset"] = dataset.identity()

@@ -29,7 +29,6 @@ import io
 import json
 import os
 import zipfile
-from functools import cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -116,6 +115,7 @@ def _pack(arrays: dict[str, np.ndarray]) -> bytes:
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_LZMA) as zf:
         for name, a in sorted(arrays.items()):
             a = np.asarray(a, order="C")  # ascontiguousarray would make a 0-d array 1-d
+            members: dict[str, np.ndarray]
             if a.dtype.kind == "f":
                 planes = a.reshape(-1).view(np.uint8).reshape(-1, a.itemsize).T.copy()
                 members = {
@@ -180,54 +180,6 @@ def _restore(stem: str) -> str:
     )
 
 
-@cache
-def _beo() -> BEOModel | None:
-    from beo_bench.perception.beo_model import BEOModel
-
-    if "beo.npz" not in manifest():
-        return None
-    meta, arrays = read("beo")
-    return BEOModel.from_stored(meta, arrays, f"{PUBLISHED_DIR}/beo", _restore("beo"))
-
-
-def beo_for(
-    categories: tuple[str, ...], resolution: int, per_category: int | None
-) -> BEOModel | None:
-    """The published BEO model when it is the default model for these settings (the
-    default training configuration on these categories, resolution and instances), else
-    None (the caller trains its own)."""
-    from beo_bench.objects import LIBRARY_VERSION
-    from beo_bench.perception.beo_model import BEOConfig
-
-    want = BEOConfig(categories=tuple(categories), resolution=resolution, per_category=per_category)
-    model = _beo()
-    if model is None or model.config != want:
-        return None
-    if model.info.get("library_version") != LIBRARY_VERSION:
-        return None  # published for another object library: the default is retrained
-    return model
-
-
-@cache
-def _hbeo(kind: str) -> HBEOModel | None:
-    from beo_bench.perception.hbeo_train import HBEOConfig, HBEOModel
-
-    if f"{kind}.npz" not in manifest():
-        return None
-    meta, arrays = read(kind)
-    try:
-        cfg = HBEOConfig.from_json(meta["config"])
-    except Exception as e:
-        raise CheckpointError(f"the published {kind} model's config is unreadable ({e})") from e
-    if cfg.kind != kind or meta.get("kind") != kind:
-        raise CheckpointError(
-            f"the published {kind}.json holds a {cfg.kind} model; {_restore(kind)}"
-        )
-    state = _state(arrays)
-    beo = _beo()
-    return HBEOModel.from_stored(meta, cfg, state, f"{PUBLISHED_DIR}/{kind}", _restore(kind), beo)
-
-
 def _state(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     """A published file's arrays as the tensor state ``weights.pt`` would hold (float32)."""
     import torch
@@ -243,20 +195,6 @@ def _state(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
         if k in arrays:
             state[k] = torch.from_numpy(_widen(arrays[k]))
     return state
-
-
-def hbeo_for(kind: str, categories: tuple[str, ...]) -> HBEOModel | None:
-    """The published ``kind`` model when it was trained for ``categories`` or a superset of
-    them (a suite on some of the classes is answered by the network that knows them all, its
-    class scores restricted to them), else None."""
-    from beo_bench.objects import LIBRARY_VERSION
-
-    model = _hbeo(kind)
-    if model is None or not set(categories) <= set(model.categories):
-        return None
-    if model.info.get("library_version") != LIBRARY_VERSION:
-        return None
-    return model
 
 
 def _widen(a: np.ndarray) -> np.ndarray:
@@ -299,8 +237,8 @@ def write(stem: str, meta: dict[str, Any], arrays: dict[str, np.ndarray], root: 
         root / MANIFEST,
         (json.dumps({"files": dict(sorted(files.items()))}, indent=1) + "\n").encode(),
     )
-    _beo.cache_clear()
-    _hbeo.cache_clear()
+    # the models read from these files (beo_model.published_model, hbeo_train.published_hbeo)
+    # are cached by the manifest's digests: they are read again
     return files[f"{stem}.npz"]
 
 

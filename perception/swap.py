@@ -17,46 +17,99 @@ runner gives it the view's ground truth, which it never passes to the base backe
 
 from __future__ import annotations
 
-from dataclasses import replace
-from typing import Any
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from beo_bench.backend import get_backend, prepare_backend, register_backend
+from beo_bench.backend import IN_TREE, Backend, BackendSpec, Capabilities, get_spec, register
 from beo_bench.errors import ViewError
 from beo_bench.objects import instance_from_key
+from beo_bench.options import option, parse_options
 from beo_bench.types import Estimate, View
 
+if TYPE_CHECKING:
+    from beo_bench.bench.runs import RunContext
+    from beo_bench.objects.dataset import Dataset
+
 PARTS = ("class", "pose", "shape")
+OWN = ("base", "truth")
+"""``swap``'s own options; every other ``KEY=VALUE`` is the base backend's."""
 
 
-@register_backend("swap")
-class SwapBackend:
-    name = "swap"
-    privileged = True
+@dataclass(frozen=True)
+class SwapOptions:
+    """The options of ``swap`` (``--opt base=hbeo --opt truth=class --opt samples=100``):
+    its own two, and the base backend's, parsed by the base's spec (:func:`parse_swap`)."""
 
-    def __init__(self, base: str = "icp", truth: str = "class", **base_options: Any) -> None:
-        parts = tuple(p for p in str(truth).replace("+", ",").split(",") if p)
-        unknown = [p for p in parts if p not in PARTS]
-        if not parts or unknown:
-            raise ValueError(f"truth={truth!r}: name one or more of {PARTS}, e.g. 'class+pose'")
-        if base == "swap":
+    base: str = option("icp", "the backend whose estimate is swapped (not swap itself)")
+    truth: str = option(
+        "class", "the components replaced by the truth: one or more of class, pose, shape"
+    )
+    base_options: Any = field(
+        default=None,
+        metadata={"doc": "the base backend's options: every other KEY=VALUE, parsed by it"},
+    )
+
+    def __post_init__(self) -> None:
+        if not self.parts() or any(p not in PARTS for p in self.parts()):
+            raise ValueError(
+                f"truth={self.truth!r}: name one or more of {PARTS}, e.g. 'class+pose'"
+            )
+        if self.base == "swap":
             raise ValueError("swap of swap: give the base backend's own name")
-        self.truth = parts
-        self.base = get_backend(str(base), **base_options)
-        self.base_name = str(base)
 
-    @property
-    def wants_class_hint(self) -> bool:
-        return bool(getattr(self.base, "wants_class_hint", False))
+    def parts(self) -> tuple[str, ...]:
+        """The components ``truth`` names (comma- or plus-separated)."""
+        return tuple(p for p in self.truth.replace("+", ",").split(",") if p)
 
-    def prepare(self, categories: tuple[str, ...]) -> None:
-        prepare_backend(self.base, categories)
+
+def parse_swap(raw: Mapping[str, Any]) -> SwapOptions:
+    """``swap``'s options from ``--opt`` values: ``base`` and ``truth`` as its own (a
+    :class:`~beo_bench.errors.UsageError` for a bad one), the rest parsed by the base
+    backend's spec (its own usage error for an option it does not have)."""
+    own = parse_options(SwapOptions, {k: v for k, v in raw.items() if k in OWN}, "swap")
+    rest = {k: v for k, v in raw.items() if k not in OWN}
+    return replace(own, base_options=get_spec(own.base).parse(rest))
+
+
+def _base_options(options: SwapOptions) -> Any:
+    """The base's parsed options (its defaults when none were parsed)."""
+    if options.base_options is not None:
+        return options.base_options
+    return get_spec(options.base).parse({})
+
+
+def swap_capabilities(options: SwapOptions) -> Capabilities:
+    """The base backend's capabilities (class hint, model), handed the truth and marked a
+    diagnostic tool; read from the base's spec, building nothing."""
+    base = get_spec(options.base).capabilities_of(_base_options(options))
+    return replace(base, privileged=True, diagnostic=True)
+
+
+class SwapBackend(Backend):
+    """A base backend's estimate with some components replaced by the truth (module
+    docstring; options: :class:`SwapOptions`)."""
+
+    name = "swap"
+
+    def __init__(self, options: SwapOptions | None = None, **kwargs: Any) -> None:
+        self.options = options if options is not None else parse_swap(kwargs)
+        self.truth = self.options.parts()
+        self.base_name = self.options.base
+        self.base = get_spec(self.base_name).make(_base_options(self.options))
+        self._dataset: Dataset | None = None
+
+    def prepare(self, ctx: RunContext) -> None:
+        """Prepare the base backend for the run (its ``prepare(ctx)``), and remember the
+        dataset the true shapes come from."""
+        self._dataset = ctx.dataset
+        self.base.prepare(ctx)
 
     def model_digest(self) -> str | None:
         """The wrapped backend's model digest (None when it has no learned model)."""
-        digest = getattr(self.base, "model_digest", None)
-        return digest() if callable(digest) else None
+        return self.base.model_digest()
 
     def predict(self, view: View) -> Estimate:
         gt = view.ground_truth
@@ -79,6 +132,19 @@ class SwapBackend:
             )
         if "shape" in self.truth:
             D = int(np.asarray(est.shape).shape[0])
-            grid = instance_from_key(gt.key).voxels(D).astype(np.float32)
+            grid = instance_from_key(gt.key, self._dataset).voxels(D).astype(np.float32)
             est = replace(est, shape=grid, mesh=None)
         return est
+
+
+register(
+    BackendSpec(
+        name="swap",
+        build=SwapBackend,
+        options=SwapOptions,
+        capabilities=swap_capabilities,
+        description=IN_TREE["swap"].description,
+        module=__name__,
+        parser=parse_swap,
+    )
+)

@@ -5,6 +5,8 @@
 - :mod:`.builder`: MjSpec models (table, objects, gripper, camera);
 - :mod:`.layout`: rest poses and non-overlapping placement;
 - :mod:`.execute`: scripted, physical grasp execution;
+- :mod:`.tabletop`: BEOPick-v0's scenes drawn, settled and rendered (what the env's ``reset``
+  runs; for code below the envs, which never imports them);
 - :mod:`.isolated`: views of an isolated instance (training data, perception suites);
 - :mod:`.noise`: the optional depth-sensor noise model;
 - :mod:`.gripper`: the gripper's geometry (shared with the grasp planner).
@@ -36,6 +38,9 @@ _EXPORTS = {
     "GRIPPER": "gripper",
     "GripperGeometry": "gripper",
     "GLUnavailableError": "gl",
+    "TabletopScenes": "tabletop",
+    "NoVisibleTargetError": "tabletop",
+    "default_categories": "tabletop",
 }
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -134,7 +134,8 @@ class IsolatedRenderer:
         depth = frame.depth
         if noise is not None:
             depth = apply_noise(depth, rng if rng is not None else np.random.default_rng(0), noise)
-        inv = np.linalg.inv(T)
+        # float64 in, float64 out (numpy's stubs type the inverse as any floating dtype)
+        inv = cast(Mat4, np.linalg.inv(T))
         return IsolatedView(
             depth=depth,
             mask=(frame.segmentation > 0) & (depth > 0),

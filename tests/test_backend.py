@@ -42,7 +42,7 @@ def test_the_in_tree_catalogue_is_what_the_modules_register() -> None:
     # listings read the catalogue without importing torch; the modules must register
     # exactly its entries (registering one from another module raises)
     B._ensure_in_tree()
-    registered = {name for name, (f, origin) in B._REGISTRY.items() if f.__module__ in B._IN_TREE}
+    registered = {name for name, spec in B._REGISTRY.items() if spec.module in B._IN_TREE}
     assert registered == set(B.IN_TREE)
 
 
@@ -185,7 +185,7 @@ def test_entry_point_plugin_is_listed_and_runs(tmp_path, views, monkeypatch) -> 
         assert "centroid-demo" in B.list_backends()
         b = B.get_backend("centroid-demo")
         B.check_backend(b, views)
-        assert B._REGISTRY["centroid-demo"][1] == "plugin beo-plugin-demo"
+        assert B.get_spec("centroid-demo").origin == "plugin beo-plugin-demo"
         # and it runs through the runner like an in-tree backend
         from beo_bench.bench.runner import RunConfig, run
         from beo_bench.bench.suites import get_suite
@@ -194,7 +194,7 @@ def test_entry_point_plugin_is_listed_and_runs(tmp_path, views, monkeypatch) -> 
         s = run(RunConfig(suite, "centroid-demo"), tmp_path / "run", progress=False)
         assert s["backend"] == "centroid-demo" and s["n"] == 3 and s["failures"] == 0
     finally:
-        B._REGISTRY.pop("centroid-demo", None)
+        B.unregister_backend("centroid-demo")
         sys.modules.pop("beo_plugin_demo", None)
 
 
@@ -208,7 +208,7 @@ def test_swap_replaces_exactly_the_named_parts_and_hides_the_truth(views) -> Non
             seen.append(view.ground_truth)
             return B.get_backend("random", mean_instances=4).predict(view)
 
-    B._add("spy", Spy, "test")
+    B.register(B.BackendSpec.from_factory("spy", Spy, "test"))
     try:
         base = B.get_backend("spy").predict(views[0])
         seen.clear()  # from here on only swap calls the spy
@@ -225,4 +225,4 @@ def test_swap_replaces_exactly_the_named_parts_and_hides_the_truth(views) -> Non
         with pytest.raises(ValueError, match="truth="):
             B.get_backend("swap", base="spy", truth="colour")
     finally:
-        B._REGISTRY.pop("spy", None)
+        B.unregister_backend("spy")

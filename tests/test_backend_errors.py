@@ -19,8 +19,12 @@ from tests.plugins import install_plugin
 @pytest.mark.parametrize(
     "name, options, match",
     [
-        ("icp", {"bogus": 1}, r"no option 'bogus'.*starts=24.*trim=0\.8"),
-        ("random", {"x": 1, "y": 2}, r"no option 'x', 'y'.*seed=0"),
+        (
+            "icp",
+            {"bogus": 1},
+            r"no option 'bogus'.*starts \(an integer, default 24\).*trim \(a number, default 0.8\)",
+        ),
+        ("random", {"x": 1, "y": 2}, r"no option 'x', 'y'.*seed \(an integer, default 0\)"),
         ("icp", {"point_to_plane": "maybe"}, r"point_to_plane='maybe'.*boolean"),
         ("oracle", {"mesh": 2}, "boolean"),
         ("icp", {"starts": "abc"}, r"starts='abc': expected an integer \(default 24\)"),
@@ -28,7 +32,7 @@ from tests.plugins import install_plugin
         ("icp", {"trim": "most"}, r"trim='most': expected a number"),
         ("swap", {"truth": "nope"}, "truth='nope'"),  # the backend's own ValueError
         ("swap", {"base": "icp", "bogus": 1}, r"backend 'icp' has no option 'bogus'"),
-        ("hbeo", {"bogus": 1}, r"no option 'bogus'.*samples=25"),  # the factory's signature
+        ("hbeo", {"bogus": 1}, r"no option 'bogus'.*samples \(an integer, default 25\)"),
     ],
 )
 def test_bad_backend_options_are_usage_errors(name, options, match) -> None:
@@ -97,7 +101,7 @@ def plugins(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     monkeypatch.setattr(B, "_BROKEN", {})  # this process has warned about none of them yet
     B._ensure_in_tree()
     yield tmp_path
-    B._REGISTRY.pop("good-demo", None)
+    B.unregister_backend("good-demo")
     for mod in ("beo_plugin_good_mod", "beo_plugin_broken_mod"):
         sys.modules.pop(mod, None)
 
@@ -114,7 +118,7 @@ def test_broken_plugins_are_named_skipped_and_the_others_load(plugins) -> None:
     text = "\n".join(messages)
     assert "broken-demo = beo_plugin_broken_mod:Backend" in text
     assert "No module named 'no_such_dependency_xyz'" in text
-    assert "not a backend class or factory" in text  # the number and the class w/o predict
+    assert "not a backend spec, class or factory" in text  # the number and the class w/o predict
     assert "already registered" in text
     B.get_backend("good-demo")
 

@@ -70,7 +70,7 @@ def plugin(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
         site, "beo-help-plugin", {"help-plugin": "beo_help_plugin_mod:Backend"}, monkeypatch
     )
     yield
-    B._REGISTRY.pop("help-plugin", None)
+    B.unregister_backend("help-plugin")
     sys.modules.pop("beo_help_plugin_mod", None)
 
 
@@ -94,7 +94,7 @@ def test_a_backend_without_description_is_described_by_its_docstring() -> None:
     try:
         assert describe_backend("help-doc-only") == "Guesses the mean shape"
     finally:
-        B._REGISTRY.pop("help-doc-only")
+        B.unregister_backend("help-doc-only")
     with pytest.raises(BackendError, match="help-doc-only"):
         describe_backend("help-doc-only")
 

@@ -541,7 +541,7 @@ def test_the_same_surface_scores_perfectly_against_itself_without_a_sampling_flo
     exact = M.surface_scores(a, b)  # 12 large triangles, split evenly: near-exact
     assert exact["fscore"] >= 0.99 and exact["chamfer_l1"] < 1e-4
     # the benchmark's surfaces: marching cubes of a 32^3 grid, scored exactly
-    from beo_bench.bench.evaluate import grid_mesh
+    from beo_bench.bench.scoring import grid_mesh
 
     grid = np.zeros((32, 32, 32), dtype=bool)
     grid[4:28, 8:20, 10:30] = True
@@ -598,7 +598,7 @@ def test_surface_distances_are_exact_point_to_triangle_distances() -> None:
 def test_a_perfect_estimate_scores_f_1_at_any_occupancy_probability_above_half(p) -> None:
     """The truth's own voxels given as p / 1 - p probabilities: the benchmark's F-score (at
     tau = 1% of the largest extent) and Chamfer through the scoring the runner uses."""
-    from beo_bench.bench import evaluate as E
+    from beo_bench.bench import scoring as E
     from beo_bench.objects import ObjectSet
     from beo_bench.types import Estimate, GroundTruth
 

@@ -42,6 +42,7 @@ from beo_bench.perception.hbeo_train import (
     train_hbeo,
 )
 from beo_bench.perception.hbeo_train import model_path as hbeo_path
+from tests.perception.contexts import run_context
 
 CATS = ("bowl", "can")
 
@@ -419,12 +420,12 @@ def test_learned_backends_report_their_model_digest(fresh_cache: Path) -> None:
     tiny_hbeo("sub").save(hbeo_path("net"))
     beo = BEOBackend(model="sub", resolution=8)
     assert beo.model_digest() is None  # before prepare: no model chosen yet
-    beo.prepare(CATS)
+    beo.prepare(run_context("beo", CATS, model="sub", resolution=8))
     assert beo.model_digest() == model_digest(beo_path("sub"))
     swap = get_backend("swap", base="beo", truth="class", model="sub", resolution=8)
-    swap.prepare(CATS)
+    swap.prepare(run_context("swap", CATS, base="beo", truth="class", model="sub", resolution=8))
     assert swap.model_digest() == model_digest(beo_path("sub"))
     hbeo = HBEOBackend("hbeo", model="net")
-    hbeo.prepare(CATS)
+    hbeo.prepare(run_context("hbeo", CATS, model="net"))
     assert hbeo.model_digest() == model_digest(hbeo_path("net"))
     assert get_backend("swap", base="oracle").model_digest() is None

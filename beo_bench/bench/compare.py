@@ -350,7 +350,7 @@ def _span(items: set[int]) -> str:
 # -- text --------------------------------------------------------------------------------------
 def format_paired(a: Run, b: Run, results: Sequence[PairedResult]) -> str:
     """The plain-text report of :func:`paired_runs`."""
-    from beo_bench.bench.campaign import backend_label
+    from beo_bench.bench.runs import backend_label
 
     def name(r: Run) -> str:
         s = r.summary

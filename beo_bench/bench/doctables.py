@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from beo_bench.bench.campaign import backend_label
+from beo_bench.bench.runs import backend_label
 from beo_bench.bench.suites import get_suite
 
 MARK = re.compile(r"(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- /table -->)", re.S)

@@ -37,7 +37,6 @@ import numpy as np
 
 from beo_bench.atomic import atomic_write_bytes
 from beo_bench.bench import ablations, compare
-from beo_bench.bench.campaign import backend_label
 from beo_bench.bench.columns import (
     BOARD_PER_CATEGORY,
     BOARD_PER_CATEGORY_DEFAULT,
@@ -47,6 +46,7 @@ from beo_bench.bench.columns import (
     board_columns,
     spec,
 )
+from beo_bench.bench.runs import backend_label
 from beo_bench.errors import UsageError
 
 BOUNDS = {"oracle": "upper bound", "random": "lower bound"}

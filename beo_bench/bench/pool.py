@@ -45,15 +45,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from beo_bench.errors import BeoBenchError
+from beo_bench.bench.runs import RunContext, RunError
 
 if TYPE_CHECKING:
-    from beo_bench.bench.runner import RunConfig
+    from beo_bench.backend import Backend
+    from beo_bench.bench.evaluate import Evaluator
 
-
-class RunError(BeoBenchError, ValueError):
-    """A run that cannot start, resume or go on as asked (``beo_bench.bench.runner``)."""
-
+__all__ = ["WORKER_THREADS", "RunError", "WorkerPool", "default_workers", "pin_threads"]
 
 Rows = list[dict[str, Any]]
 
@@ -73,10 +71,6 @@ parent-death signal, e.g. for a pool started from a thread other than the main o
 
 _THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 _PR_SET_PDEATHSIG = 1
-_WORKER: Any = None
-_WORKER_CFG: Any = None
-_INIT_ERROR = ""
-_IMPORT_ERROR = ""
 
 
 def default_workers() -> int:
@@ -116,54 +110,61 @@ def pin_threads() -> Any:
     return threadpool_limits(limits=WORKER_THREADS)
 
 
-def init_worker(cfg: RunConfig, pin: bool = True) -> None:
-    """Set up this process's evaluator for ``cfg`` (closing one set up for another run).
-    An error is kept (``setup_error``) rather than raised: the caller reports it."""
-    global _WORKER, _WORKER_CFG, _INIT_ERROR
-    from beo_bench.backend import load_plugins
-    from beo_bench.bench.evaluate import Evaluator
+class WorkerState:
+    """What one worker process (or Ray actor) holds: the evaluator of the run it is set up
+    for, or why setting it up failed. Local to the worker's loop (no module state)."""
 
-    if pin:
-        pin_threads()
-    if _WORKER is not None:
-        _WORKER.close()
-    _WORKER, _WORKER_CFG, _INIT_ERROR = None, cfg, _IMPORT_ERROR
-    if _IMPORT_ERROR:
-        return
-    try:
-        load_plugins()
-        _WORKER = Evaluator(cfg.suite, cfg.backend, cfg.backend_kwargs, cfg.allow_privileged)
-    except Exception as e:
-        _INIT_ERROR = f"{type(e).__name__}: {e}"
-        return
-    if "torch" in sys.modules:  # loaded by the backend: the environment came too late
-        sys.modules["torch"].set_num_threads(WORKER_THREADS)
+    def __init__(self, import_error: str = "") -> None:
+        self.ctx: RunContext | None = None
+        self.evaluator: Evaluator | None = None
+        self.import_error = import_error
+        self.error = ""
+
+    def setup(self, ctx: RunContext) -> None:
+        """Set up the evaluator for ``ctx`` (closing one set up for another run). An error
+        is kept (``error``) rather than raised: the caller reports it."""
+        from beo_bench.backend import load_plugins
+        from beo_bench.bench.evaluate import Evaluator
+
+        if self.evaluator is not None:
+            self.evaluator.close()
+        self.ctx, self.evaluator, self.error = ctx, None, self.import_error
+        if self.import_error:
+            return
+        try:
+            load_plugins()
+            self.evaluator = Evaluator(ctx)
+        except Exception as e:
+            self.error = f"{type(e).__name__}: {e}"
+            return
+        if "torch" in sys.modules:  # loaded by the backend: the environment came too late
+            sys.modules["torch"].set_num_threads(WORKER_THREADS)
+
+    def work(self, index: int) -> tuple[int, Rows]:
+        """Item ``index`` of the run set up by :meth:`setup`."""
+        if self.evaluator is None:
+            assert self.ctx is not None
+            raise setup_error(self.ctx, self.error)
+        return index, [clean_row(r) for r in self.evaluator.run_item(index)]
 
 
-def setup_error(cfg: RunConfig, why: str) -> RunError:
+def setup_error(ctx: RunContext, why: str) -> RunError:
     return RunError(
-        f"a worker could not set up the backend {cfg.backend!r}: {why} (a backend registered "
-        "at run time, not by an import or an entry point, exists only in its own process: use "
-        "workers=1, or WorkerPool(imports=[its module]))"
+        f"a worker could not set up the backend {ctx.backend.name!r}: {why} (a backend "
+        "registered at run time, not by an import or an entry point, exists only in its own "
+        "process: use workers=1, or WorkerPool(imports=[its module]))"
     )
 
 
-def work(index: int) -> tuple[int, Rows]:
-    """Item ``index`` of the run set up by :func:`init_worker`, in this process."""
-    if _WORKER is None:
-        raise setup_error(_WORKER_CFG, _INIT_ERROR)
-    return index, [clean_row(r) for r in _WORKER.run_item(index)]
-
-
-def _import_all(modules: Iterable[str]) -> None:
-    """Import the modules that register backends outside the tree and the entry points."""
-    global _IMPORT_ERROR
+def _import_all(modules: Iterable[str]) -> str:
+    """Import the modules that register backends outside the tree; the first failure, as
+    the set-up error to report ("" when all imported)."""
     for name in modules:
         try:
             importlib.import_module(name)
         except Exception as e:  # reported by the first set-up, as the driver's error
-            _IMPORT_ERROR = f"importing {name}: {type(e).__name__}: {e}"
-            return
+            return f"importing {name}: {type(e).__name__}: {e}"
+    return ""
 
 
 def _die_with_parent(parent: int, deathsig: bool) -> None:
@@ -192,23 +193,23 @@ def worker_main(conn: Any, parent: int, imports: tuple[str, ...], deathsig: bool
     # Ctrl-C reaches the whole process group: the driver handles it and stops the workers
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     pin_threads()
-    _import_all(imports)
+    state = WorkerState(_import_all(imports))
     while True:
         try:
-            cfg, index = conn.recv()
+            ctx, index = conn.recv()
         except (EOFError, OSError):  # the driver closed the pipe (or died)
             return
-        if _WORKER_CFG != cfg:
-            init_worker(cfg, pin=False)
-            conn.send(("setup", "" if _WORKER is not None else _INIT_ERROR or "unknown error"))
-            if _WORKER is None:
-                continue
+        if state.ctx != ctx:
+            state.setup(ctx)
+            conn.send(("setup", "" if state.evaluator is not None else state.error or "unknown"))
+        if state.evaluator is None:
+            continue
 
         def begin(rows: Rows, i: int = index) -> None:
             conn.send(("begin", i, [clean_row(r) for r in rows]))
 
         try:
-            rows = _WORKER.run_item(index, announce=begin)
+            rows = state.evaluator.run_item(index, announce=begin)
             conn.send(("done", index, [clean_row(r) for r in rows]))
         except Exception:
             conn.send(("error", index, traceback.format_exc()[-4000:]))
@@ -221,7 +222,7 @@ class _Slot:
 
     proc: Any = None
     conn: Any = None
-    cfg: Any = None
+    ctx: Any = None
     """The run whose evaluator the worker holds (None: none yet)."""
     index: int | None = None
     phase: str = ""
@@ -286,7 +287,7 @@ class WorkerPool:
             there.close()
             raise RunError(f"could not start a worker process: {e}") from e
         there.close()  # the worker's end: with it closed here, its death reads as EOF
-        slot.proc, slot.conn, slot.cfg = proc, here, None
+        slot.proc, slot.conn, slot.ctx = proc, here, None
 
     def _kill(self, slot: _Slot, grace: float = 0.0) -> int | None:
         """Stop the slot's process: wait up to ``grace`` s for it to end by itself (a dying
@@ -300,7 +301,7 @@ class WorkerPool:
             code = slot.proc.exitcode
         if slot.conn is not None:
             slot.conn.close()
-        slot.proc = slot.conn = slot.cfg = None
+        slot.proc = slot.conn = slot.ctx = None
         slot.index, slot.begun = None, None
         return code
 
@@ -320,20 +321,20 @@ class WorkerPool:
 
     # -- items -----------------------------------------------------------------------------
     def results(
-        self, cfg: RunConfig, todo: list[int], item_timeout: float | None = None
+        self, ctx: RunContext, todo: list[int], item_timeout: float | None = None
     ) -> Iterator[tuple[int, Rows]]:
         """``(index, rows)`` of each item of ``todo`` as it finishes, failed items included.
         ``item_timeout``: seconds per item (default: the suite's ``item_timeout_s``)."""
         if not todo:  # a finished run (resumed) starts no processes
             return
-        timeout = cfg.suite.item_timeout_s if item_timeout is None else float(item_timeout)
+        timeout = ctx.suite.item_timeout_s if item_timeout is None else float(item_timeout)
         queue = deque(todo)
         try:
             while queue or any(s.busy for s in self._slots):
-                self._refill(cfg, queue, timeout)
-                finished = list(self._collect(cfg, timeout))
+                self._refill(ctx, queue, timeout)
+                finished = list(self._collect(ctx, timeout))
                 # idle workers get their next item before the caller writes these results
-                self._refill(cfg, queue, timeout)
+                self._refill(ctx, queue, timeout)
                 yield from finished
         finally:
             # abandoned mid-run (an error, Ctrl-C): a busy worker's answer would otherwise
@@ -342,34 +343,34 @@ class WorkerPool:
                 if slot.busy:
                     self._kill(slot)
 
-    def _refill(self, cfg: RunConfig, queue: deque[int], timeout: float) -> None:
+    def _refill(self, ctx: RunContext, queue: deque[int], timeout: float) -> None:
         for slot in self._slots:
             if queue and not slot.busy:
-                self._assign(slot, cfg, queue.popleft(), timeout)
+                self._assign(slot, ctx, queue.popleft(), timeout)
 
-    def _assign(self, slot: _Slot, cfg: RunConfig, index: int, timeout: float) -> None:
+    def _assign(self, slot: _Slot, ctx: RunContext, index: int, timeout: float) -> None:
         if slot.proc is not None and slot.proc.exitcode is not None:
             self._kill(slot)  # it died while idle
             self.restarts += 1
         if slot.proc is None:
             self._start(slot)
-        if slot.cfg != cfg:
+        if slot.ctx != ctx:
             self._phase(slot, "setup", max(SETUP_TIMEOUT_S, timeout))
         else:
             self._phase(slot, "scene", timeout)
-        slot.cfg, slot.index, slot.begun = cfg, index, None
+        slot.ctx, slot.index, slot.begun = ctx, index, None
         try:
-            slot.conn.send((cfg, index))
+            slot.conn.send((ctx, index))
         except OSError:  # it died while idle: its item starts on a new worker
             self._kill(slot)
             self.restarts += 1
-            self._assign(slot, cfg, index, timeout)
+            self._assign(slot, ctx, index, timeout)
 
     @staticmethod
     def _phase(slot: _Slot, phase: str, limit: float) -> None:
         slot.phase, slot.limit, slot.deadline = phase, limit, time.monotonic() + limit
 
-    def _collect(self, cfg: RunConfig, timeout: float) -> Iterator[tuple[int, Rows]]:
+    def _collect(self, ctx: RunContext, timeout: float) -> Iterator[tuple[int, Rows]]:
         """Wait until a worker answers, dies, or passes its deadline; handle that."""
         busy = [s for s in self._slots if s.busy]
         left = max(0.0, min(s.deadline for s in busy) - time.monotonic())
@@ -377,13 +378,13 @@ class WorkerPool:
         for slot in busy:
             dead = slot.proc.sentinel in ready
             if dead or slot.conn in ready:
-                yield from self._read(slot, cfg, timeout)
+                yield from self._read(slot, ctx, timeout)
             if slot.busy and dead:  # ended without closing the pipe (a child holds it)
-                yield from self._failed(slot, cfg, None)
+                yield from self._failed(slot, ctx, None)
             if slot.busy and time.monotonic() > slot.deadline:
-                yield from self._failed(slot, cfg, f"timeout after {_fmt_s(slot.limit)} s")
+                yield from self._failed(slot, ctx, f"timeout after {_fmt_s(slot.limit)} s")
 
-    def _read(self, slot: _Slot, cfg: RunConfig, timeout: float) -> Iterator[tuple[int, Rows]]:
+    def _read(self, slot: _Slot, ctx: RunContext, timeout: float) -> Iterator[tuple[int, Rows]]:
         """Every message the slot's worker has sent; its death when the pipe is closed."""
         while slot.busy:
             try:
@@ -391,13 +392,13 @@ class WorkerPool:
                     return
                 msg = slot.conn.recv()
             except (EOFError, OSError):
-                yield from self._failed(slot, cfg, None)
+                yield from self._failed(slot, ctx, None)
                 return
             kind, *rest = msg
             if kind == "setup":
                 if rest[0]:
                     self._kill(slot)
-                    raise setup_error(cfg, rest[0])
+                    raise setup_error(ctx, rest[0])
                 self._phase(slot, "scene", timeout)
             elif kind == "begin":
                 slot.phase, slot.begun = "backend", rest[1]
@@ -408,12 +409,12 @@ class WorkerPool:
                 index = slot.index
                 slot.index = None
                 raise RunError(
-                    f"item {index} of {cfg.suite.name} raised in a worker outside the backend "
+                    f"item {index} of {ctx.suite.name} raised in a worker outside the backend "
                     f"(a bug in beo-bench; please report it with this traceback):\n{rest[1]}"
                 )
 
     def _failed(
-        self, slot: _Slot, cfg: RunConfig, reason: str | None
+        self, slot: _Slot, ctx: RunContext, reason: str | None
     ) -> Iterator[tuple[int, Rows]]:
         """The slot's worker died (``reason`` None) or timed out: kill it (a new one starts
         with the next item) and record its item as failed, or stop the run if the backend
@@ -425,37 +426,44 @@ class WorkerPool:
         self.restarts += 1
         why = reason or exit_reason(code)
         if phase == "setup":
-            raise setup_error(cfg, why)
+            raise setup_error(ctx, why)
         if phase == "scene" or begun is None:
             raise RunError(
-                f"item {index} of suite {cfg.suite.name}: {why} while its views were "
+                f"item {index} of suite {ctx.suite.name}: {why} while its views were "
                 "generated, before the backend saw them (if a timeout: raise --item-timeout; "
                 "else a bug in beo-bench or its renderer, please report it)"
             )
         assert index is not None
-        yield index, failed_rows(cfg.suite.kind, begun, why)
+        yield index, failed_rows(ctx.suite, begun, why)
 
 
-def in_process_results(cfg: RunConfig, todo: list[int]) -> Iterator[tuple[int, Rows]]:
+def in_process_results(
+    ctx: RunContext, todo: list[int], backend: Backend | None = None
+) -> Iterator[tuple[int, Rows]]:
     """The items scored in this process, for backends registered at run time, which exist
-    only here. Limits: no item timeout, and a backend that crashes or exits takes the run
+    only here (``backend``: the one the driver built and prepared, so it is not built
+    twice). Limits: no item timeout, and a backend that crashes or exits takes the run
     with it (resume continues after the last complete item)."""
-    global _WORKER, _WORKER_CFG
+    from beo_bench.bench.evaluate import Evaluator
+
+    if not todo:  # a finished run (resumed) builds nothing
+        return
     # pin this process's threads for the run, as a worker's, then restore them
     saved = {v: os.environ.get(v) for v in _THREAD_VARS}
     had_torch = "torch" in sys.modules
     torch_threads = sys.modules["torch"].get_num_threads() if had_torch else None
     limiter = pin_threads()
-    init_worker(cfg, pin=False)
-    if _WORKER is None:
+    try:
+        ev = Evaluator(ctx, backend)
+    except Exception as e:
         limiter.restore_original_limits()
-        raise RunError(f"could not set up backend {cfg.backend!r}: {_INIT_ERROR}")
+        why = f"{type(e).__name__}: {e}"
+        raise RunError(f"could not set up backend {ctx.backend.name!r}: {why}") from e
     try:
         for i in todo:
-            yield work(i)
+            yield i, [clean_row(r) for r in ev.run_item(i)]
     finally:
-        _WORKER.close()
-        _WORKER = _WORKER_CFG = None
+        ev.close()
         limiter.restore_original_limits()
         for var, value in saved.items():
             if value is None:
@@ -467,12 +475,11 @@ def in_process_results(cfg: RunConfig, todo: list[int]) -> Iterator[tuple[int, R
 
 
 def ray_results(
-    cfg: RunConfig,
+    ctx: RunContext,
     todo: list[int],
     workers: int,
     timeout: float,
     imports: tuple[str, ...] = (),
-    class_given: bool = False,
 ) -> Iterator[tuple[int, list[dict[str, Any]]]]:
     """The items as Ray actor calls, each with a deadline (``ray.wait``): an actor that
     overruns it is killed, one that dies is replaced, and the item is recorded as failed.
@@ -494,20 +501,23 @@ def ray_results(
 
     @ray.remote(num_cpus=1)
     class Actor:
-        def __init__(self, c: RunConfig, modules: tuple[str, ...]) -> None:
-            _import_all(modules)  # a failure is reported by the first item, as set-up's
-            init_worker(c)
+        def __init__(self, c: RunContext, modules: tuple[str, ...]) -> None:
+            pin_threads()
+            # a failed import is reported by the first item, as set-up's
+            self.state = WorkerState(_import_all(modules))
+            self.state.setup(c)
 
         def work(self, i: int) -> tuple[int, list]:
-            return work(i)
+            return self.state.work(i)
 
-    views = ItemViews(cfg.suite)
-    views.class_hint = class_given
+    actors: Any = Actor  # ray.remote gives the class its `remote`, which mypy cannot see
+
+    views = ItemViews(ctx.suite, ctx.class_given)
 
     def failed(i: int, why: str) -> list[dict[str, Any]]:
-        return [clean_row(r) for r in failed_rows(cfg.suite.kind, views.templates(i), why)]
+        return [clean_row(r) for r in failed_rows(ctx.suite, views.templates(i), why)]
 
-    queue, idle = deque(todo), [Actor.remote(cfg, imports) for _ in range(max(1, workers))]
+    queue, idle = deque(todo), [actors.remote(ctx, imports) for _ in range(max(1, workers))]
     fresh = set(idle)  # actors whose first call also waits for their set-up
     flight: dict[Any, tuple[Any, int, float]] = {}
     try:
@@ -525,7 +535,7 @@ def ray_results(
                     rows = ray.get(ref)[1]  # cleaned by work()
                 except ray.exceptions.RayActorError:
                     rows = failed(i, "worker died: Ray actor lost")
-                    fresh.add(actor := Actor.remote(cfg, imports))
+                    fresh.add(actor := actors.remote(ctx, imports))
                 except ray.exceptions.RayTaskError as e:
                     raise RunError(f"item {i} failed on a Ray actor: {e}") from e
                 idle.append(actor)
@@ -535,7 +545,7 @@ def ray_results(
                     del flight[ref]
                     ray.kill(actor)
                     yield i, failed(i, f"timeout after {_fmt_s(timeout)} s")
-                    fresh.add(actor := Actor.remote(cfg, imports))
+                    fresh.add(actor := actors.remote(ctx, imports))
                     idle.append(actor)
     finally:
         views.close()

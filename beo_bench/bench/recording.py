@@ -9,20 +9,22 @@ the run (items are deterministic, so this shows exactly what was scored).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from beo_bench.atomic import atomic_path
+from beo_bench.bench.runs import RunContext
 from beo_bench.errors import BeoBenchError
 
 
-def log_run(cfg: Any, path: Path | str, items: int = 20) -> Path:
+def log_run(ctx: RunContext, path: Path | str, items: int = 20) -> Path:
+    """A rerun recording of the first ``items`` items of the run ``ctx`` at ``path``."""
     try:
         import rerun as rr
     except ImportError as e:
         raise BeoBenchError("--rerun needs rerun-sdk: pip install 'beo-bench[viz]'") from e
-    from beo_bench.bench.evaluate import Evaluator, estimate_mesh
+    from beo_bench.bench.evaluate import Evaluator
+    from beo_bench.bench.scoring import estimate_mesh
     from beo_bench.objects import instance_from_key
     from beo_bench.view import rerun_mesh
 
@@ -31,14 +33,14 @@ def log_run(cfg: Any, path: Path | str, items: int = 20) -> Path:
     with atomic_path(path) as tmp:  # a failed run leaves no partial recording at path
         rec = rr.RecordingStream("beo-bench-run")
         rec.save(tmp)
-        ev = Evaluator(cfg.suite, cfg.backend, cfg.backend_kwargs, cfg.allow_privileged)
+        ev = Evaluator(ctx)
         step = 0
         try:
-            for index in range(min(items, cfg.suite.size)):
-                views = ev.views(index)
+            for index in range(min(items, ctx.suite.size)):
+                views = ev.items.views(index)
                 answers = [ev.predict(index, j, v) for j, v in enumerate(views)]
                 for view, gt, (est, _, failure) in zip(
-                    views, ev.truths(index, views), answers, strict=True
+                    views, ev.items.truths(index, views), answers, strict=True
                 ):
                     rec.set_time("view", sequence=step)
                     step += 1
@@ -46,7 +48,7 @@ def log_run(cfg: Any, path: Path | str, items: int = 20) -> Path:
                     rec.log("camera", rr.Pinhole(image_from_camera=view.K, width=w, height=h))
                     rec.log("camera/depth", rr.DepthImage(view.depth, meter=1.0))
                     rec.log("camera/mask", rr.SegmentationImage(view.mask.astype(np.uint8)))
-                    truth = instance_from_key(gt.key).mesh.copy()
+                    truth = instance_from_key(gt.key, ctx.dataset).mesh.copy()
                     T = np.eye(4)
                     T[:3, :3], T[:3, 3] = gt.R_cam, gt.t_cam
                     truth.apply_transform(T)

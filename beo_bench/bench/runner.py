@@ -47,17 +47,31 @@ from pathlib import Path
 from typing import Any
 
 from beo_bench.atomic import atomic_write_bytes
+from beo_bench.backend import Backend
 from beo_bench.bench.pool import (
     WORKER_THREADS,
-    RunError,
     WorkerPool,
     default_workers,
     in_process_results,
     jsonable,
     ray_results,
 )
+from beo_bench.bench.runs import (
+    LOCK_NAME,
+    MARKER_NAME,
+    MARKER_TEXT,
+    RECORD_NAME,
+    RESULTS_NAME,
+    SUMMARY_NAME,
+    CorruptRunError,
+    RunConfig,
+    RunContext,
+    RunError,
+    RunUsageError,
+    Summary,
+)
 from beo_bench.bench.suites import Suite
-from beo_bench.errors import CorruptDataError, UsageError
+from beo_bench.errors import UsageError
 
 __all__ = [
     "WORKER_THREADS",
@@ -76,36 +90,8 @@ __all__ = [
 ]
 
 
-class RunUsageError(RunError, UsageError):
-    """A run asked for in a way that cannot work (``--out`` is a file, results there need
-    ``--resume``, they belong to another run or model); exit status 2."""
-
-
-class CorruptRunError(RunError, CorruptDataError):
-    """A run directory's ``run.json`` or ``results.jsonl`` that is damaged beyond skipping a
-    line: nothing is overwritten, the message says what to do."""
-
-
 class ResultsWarning(UserWarning):
     """Lines of a results file that were skipped (damaged, incomplete, duplicated)."""
-
-
-@dataclass(frozen=True)
-class RunConfig:
-    """Everything that determines a run's results (recorded in its summary)."""
-
-    suite: Suite
-    backend: str
-    backend_kwargs: dict[str, Any] = field(default_factory=dict)
-    allow_privileged: bool = False
-    """Let a plugin that declares ``privileged = True`` be handed the truth
-    (``--allow-privileged``); in-tree bounds need no leave. Whether the backend *was*
-    privileged is recorded in the run record, summary and provenance."""
-
-
-LOCK_NAME = "run.lock"
-RESULTS_NAME = "results.jsonl"
-RECORD_NAME = "run.json"
 
 
 # -- errors from the file system -------------------------------------------------------------
@@ -354,15 +340,6 @@ def _run_dir(out: Path) -> Path:
     return out
 
 
-MARKER_NAME = ".beo-bench-run"
-MARKER_TEXT = (
-    "This directory is a run directory of beo-bench (`beo-bench run --out`, `beo-bench all`).\n"
-    "A run writes and resumes here only while this file marks the directory as its own.\n"
-)
-"""The file marking a directory a run made: a run writes only into an empty directory or
-one carrying it, so nothing the user keeps in a folder given as ``--out`` is replaced."""
-
-
 def _claim_run_dir(out: Path) -> None:
     """Mark ``out`` as a run directory when it is empty, or written by an earlier version
     (a valid run record: its marker is added); a :class:`RunUsageError` for a non-empty
@@ -423,10 +400,12 @@ def lock_run_dir(out: Path) -> Iterator[None]:
         os.close(fd)  # releases the lock
 
 
-def _identity(cfg: RunConfig) -> dict[str, Any]:
+def _identity(cfg: RunConfig | RunContext) -> dict[str, Any]:
     """What fixes the items and their scores. The size is left out because item i depends
     only on (seed, i): a run can be extended, or summarised over its first items; the item
     timeout and the description change no score either."""
+    if isinstance(cfg, RunContext):
+        cfg = cfg.config
     drop = ("size", "description", "item_timeout_s")
     suite = {k: v for k, v in cfg.suite.record().items() if k not in drop}
     record = {"suite": suite, "backend": cfg.backend, "backend_kwargs": cfg.backend_kwargs}
@@ -499,18 +478,23 @@ def _check_same_model(old: dict[str, Any], digest: str | None, out: Path) -> Non
 
 # -- workers ---------------------------------------------------------------------------------
 def _results(
-    cfg: RunConfig, todo: list[int], workers: int, timeout: float, pool: WorkerPool | None
+    ctx: RunContext,
+    todo: list[int],
+    workers: int,
+    timeout: float,
+    pool: WorkerPool | None,
+    backend: Backend | None,
 ) -> Iterator[tuple[int, list[dict[str, Any]]]]:
     from beo_bench.backend import buildable_in_fresh_process
 
     imports = pool.imports if pool is not None else ()
-    if workers <= 1 and not buildable_in_fresh_process(cfg.backend, imports):
-        yield from in_process_results(cfg, todo)
+    if workers <= 1 and not buildable_in_fresh_process(ctx.backend.name, imports):
+        yield from in_process_results(ctx, todo, backend)
     elif pool is not None:
-        yield from pool.results(cfg, todo, timeout)
+        yield from pool.results(ctx.for_workers(), todo, timeout)
     else:
         with WorkerPool(workers) as fresh:
-            yield from fresh.results(cfg, todo, timeout)
+            yield from fresh.results(ctx.for_workers(), todo, timeout)
 
 
 # -- the run ---------------------------------------------------------------------------------
@@ -540,7 +524,7 @@ def git_state(where: Path | None = None) -> dict[str, Any]:
     return out
 
 
-def provenance(cfg: RunConfig) -> dict[str, Any]:
+def provenance(ctx: RunContext) -> dict[str, Any]:
     import importlib.metadata as md
 
     def version(name: str) -> str | None:
@@ -561,79 +545,35 @@ def provenance(cfg: RunConfig) -> dict[str, Any]:
             "processor": platform.machine(),
             "cpus": os.cpu_count(),
         },
-        "suite": cfg.suite.record(),
-        "backend_kwargs": cfg.backend_kwargs,
-        **({"dataset_root": cfg.suite.dataset.root} if cfg.suite.dataset else {}),
+        "suite": ctx.suite.record(),
+        "backend_kwargs": ctx.backend.kwargs,
+        **({"dataset_root": ctx.dataset.root} if ctx.dataset else {}),
     }
-
-
-def suite_categories(suite: Suite) -> tuple[str, ...]:
-    """The class list a suite's views carry (``View.categories``)."""
-    if suite.dataset is not None or suite.kind == "isolated":
-        from beo_bench.objects.dataset import object_set
-
-        return object_set(suite.dataset, suite.split, suite.categories).categories
-    from beo_bench.envs.pick import default_categories
-
-    return default_categories()
 
 
 @dataclass(frozen=True)
 class Prepared:
-    """What the driver learnt from building and preparing the backend."""
+    """The backend the driver built and prepared, and the digest of the model it loaded."""
 
+    backend: Backend
     model_digest: str | None
-    """The backend's ``model_digest()`` (None: no learned model, or the backend has none)."""
-    class_given: bool
-    """Whether its views get the true class (the ``class-given`` track, a backend that can
-    use it)."""
-    uses_class_hint: bool = False
-    """Whether the backend can use the class hint at all (its ``wants_class_hint``)."""
-    privileged: bool = False
-    """Whether the backend is handed the ground truth (a bound)."""
+    """The backend's ``model_digest()`` (None: no learned model)."""
 
 
-def _prepare(cfg: RunConfig) -> Prepared:
-    """The backend's one-time set-up, here, before workers start (they then load it), and
-    the digest of the model it loaded. A backend that cannot use the class hint is refused
-    the ``class-given`` track (its class-free run scores the same)."""
-    from beo_bench.backend import check_privileged, get_backend, load_plugins, prepare_backend
-    from beo_bench.bench.suites import check_track
-    from beo_bench.objects.dataset import activate
-
-    load_plugins()
-    activate(cfg.suite.dataset)  # a model for a dataset's classes is looked up by its digest
-    backend = get_backend(cfg.backend, **cfg.backend_kwargs)
-    privileged = check_privileged(cfg.backend, backend, cfg.allow_privileged)
-    wants = bool(getattr(backend, "wants_class_hint", False))
-    check_track(cfg.suite, cfg.backend, wants, bool(getattr(backend, "needs_class_hint", False)))
-    prepare_backend(backend, suite_categories(cfg.suite))
-    digest = getattr(backend, "model_digest", None)
-    return Prepared(
-        digest() if callable(digest) else None, cfg.suite.gives_class and wants, wants, privileged
-    )
+def _prepare(ctx: RunContext) -> Prepared:
+    """The backend's one-time set-up, here, before workers start (they then load what it
+    cached), and the digest of the model it loaded."""
+    backend = ctx.backend.build()
+    backend.prepare(ctx)
+    return Prepared(backend, backend.model_digest())
 
 
-def _privileged(cfg: RunConfig, record: dict[str, Any] | None) -> bool:
-    """Whether the run's backend was handed the truth: as its run record says, or (a record
-    written before it was recorded) as the backend built here says."""
-    if record is not None and isinstance(record.get("privileged"), bool):
-        return bool(record["privileged"])
-    from beo_bench.backend import get_backend, load_plugins
-
-    load_plugins()
-    return bool(getattr(get_backend(cfg.backend, **cfg.backend_kwargs), "privileged", False))
-
-
-def _uses_class_hint(cfg: RunConfig, record: dict[str, Any] | None) -> bool:
-    """Whether the run's backend can use the class hint: as its run record says, or (a
-    record written before it was recorded) as the backend built here says."""
-    if record is not None and isinstance(record.get("uses_class_hint"), bool):
-        return bool(record["uses_class_hint"])
-    from beo_bench.backend import get_backend, load_plugins
-
-    load_plugins()
-    return bool(getattr(get_backend(cfg.backend, **cfg.backend_kwargs), "wants_class_hint", False))
+def _recorded(record: dict[str, Any] | None, key: str, fallback: bool) -> bool:
+    """A flag of the run record, or (a record written before it was recorded) ``fallback``,
+    what the backend's capabilities say now."""
+    if record is not None and isinstance(record.get(key), bool):
+        return bool(record[key])
+    return fallback
 
 
 def item_timeout_s(suite: Suite, item_timeout: float | None) -> float:
@@ -652,7 +592,7 @@ def item_timeout_s(suite: Suite, item_timeout: float | None) -> float:
 
 
 def run(
-    cfg: RunConfig,
+    cfg: RunConfig | RunContext,
     out: Path | str,
     workers: int | None = None,
     resume: bool = False,
@@ -660,23 +600,25 @@ def run(
     progress: bool = True,
     pool: WorkerPool | None = None,
     item_timeout: float | None = None,
-) -> dict[str, Any]:
+) -> Summary:
     """Run (or resume) ``cfg`` into ``out`` with ``workers`` processes (default: one per
     core), Ray actors, or the processes of ``pool`` (kept across runs; it sets the number
     of workers; with ``use_ray`` only its ``imports`` are used); returns the summary.
     ``item_timeout``: seconds an item may take before it is recorded as failed (default:
-    the suite's ``item_timeout_s``). The directory is locked for the whole run."""
+    the suite's ``item_timeout_s``). The directory is locked for the whole run. The run's
+    context is resolved here, once (a :class:`RunContext` given is used as it is)."""
+    ctx = cfg if isinstance(cfg, RunContext) else RunContext.of(cfg, progress=progress)
     if pool is not None:
         workers = pool.workers
     workers = default_workers() if workers is None else max(1, int(workers))
-    timeout = item_timeout_s(cfg.suite, item_timeout)
+    timeout = item_timeout_s(ctx.suite, item_timeout)
     out = _run_dir(Path(out))
     with lock_run_dir(out):
-        return _run_locked(cfg, out, workers, resume, use_ray, progress, pool, timeout)
+        return _run_locked(ctx, out, workers, resume, use_ray, progress, pool, timeout)
 
 
 def _run_locked(
-    cfg: RunConfig,
+    ctx: RunContext,
     out: Path,
     workers: int,
     resume: bool,
@@ -684,22 +626,22 @@ def _run_locked(
     progress: bool,
     pool: WorkerPool | None,
     timeout: float,
-) -> dict[str, Any]:
+) -> Summary:
     from tqdm import tqdm
 
-    record, done, todo, prepared = _open_run(cfg, out, resume)
+    record, done, todo, prepared = _open_run(ctx, out, resume)
     t0 = time.perf_counter()
     if use_ray:
         imports = pool.imports if pool is not None else ()
-        class_given = prepared.class_given if prepared is not None else False
-        source = ray_results(cfg, todo, workers, timeout, imports, class_given)
+        source = ray_results(ctx.for_workers(), todo, workers, timeout, imports)
     else:
-        source = _results(cfg, todo, workers, timeout, pool)
+        backend = prepared.backend if prepared is not None else None
+        source = _results(ctx, todo, workers, timeout, pool, backend)
     bar = tqdm(
-        total=cfg.suite.size,
+        total=ctx.suite.size,
         initial=len(done),
         disable=not progress,
-        desc=f"{cfg.suite.label} / {cfg.backend}",
+        desc=f"{ctx.suite.label} / {ctx.backend.name}",
         unit="item",
     )
     with bar, ResultsWriter(out / RESULTS_NAME) as writer:
@@ -707,11 +649,11 @@ def _run_locked(
             writer.append(rows)
             bar.update(1)
     wall = time.perf_counter() - t0
-    return _summarise(cfg, out, record, wall, workers, use_ray, timeout)
+    return _summarise(ctx, out, record, wall, workers, use_ray, timeout)
 
 
 def _open_run(
-    cfg: RunConfig, out: Path, resume: bool
+    ctx: RunContext, out: Path, resume: bool
 ) -> tuple[dict[str, Any] | None, set[int], list[int], Prepared | None]:
     """Check that ``out`` may take this run (or its resume), prepare the backend if there
     is work left and record a new run: (the run record, the items done, the items to do,
@@ -719,7 +661,7 @@ def _open_run(
     from beo_bench.objects import LIBRARY_VERSION
 
     results, record_path = out / RESULTS_NAME, out / RECORD_NAME
-    meta = _identity(cfg)
+    meta = _identity(ctx)
     old = _read_record(record_path)
     try:
         has_results = results.exists() and results.stat().st_size > 0
@@ -733,11 +675,11 @@ def _open_run(
             )
         _check_same_run(old, meta, out)
     scan = _scan(results, repair=has_results)
-    done = {r["item"] for r in scan.rows if r["item"] < cfg.suite.size}
-    todo = [i for i in range(cfg.suite.size) if i not in done]
+    done = {r["item"] for r in scan.rows if r["item"] < ctx.suite.size}
+    todo = [i for i in range(ctx.suite.size) if i not in done]
     if not todo:
         return old, done, todo, None
-    prepared = _prepare(cfg)
+    prepared = _prepare(ctx)
     if has_results:
         assert old is not None
         _check_same_model(old, prepared.model_digest, out)
@@ -746,8 +688,8 @@ def _open_run(
             **meta,
             "model_digest": prepared.model_digest,
             "library_version": LIBRARY_VERSION,
-            "uses_class_hint": prepared.uses_class_hint,
-            "privileged": prepared.privileged,
+            "uses_class_hint": ctx.backend.capabilities.wants_class_hint,
+            "privileged": ctx.privileged,
         }
         _write(record_path, old, "writing the run record")
     return old, done, todo, prepared
@@ -779,36 +721,43 @@ def _write(path: Path, obj: Any, doing: str) -> None:
 
 
 def _summarise(
-    cfg: RunConfig,
+    ctx: RunContext,
     out: Path,
     record: dict[str, Any] | None,
     wall: float,
     workers: int,
     use_ray: bool,
     timeout: float,
-) -> dict[str, Any]:
+) -> Summary:
     from beo_bench.bench.summary import summarise
 
+    suite = ctx.suite
     # the rows as this run left them (what was skipped was reported when it started)
-    rows = [r for r in _scan(out / RESULTS_NAME, False, False).rows if r["item"] < cfg.suite.size]
+    rows = [r for r in _scan(out / RESULTS_NAME, False, False).rows if r["item"] < suite.size]
     rows.sort(key=lambda r: (r["item"], r["view"]))
-    summary = summarise(cfg.suite, cfg.backend, rows)
-    # what a leaderboard groups and labels rows by: the track (None: a suite without tracks),
-    # whether the backend can use the class hint at all, and the model it scored
-    summary["track"] = cfg.suite.track
-    summary["uses_class_hint"] = _uses_class_hint(cfg, record)
-    summary["model_digest"] = (record or {}).get("model_digest")
+    caps = ctx.backend.capabilities
+    digest = (record or {}).get("model_digest")
     # a bound is marked by what it was given, not by its name (leaderboard.is_bound)
-    summary["privileged"] = _privileged(cfg, record)
-    summary["provenance"] = provenance(cfg)
-    summary["provenance"].update(
-        privileged=summary["privileged"],
-        wall_s_last_session=wall,
-        workers=workers,
-        ray=use_ray,
-        item_timeout_s=timeout,
-        model_digest=(record or {}).get("model_digest"),
-        library_version=(record or {}).get("library_version"),
+    privileged = _recorded(record, "privileged", ctx.privileged)
+    summary = summarise(
+        suite,
+        ctx.backend.name,
+        rows,
+        # what a leaderboard groups and labels rows by: whether the backend can use the
+        # class hint at all, the model it scored, whether it was handed the truth
+        uses_class_hint=_recorded(record, "uses_class_hint", caps.wants_class_hint),
+        model_digest=digest,
+        privileged=privileged,
+        provenance={
+            **provenance(ctx),
+            "privileged": privileged,
+            "wall_s_last_session": wall,
+            "workers": workers,
+            "ray": use_ray,
+            "item_timeout_s": timeout,
+            "model_digest": digest,
+            "library_version": (record or {}).get("library_version"),
+        },
     )
-    _write(out / "summary.json", summary, "writing the summary")
+    _write(out / SUMMARY_NAME, summary.to_json(), "writing the summary")
     return summary

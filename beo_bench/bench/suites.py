@@ -11,15 +11,82 @@ scoring: results of different versions are never compared.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
-from typing import TYPE_CHECKING, Any, Literal
+from enum import Enum
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from beo_bench.errors import BeoBenchError, UsageError
+from beo_bench.objects.dataset import SHORT_CHARS
 
 if TYPE_CHECKING:
     from beo_bench.objects.dataset import Dataset
 
-Kind = Literal["isolated", "tabletop", "pick"]
-Protocol = Literal["known-pose", "1dof", "3dof", "free"]
+
+class Kind(str, Enum):
+    """What a suite's items are; each kind is a module of :mod:`beo_bench.bench.kinds`
+    (its cases, views, scoring, failure rows and summary metrics)."""
+
+    ISOLATED = "isolated"
+    """One object at the origin, viewed from ``OBJECT_RIG``: one scored view per item."""
+    TABLETOP = "tabletop"
+    """A BEOPick-v0 scene: every object with ``min_pixels`` visible pixels is a view."""
+    PICK = "pick"
+    """A BEOPick-v0 episode: the grasp planned from the estimates is executed."""
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class Protocol(str, Enum):
+    """What a backend is told besides the view (docs/benchmark.md, "What a backend is
+    told"): each member's fields are that table's row."""
+
+    reveals: str
+    """In words, what the backend is handed."""
+    pose_hint: bool
+    """``View.pose_hint``: the true rotation, translation and size."""
+    up_hint: bool
+    """``View.up_hint``: the object's up axis in the camera frame (alone: with the pose
+    given it is part of the pose)."""
+    world_frame: str
+    """What ``View.cam_to_world`` says: ``random`` (a random rigid frame: nothing),
+    ``random-yaw`` (up is up: a random yaw and translation), or ``robot`` (the camera
+    and the table plane in the robot's frame, as a real robot knows them)."""
+
+    def __new__(
+        cls, value: str, reveals: str, pose_hint: bool, up_hint: bool, world_frame: str
+    ) -> Protocol:
+        obj = str.__new__(cls, value)
+        obj._value_ = value
+        obj.reveals = reveals
+        obj.pose_hint = pose_hint
+        obj.up_hint = up_hint
+        obj.world_frame = world_frame
+        return obj
+
+    KNOWN_POSE = ("known-pose", "the pose and size", True, False, "random")
+    ONE_DOF = ("1dof", "the up axis only", False, True, "random-yaw")
+    THREE_DOF = ("3dof", "nothing about the pose", False, False, "random")
+    FREE = ("free", "the camera and the table plane", False, False, "robot")
+
+    @classmethod
+    def of(cls, value: str) -> Protocol:
+        """The protocol named ``value`` (``"1dof"``; a member is returned as it is)."""
+        for p in cls:
+            if p.value == value:
+                return p
+        raise UsageError(f"protocol {value!r}: use one of {', '.join(p.value for p in cls)}")
+
+    @property
+    def scores_pose(self) -> bool:
+        """Whether pose errors are scored (not when the pose is given)."""
+        return not self.pose_hint
+
+    def __str__(self) -> str:
+        return self.value
+
+
 TRACKS: tuple[str, ...] = ("class-given", "class-free")
 """The two tracks of a suite that allows the class hint (``Suite.class_hint``): in
 ``class-given`` every backend that can use the true class (``wants_class_hint``) is told
@@ -90,12 +157,15 @@ class Suite:
     digest; its identity (digest and loading options, not its path) is part of the run's."""
 
     def __post_init__(self) -> None:
+        # given as their names ("isolated", "3dof"): kept as the enums, which are strings
+        object.__setattr__(self, "kind", Kind(self.kind))
+        object.__setattr__(self, "protocol", Protocol.of(self.protocol))
         if self.split == "all" and self.dataset is None:
             raise UsageError(
                 "split 'all' exists for a user dataset only (--objects ROOT); the procedural "
                 "library has train, val, test and ood"
             )
-        if self.categories is not None and self.kind != "isolated":
+        if self.categories is not None and self.kind is not Kind.ISOLATED:
             raise UsageError(f"suite {self.name!r}: a class subset applies to isolated suites only")
         if self.class_hint and self.track is None:
             # frozen: the default track is filled in once, here
@@ -171,8 +241,6 @@ class Suite:
 def base_name(name: str) -> str:
     """``pose-3dof.1a2b3c4d`` -> ``pose-3dof`` (a name without a digest is returned as is)."""
     head, dot, tail = name.rpartition(".")
-    from beo_bench.objects.dataset import SHORT_CHARS
-
     if (
         dot
         and head in SUITES
@@ -195,8 +263,8 @@ SUITES: dict[str, Suite] = {
         Suite(
             "known-pose",
             3,
-            "isolated",
-            "known-pose",
+            Kind.ISOLATED,
+            Protocol.KNOWN_POSE,
             size=500,
             seed=1000,
             description="class + completion with the true pose and size given (Table 3.1)",
@@ -204,8 +272,8 @@ SUITES: dict[str, Suite] = {
         Suite(
             "pose-1dof",
             3,
-            "isolated",
-            "1dof",
+            Kind.ISOLATED,
+            Protocol.ONE_DOF,
             size=500,
             seed=2000,
             class_hint=True,
@@ -215,8 +283,8 @@ SUITES: dict[str, Suite] = {
         Suite(
             "pose-3dof",
             3,
-            "isolated",
-            "3dof",
+            Kind.ISOLATED,
+            Protocol.THREE_DOF,
             size=1000,
             seed=3000,
             class_hint=True,
@@ -226,8 +294,8 @@ SUITES: dict[str, Suite] = {
         Suite(
             "pose-3dof-percat",
             2,
-            "isolated",
-            "3dof",
+            Kind.ISOLATED,
+            Protocol.THREE_DOF,
             size=600,
             seed=7000,
             class_hint=True,
@@ -239,8 +307,8 @@ SUITES: dict[str, Suite] = {
         Suite(
             "pose-3dof-ood",
             3,
-            "isolated",
-            "3dof",
+            Kind.ISOLATED,
+            Protocol.THREE_DOF,
             size=550,
             seed=6000,
             split="ood",
@@ -251,8 +319,8 @@ SUITES: dict[str, Suite] = {
         Suite(
             "tabletop",
             3,
-            "tabletop",
-            "free",
+            Kind.TABLETOP,
+            Protocol.FREE,
             size=200,
             seed=4000,
             image_size=(640, 480),
@@ -264,8 +332,8 @@ SUITES: dict[str, Suite] = {
         Suite(
             "pick",
             3,
-            "pick",
-            "free",
+            Kind.PICK,
+            Protocol.FREE,
             size=100,
             seed=5000,
             image_size=(640, 480),
@@ -276,6 +344,16 @@ SUITES: dict[str, Suite] = {
         ),
     )
 }
+
+
+def item_rng(suite: Suite, index: int) -> np.random.Generator:
+    """The generator of item ``index``: depends on the suite's seed and the index only."""
+    return np.random.default_rng(np.random.SeedSequence([suite.seed, index]))
+
+
+def episode_seed(suite: Suite, index: int) -> int:
+    """The BEOPick-v0 ``reset`` seed of item ``index`` of a tabletop or pick suite."""
+    return int(item_rng(suite, index).integers(2**31))
 
 
 def get_suite(name: str) -> Suite:

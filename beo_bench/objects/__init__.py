@@ -8,9 +8,10 @@ from __future__ import annotations
 
 import importlib
 
+from beo_bench.objects.dataset import instance_from_key
 from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.loaders import load_folder, load_modelnet, load_shapenet
-from beo_bench.objects.objectset import ObjectSet, instance_from_key
+from beo_bench.objects.objectset import ObjectSet
 from beo_bench.objects.registry import (
     DEFAULT_SPLIT_SIZES,
     LIBRARY_VERSION,
@@ -18,6 +19,7 @@ from beo_bench.objects.registry import (
     CategorySpec,
     categories,
     get_category,
+    pickable_categories,
     register_category,
 )
 
@@ -52,5 +54,6 @@ __all__ = [
     "load_folder",
     "load_modelnet",
     "load_shapenet",
+    "pickable_categories",
     "register_category",
 ]

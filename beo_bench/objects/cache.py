@@ -169,7 +169,7 @@ def array_checksum(arrays: Mapping[str, np.ndarray]) -> str:
         a = np.ascontiguousarray(arrays[name])
         h.update(f"{name}:{a.dtype.str}:{a.shape};".encode())
         try:
-            h.update(a)  # the array's own buffer, not a tobytes() copy
+            h.update(a.data)  # the array's own buffer, not a tobytes() copy
         except (TypeError, ValueError, BufferError):  # dtypes without a buffer (datetime)
             h.update(a.tobytes())
     return h.hexdigest()[:32]
@@ -196,7 +196,8 @@ def atomic_save_npz(path: Path, **arrays: np.ndarray) -> None:
     """Write ``arrays`` to ``path`` so that no reader ever sees a partial file."""
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_write(path, perms=0o600) as f:  # private to the user, as it always was
-        np.savez_compressed(f, **arrays)
+        members: dict[str, Any] = dict(arrays)  # (typed: mypy reads **arrays as savez options)
+        np.savez_compressed(f, **members)
 
 
 ENTRY_BUDGET = 256 << 20

@@ -147,11 +147,11 @@ def build(p: Params) -> Assembly:
             zs = 0.3 * sh
             tk = 0.7 * lt
             for sy in (-1.0, 1.0):
-                a, b = leg_at(-1.0, sy, zs), leg_at(1.0, sy, zs)
-                parts.append(box((b[0] - a[0], tk, tk), center=(a + b) / 2))
-            a, b = leg_at(1.0, -1.0, zs), leg_at(1.0, 1.0, zs)
+                back, front = leg_at(-1.0, sy, zs), leg_at(1.0, sy, zs)
+                parts.append(box((front[0] - back[0], tk, tk), center=(back + front) / 2))
+            right, left = leg_at(1.0, -1.0, zs), leg_at(1.0, 1.0, zs)
             # across between the side stretchers' centre lines, so it overlaps both
-            parts.append(box((tk, b[1] - a[1], tk), center=(0.0, 0.0, zs + 0.3 * tk)))
+            parts.append(box((tk, left[1] - right[1], tk), center=(0.0, 0.0, zs + 0.3 * tk)))
 
     # --- arms: a rest from the back to the front, on a post standing on the seat
     if p["arms"]:

@@ -10,21 +10,38 @@ loading options. Suites on a dataset carry it (``Suite.dataset``) and are named
 The digest hashes every file once; per-file hashes are cached on disk by path, size and
 modification time, so a later call on an unchanged ShapeNet-size dataset costs a ``stat``
 per file, not a re-read.
+
+:func:`open_dataset` is the one entry point for opening a dataset; :meth:`Dataset.objects`
+gives its object sets and :func:`instance_from_key` (:meth:`Dataset.instance`) turns any
+instance key back into its instance, given the dataset it came from.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from beo_bench.atomic import atomic_write_bytes
-from beo_bench.errors import UsageError
-from beo_bench.objects.loaders import DEFAULT_REPAIR
-from beo_bench.objects.objectset import ObjectSet
+from beo_bench.errors import InvalidKeyError, UsageError
+from beo_bench.objects.cache import cache_root
+from beo_bench.objects.dataset_load import DEFAULT_REPAIR, REPAIR_MODES, LoadOptions
+from beo_bench.objects.instance import ObjectInstance
+from beo_bench.objects.layouts import (
+    LAYOUTS,
+    Layout,
+    dataset_entries,
+    detect_layout,
+    get_layout,
+    load_objects,
+    resolve_key,
+)
+from beo_bench.objects.meshfile import axes_rotation
+from beo_bench.objects.objectset import PROCEDURAL_PREFIX, ObjectSet, resolve_procedural_key
 
 DIGEST_CHARS = 16
 """Hex characters of a dataset digest kept (64 bits: collisions are not a concern for the
@@ -42,12 +59,16 @@ files in ``test``; ``--split all`` evaluates on all of them)."""
 
 @dataclass(frozen=True)
 class Dataset:
-    """A dataset folder and how it is loaded; what ``--objects`` and its options make."""
+    """A dataset folder and how it is loaded; what ``--objects`` and its options make
+    (:func:`open_dataset`). Frozen and picklable: pass it to whatever (a worker process)
+    needs the dataset's objects or must resolve its keys."""
 
     root: str
     """Absolute path of the dataset's root folder (not part of its identity)."""
     layout: str
-    """``shapenet``, ``modelnet`` or ``folder`` (see ``loaders.detect_layout``)."""
+    """``shapenet``, ``modelnet`` or ``folder``: a name of
+    :data:`~beo_bench.objects.layouts.LAYOUTS` (see
+    :func:`~beo_bench.objects.layouts.detect_layout`)."""
     digest: str
     """Content digest of its mesh files (:func:`dataset_digest`)."""
     repair: str = DEFAULT_REPAIR
@@ -76,21 +97,30 @@ class Dataset:
             "size": self.size,
         }
 
+    @property
+    def layout_spec(self) -> Layout:
+        """The :class:`~beo_bench.objects.layouts.Layout` named by :attr:`layout`."""
+        return get_layout(self.layout)
+
+    def options(self) -> LoadOptions:
+        """The loading options its instances are built with (the files' up axis only
+        where the layout has that option: folders)."""
+        spec = self.layout_spec
+        up = self.up if spec.axes_option else "z"
+        return LoadOptions.make(self.repair, self.size, up, "x", None, spec.default_units)
+
     def objects(
         self, split: str, categories: Sequence[str] | None = None, per_category: int | None = None
     ) -> ObjectSet:
         """The dataset's ``split`` (or every model: :data:`ALL_SPLIT`) as an object set."""
-        from beo_bench.objects import loaders
+        return load_objects(
+            self.layout_spec, self.root, split, categories, per_category, self.options()
+        )
 
-        kwargs: dict[str, object] = {"repair": self.repair, "size": self.size}
-        if self.layout == "folder":
-            kwargs["up"] = self.up
-        load = {
-            "shapenet": loaders.load_shapenet,
-            "modelnet": loaders.load_modelnet,
-            "folder": loaders.load_folder,
-        }[self.layout]
-        return load(self.root, split, categories, per_category, **kwargs)  # type: ignore[arg-type]
+    def instance(self, key: str) -> ObjectInstance:
+        """The instance a key names: one of this dataset's, or a procedural one
+        (:func:`instance_from_key` with this dataset)."""
+        return instance_from_key(key, self)
 
     def categories(self) -> tuple[str, ...]:
         """Every class of the dataset (in any split), sorted."""
@@ -118,19 +148,17 @@ def open_dataset(
 ) -> Dataset:
     """The dataset at ``root`` (layout detected, content digested); a
     :class:`~beo_bench.errors.UsageError` for options that do not apply."""
-    from beo_bench.objects import loaders
-
-    layout = loaders.detect_layout(root)
+    layout = detect_layout(root)
     path = str(Path(root).expanduser().resolve())
-    if up != "z" and layout != "folder":
+    if up != "z" and not get_layout(layout).axes_option:
         raise UsageError(
             f"--up applies to folder datasets only; {path} is a {layout} dataset, whose axes "
             "are known (drop --up)"
         )
-    if repair not in loaders.REPAIR_MODES:
-        raise UsageError(f"--repair {repair!r}: use one of {', '.join(loaders.REPAIR_MODES)}")
+    if repair not in REPAIR_MODES:
+        raise UsageError(f"--repair {repair!r}: use one of {', '.join(REPAIR_MODES)}")
     try:
-        loaders.axes_rotation(up, "x")  # the folder loader's front axis is +x
+        axes_rotation(up, "x")  # the folder loader's front axis is +x
     except ValueError as e:
         raise UsageError(f"--up {up!r}: {e}") from None
     return Dataset(path, layout, dataset_digest(path, layout), repair, up, size)
@@ -139,21 +167,14 @@ def open_dataset(
 def dataset_files(root: str, layout: str) -> list[tuple[str, Path]]:
     """Every mesh file of the dataset (all splits), as (path relative to the root, path),
     sorted."""
-    from beo_bench.objects import loaders
-
-    out = []
-    for d in loaders._top_dirs(layout, root):
-        for e in loaders._dir_entries(layout, root, d):
-            out.append((e.path.relative_to(root).as_posix(), e.path))
-    return sorted(out)
+    entries = dataset_entries(get_layout(layout), root)
+    return sorted((e.path.relative_to(root).as_posix(), e.path) for e in entries)
 
 
 def dataset_digest(root: str | Path, layout: str) -> str:
     """SHA-256 over the sorted (relative path, file SHA-256) pairs of the dataset's mesh
     files, :data:`DIGEST_CHARS` hex characters. Per-file hashes are cached (see the module
     docstring); a file whose size or modification time changed is hashed again."""
-    from beo_bench.objects.cache import cache_root
-
     root = str(Path(root).resolve())
     memo_path = (
         cache_root()
@@ -209,21 +230,48 @@ def reference_split(dataset: Dataset, categories: Sequence[str]) -> str:
     return ALL_SPLIT
 
 
-_ACTIVE: Dataset | None = None
+def instance_from_key(key: str, dataset: Dataset | None = None) -> ObjectInstance:
+    """The instance a key names (keys are unique across sets and sources).
+
+    A procedural key (``proc/...``) needs nothing else. A dataset's key (``shapenet/...``,
+    ``modelnet/...``, ``folder/...``: no machine paths) is looked up under ``dataset.root``;
+    without a dataset, under the root in the layout's environment variable
+    (:data:`~beo_bench.objects.layouts.ROOT_ENV`: ``$BEO_BENCH_SHAPENET``, ...). Raises
+    :class:`~beo_bench.errors.InvalidKeyError` for a malformed key, an unknown source, a
+    key of another layout than ``dataset``'s, or one with no root to look it up in.
+    """
+    prefix, sep, rest = key.partition("/")
+    if not sep:
+        raise InvalidKeyError(f"instance key {key!r} has no '<source>/' prefix")
+    if prefix == PROCEDURAL_PREFIX:
+        return resolve_procedural_key(rest)
+    layout = LAYOUTS.get(prefix)
+    if layout is None:
+        raise InvalidKeyError(
+            f"instance key {key!r}: unknown source {prefix!r}; known: "
+            f"{', '.join(sorted((PROCEDURAL_PREFIX, *LAYOUTS)))}"
+        )
+    return resolve_key(layout, rest, _key_root(layout, key, dataset))
 
 
-def activate(dataset: Dataset | None) -> None:
-    """Make ``dataset`` the one this process's backends load models for (the runner calls
-    it in the driver and in each worker before a backend is prepared, for every run, so a
-    run on the library resets it; the CLI resets it after each command): a model for a
-    dataset's class list is looked up by its digest, and never trained implicitly."""
-    global _ACTIVE
-    _ACTIVE = dataset
-
-
-def active_dataset() -> Dataset | None:
-    """The dataset set by :func:`activate` (None: the procedural library)."""
-    return _ACTIVE
+def _key_root(layout: Layout, key: str, dataset: Dataset | None) -> str:
+    """The root a key of ``layout`` is looked up under."""
+    if dataset is not None:
+        if dataset.layout != layout.name:
+            raise InvalidKeyError(
+                f"key {key!r} is a {layout.name} key, but the dataset at {dataset.root} is a "
+                f"{dataset.layout} dataset; pass the dataset the key came from"
+            )
+        root: str | None = dataset.root
+    else:
+        root = os.environ.get(layout.root_env)
+    if not root:
+        raise InvalidKeyError(
+            f"key {key!r}: no {layout.name} dataset is given; pass the dataset the key came "
+            f"from (instance_from_key(key, dataset), Dataset.instance(key)) or set "
+            f"{layout.root_env}=<dataset root>"
+        )
+    return str(Path(root).expanduser().resolve())
 
 
 def train_command(

@@ -126,7 +126,7 @@ def build(p: Params) -> Assembly:
     else:  # hook: up, forwards, and a short stem down to the shade
         top = np.array([x0 + reach, 0.0, H - 0.02])
         path = [[x0, 0.0, bh - 0.002], [x0, 0.0, H], [x0 + reach, 0.0, H], top]
-    parts += tube(path, rp, sections=16)
+    parts += tube(np.asarray(path, dtype=np.float64), rp, sections=16)
     # tilt the shade forwards about y (its opening turns towards +x) and hang it from the
     # end of the arm, the arm's end sunk into the cap
     T = rigid(axis_angle([0.0, 1.0, 0.0], -tilt), top + np.array([0.0, 0.0, 0.5 * tc - 0.5 * t]))

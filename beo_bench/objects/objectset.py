@@ -1,15 +1,16 @@
-"""``ObjectSet``: a split of the object library (procedural, or a real dataset), and
-``instance_from_key``.
+"""``ObjectSet``: a split of the object library (procedural, or a real dataset), and the
+procedural library's keys.
 
-Keys are ``<source>/<rest>``: ``proc/v1/mug/test/7`` for procedural instances; the loaders
-register a resolver for their own prefixes (``shapenet``, ``modelnet``, ``folder``).
+Keys are ``<source>/<rest>``: ``proc/v1/mug/test/7`` for procedural instances
+(:func:`resolve_procedural_key`); a dataset's keys (``shapenet``, ``modelnet``, ``folder``)
+are resolved by :func:`beo_bench.objects.dataset.instance_from_key`, the one function for
+every key.
 """
 
 from __future__ import annotations
 
 import functools
 from collections.abc import Callable, Iterator, Sequence
-from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -35,13 +36,8 @@ from beo_bench.objects.registry import (
     categories as registered_categories,
 )
 
-KeyResolver = Callable[[str], ObjectInstance]
-_RESOLVERS: dict[str, KeyResolver] = {}
-
-
-def register_key_source(prefix: str, resolver: KeyResolver) -> None:
-    """Let :func:`instance_from_key` resolve keys ``<prefix>/...`` (used by loaders)."""
-    _RESOLVERS[prefix] = resolver
+PROCEDURAL_PREFIX = "proc"
+"""The source prefix of procedural keys."""
 
 
 def procedural_instance(category: str, split: str, index: int) -> ObjectInstance:
@@ -50,7 +46,7 @@ def procedural_instance(category: str, split: str, index: int) -> ObjectInstance
     check_split(split)
     params = instance_params(category, split, index)
     return ObjectInstance(
-        key=f"proc/v{LIBRARY_VERSION}/{category}/{split}/{index}",
+        key=f"{PROCEDURAL_PREFIX}/v{LIBRARY_VERSION}/{category}/{split}/{index}",
         category=category,
         split=split,
         index=index,
@@ -98,7 +94,10 @@ def _is_index(s: str) -> bool:
     return s.isascii() and s.isdigit() and (s == "0" or not s.startswith("0"))
 
 
-def _resolve_procedural(rest: str) -> ObjectInstance:
+def resolve_procedural_key(rest: str) -> ObjectInstance:
+    """The procedural instance the key ``proc/<rest>`` names; an
+    :class:`~beo_bench.errors.InvalidKeyError` for a malformed key, one of another library
+    version, or an index beyond its split."""
     parts = rest.split("/")
     if len(parts) != 4 or not _is_index(parts[3]) or not parts[0].startswith("v"):
         # str.isdigit() alone takes fullwidth and other non-ASCII digits, which int() reads
@@ -125,25 +124,6 @@ def _resolve_procedural(rest: str) -> ObjectInstance:
     return _cached_procedural(category, int(index), split)
 
 
-register_key_source("proc", _resolve_procedural)
-
-
-def instance_from_key(key: str) -> ObjectInstance:
-    """The instance a key names (keys are unique across sets and sources)."""
-    prefix, sep, rest = key.partition("/")
-    if not sep:
-        raise InvalidKeyError(f"instance key {key!r} has no '<source>/' prefix")
-    if prefix not in _RESOLVERS:
-        # the dataset loaders register their prefixes on import
-        import beo_bench.objects.loaders  # noqa: F401
-    if prefix not in _RESOLVERS:
-        raise InvalidKeyError(
-            f"instance key {key!r}: unknown source {prefix!r}; known: "
-            f"{', '.join(sorted(_RESOLVERS))}"
-        )
-    return _RESOLVERS[prefix](rest)
-
-
 class _InstanceLists:
     """``(category, index) -> instance`` over given lists: ``ObjectSet.from_instances``'
     lookup."""
@@ -160,25 +140,18 @@ class ObjectSet:
 
     ``ObjectSet(split="test")`` is the procedural library (every registered category,
     ``DEFAULT_SPLIT_SIZES[split]`` instances each unless ``per_category`` says otherwise).
-    ``root`` points at a real dataset instead (ShapeNetCore v2, ModelNet10/40, or a folder
-    with one sub-folder per category; the layout is detected).
+    A real dataset's sets come from :meth:`beo_bench.objects.dataset.Dataset.objects` (or
+    :func:`~beo_bench.objects.dataset.object_set`, which gives either) and the loaders.
     """
 
     def __init__(
         self,
         split: str = "test",
         categories: Sequence[str] | None = None,
-        root: str | Path | None = None,
+        *,
         per_category: int | None = None,
     ) -> None:
         self.split = check_split(split)
-        if root is not None:
-            from beo_bench.objects.loaders import load_any
-
-            other = load_any(root, split=split, categories=categories, per_category=per_category)
-            self._counts, self._get = other._counts, other._get
-            self.source = other.source
-            return
         names = tuple(categories) if categories is not None else registered_categories()
         for c in names:
             get_category(c)

@@ -2,9 +2,10 @@
 collision parts (CoACD for loaded meshes) land in the cache, and per-instance statistics
 come back.
 
-Workers receive instance keys (not meshes) with the dataset roots and the cache directory,
-and rebuild instances themselves, so nothing large crosses process boundaries; the cache's
-atomic writes make concurrent workers safe.
+Workers receive unbuilt copies of the instances (their recipes: procedural parameters, or a
+file's path and loading options; not meshes) with the cache directory, and build them
+themselves, so nothing large crosses process boundaries and no dataset root has to be
+known there; the cache's atomic writes make concurrent workers safe.
 """
 
 from __future__ import annotations
@@ -14,15 +15,14 @@ import os
 import time
 from collections.abc import Iterable
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import asdict, dataclass
-from typing import Literal
+from dataclasses import asdict, dataclass, replace
+from typing import Any, Literal
 
 from tqdm import tqdm
 
 from beo_bench.errors import BeoBenchError
 from beo_bench.objects import cache
 from beo_bench.objects.instance import ObjectInstance
-from beo_bench.objects.objectset import instance_from_key
 from beo_bench.objects.processing import DEFAULT_RESOLUTION
 from beo_bench.objects.symmetry import symmetry_name
 
@@ -69,13 +69,10 @@ def process(inst: ObjectInstance, D: int = DEFAULT_RESOLUTION) -> InstanceStats:
     )
 
 
-def _process_key(key: str, D: int, roots: dict[str, str], cache_dir: str) -> dict:
-    from beo_bench.objects import loaders
-
+def _process_unbuilt(inst: ObjectInstance, D: int, cache_dir: str) -> dict[str, Any]:
     # explicit, not inherited: a forkserver keeps the environment of its first use
     os.environ[cache.CACHE_ENV] = cache_dir
-    loaders.set_dataset_roots(roots)
-    d = asdict(process(instance_from_key(key), D))
+    d = asdict(process(inst, D))
     d["extents"] = tuple(d["extents"])
     return d
 
@@ -94,8 +91,6 @@ def prepare(
     the others: afterwards ``on_error="raise"`` raises the first failure, naming how many
     failed, and ``"skip"`` leaves the failures out of the result.
     """
-    from beo_bench.objects import loaders
-
     insts = list(instances)
     workers = (os.cpu_count() or 1) if workers is None else workers
     bar = tqdm(total=len(insts), desc="processing objects", unit="obj", disable=not progress)
@@ -112,9 +107,10 @@ def prepare(
         # forkserver: workers start clean; a forked copy of a process that already runs
         # embree, torch or GL threads can deadlock
         ctx = mp.get_context("forkserver")
-        args = (D, loaders.dataset_roots(), str(cache.cache_root()))
+        args = (D, str(cache.cache_root()))
         with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
-            futures = [(i.key, pool.submit(_process_key, i.key, *args)) for i in insts]
+            # replace(): a copy without the built mesh, which would otherwise be pickled too
+            futures = [(i.key, pool.submit(_process_unbuilt, replace(i), *args)) for i in insts]
             for key, f in futures:
                 try:
                     out.append(InstanceStats(**f.result()))
@@ -123,6 +119,8 @@ def prepare(
                 bar.update()
     bar.close()
     if failed and on_error == "raise":
-        key, e = failed[0]
-        raise type(e)(f"{len(failed)} of {len(insts)} instances failed; first: {key}: {e}") from e
+        key, first = failed[0]
+        raise type(first)(
+            f"{len(failed)} of {len(insts)} instances failed; first: {key}: {first}"
+        ) from first
     return out

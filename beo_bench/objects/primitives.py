@@ -54,7 +54,7 @@ def hull(points: np.ndarray | Sequence[Sequence[float]]) -> trimesh.Trimesh:
 
 def box(
     extents: Sequence[float],
-    center: Sequence[float] = (0.0, 0.0, 0.0),
+    center: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
     rotation: Mat3 | None = None,
 ) -> trimesh.Trimesh:
     """An axis-aligned box (optionally rotated about its centre)."""

@@ -12,7 +12,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 import trimesh
 
-from beo_bench.errors import EmptyMeshError, NonFiniteMeshError, NonWatertightMeshError
+from beo_bench.errors import EmptyMeshError, NonFiniteMeshError
+
+# the solid tests live below both this module and symmetry; re-exported here
+from beo_bench.objects.solid import check_solid as check_solid
+from beo_bench.objects.solid import contains as contains
+from beo_bench.objects.solid import release_ray_scene
 
 # symmetry estimation lives in its own module; re-exported here, where it used to be
 from beo_bench.objects.symmetry import estimate_symmetry as estimate_symmetry
@@ -26,22 +31,6 @@ if TYPE_CHECKING:
 
 DEFAULT_RESOLUTION = 32
 """Voxel grid size D (docs/design.md: D^3, default 32)."""
-
-
-def check_solid(mesh: trimesh.Trimesh, what: str) -> None:
-    """Raise if ``mesh`` is empty, not watertight, or encloses no volume."""
-    if mesh is None or len(mesh.faces) == 0:
-        raise EmptyMeshError(f"{what}: the mesh has no faces; use a mesh with geometry")
-    if not mesh.is_watertight:
-        raise NonWatertightMeshError(
-            f"{what}: the mesh is not watertight; close its holes (e.g. with "
-            f"repair='solid', or a tool such as ManifoldPlus) before using it as an object"
-        )
-    if not mesh.volume > 0:
-        raise EmptyMeshError(
-            f"{what}: the mesh encloses no volume "
-            f"(volume {mesh.volume:.3g} m^3); check its face orientation"
-        )
 
 
 REPAIR_MODES: tuple[str, ...] = ("basic", "solid", "voxel", "none")
@@ -241,7 +230,7 @@ def _inside_votes(mesh: trimesh.Trimesh, points: np.ndarray) -> np.ndarray:
             hit = tri >= 0
             votes[hit] += normals[tri[hit]] @ d > 0
     finally:
-        _release_ray_scene(mesh)
+        release_ray_scene(mesh)
     return votes / RAY_DIRECTIONS
 
 
@@ -294,49 +283,6 @@ def grid_centres(D: int, extent: float) -> np.ndarray:
     x-major order (reshape to (D, D, D) gives [x, y, z] indexing)."""
     g = ((np.arange(D) + 0.5) / D - 0.5) * extent
     return np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
-
-
-def contains(mesh: trimesh.Trimesh, points: np.ndarray) -> np.ndarray:
-    """Whether each point is inside the solid of a watertight ``mesh``, counting a point
-    inside overlapping parts once.
-
-    A ray parity test (trimesh's ``contains``) of a mesh made of overlapping closed parts
-    (a VHACD hull set, a model of intersecting primitives) calls the overlap outside (two
-    crossings), which lost 22-41 % of such solids. So a mesh of several bodies is tested
-    per body: the winding number of a closed body is +1 inside it (-1 for an inward-facing
-    cavity shell, which therefore cuts its cavity out), 0 outside, and a point is inside
-    when the sum is positive. One body, the common case, costs one parity test as before.
-    """
-    points = np.asarray(points, dtype=np.float64)
-    if mesh.body_count <= 1:
-        return _parity_contains(mesh, points)
-    winding = np.zeros(len(points), dtype=np.int64)
-    for body in mesh.split(only_watertight=False):
-        lo, hi = body.bounds
-        near = np.flatnonzero(np.all((points >= lo) & (points <= hi), axis=1))
-        if near.size:
-            sign = 1 if body.volume >= 0 else -1
-            winding[near] += sign * _parity_contains(body, points[near])
-    return winding > 0
-
-
-def _parity_contains(mesh: trimesh.Trimesh, points: np.ndarray) -> np.ndarray:
-    """``mesh.contains(points)`` without leaving an Embree scene on the mesh.
-
-    Each trimesh mesh owns a ray intersector that caches an Embree scene on its own Embree
-    device. A process that keeps about a thousand instances in memory (a worker processing a
-    whole training split) segfaulted inside Embree when creating the next device, so the
-    scene is released after every test (rebuilding it costs about a millisecond)."""
-    try:
-        return np.asarray(mesh.contains(points), dtype=bool)
-    finally:
-        _release_ray_scene(mesh)
-
-
-def _release_ray_scene(mesh: trimesh.Trimesh) -> None:
-    cache = getattr(getattr(mesh, "ray", None), "_cache", None)
-    if cache is not None:
-        cache.clear()
 
 
 def voxelize(

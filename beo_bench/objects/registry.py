@@ -22,7 +22,8 @@ import trimesh
 from beo_bench.errors import MeshError, UnknownCategoryError, UnknownSplitError
 from beo_bench.objects.params import Params, ParamSpec, sample_params
 from beo_bench.objects.primitives import Assembly
-from beo_bench.types import Symmetry
+from beo_bench.objects.solid import check_solid
+from beo_bench.types import ContinuousSymmetry, Symmetry
 
 LIBRARY_VERSION = 1
 """Bump when any generator changes its output: it re-keys every procedural instance."""
@@ -86,6 +87,12 @@ def categories() -> tuple[str, ...]:
     return tuple(sorted(_REGISTRY))
 
 
+def pickable_categories() -> tuple[str, ...]:
+    """The registered categories meant to be picked (BEOPick-v0's default target classes,
+    the class list its scenes' views carry), sorted."""
+    return tuple(c for c in categories() if _REGISTRY[c].pickable)
+
+
 def get_category(name: str) -> CategorySpec:
     try:
         return _REGISTRY[name]
@@ -131,8 +138,6 @@ class Generated:
 
 def generate(category: str, params: Params) -> Generated:
     """Build, union and centre one instance."""
-    from beo_bench.objects.processing import check_solid  # avoid an import cycle
-
     asm = get_category(category).build(params)
     mesh = union(asm.parts)
     centre = mesh.bounds.mean(axis=0)
@@ -180,7 +185,7 @@ def _shift_symmetry(sym: Symmetry, shift: np.ndarray) -> Symmetry:
     T = np.eye(4)
     T[:3, 3] = shift
     Ti = np.linalg.inv(T)
-    cont = [
+    cont: list[ContinuousSymmetry] = [
         {"axis": c["axis"], "offset": (np.asarray(c["offset"]) + shift).round(9).tolist()}
         for c in sym["continuous"]
     ]

@@ -41,6 +41,7 @@ from scipy.spatial.transform import Rotation
 from scipy.stats import qmc
 
 from beo_bench.geometry import axis_angle, rigid
+from beo_bench.objects.solid import check_solid, contains
 from beo_bench.types import Mat3, Mat4, Points, Symmetry, Vec3
 
 ESTIMATOR_VERSION = 2
@@ -182,8 +183,6 @@ def analyse_symmetry(
     each axis nearest the bounding-box centre (the origin of canonical meshes) as the axis
     point; an axis within round-off of the bounding-box centre goes through it exactly.
     """
-    from beo_bench.objects.processing import check_solid  # processing re-exports this module
-
     check_solid(mesh, "symmetry estimation")
     scale = float(mesh.extents.max())
     centre = np.asarray(mesh.center_mass, dtype=np.float64)
@@ -335,8 +334,6 @@ def rotation_iou(mesh: trimesh.Trimesh, T: np.ndarray, n: int = 40000, seed: int
     so thin walls do not alias the way a coarse voxel grid would (an independent check of
     :func:`estimate_symmetry`'s groups, which use samples inside the mesh).
     """
-    from beo_bench.objects.processing import contains  # processing re-exports this module
-
     T4 = np.eye(4)
     if T.shape == (3, 3):
         T4[:3, :3] = T
@@ -398,8 +395,6 @@ class _IouMeter:
     def _iou(self, rel: np.ndarray, rotations: np.ndarray) -> np.ndarray:
         """IoU under each of ``rotations`` (k, 3, 3) from the samples ``rel`` (about the
         centre), with one inside test for all."""
-        from beo_bench.objects.processing import contains
-
         # row-vector form of T^-1 p = R^T (p - c) + c
         pts = np.einsum("nj,rjk->rnk", rel, rotations) + self.centre
         x = contains(self.mesh, pts.reshape(-1, 3)).reshape(len(rotations), len(rel))
@@ -468,8 +463,6 @@ def _inside_samples(mesh: trimesh.Trimesh, n: int, seed: int, centre: Vec3, fram
     """About ``n`` (at most) points inside a watertight mesh: a scrambled Sobol sequence (lower
     discrepancy than uniform draws, so less noise in each IoU) in the mesh's bounding box in
     ``frame`` about ``centre``, rejection-sampled, one batch sized by the fill ratio."""
-    from beo_bench.objects.processing import contains
-
     local = (np.asarray(mesh.vertices) - centre) @ frame
     lo, hi = local.min(axis=0), local.max(axis=0)
     fill = float(mesh.volume) / float(np.prod(np.maximum(hi - lo, 1e-12)))

@@ -167,9 +167,9 @@ def build(p: Params) -> Assembly:
         if p["shelf"]:
             # a thin board low between the legs, reaching to the legs' centre lines
             zs = 0.25 * h
-            c = leg_at(feet_xy[3], zs)
+            corner = leg_at(feet_xy[3], zs)
             st = float(np.clip(0.6 * tt, 0.002, 0.006))
-            parts.append(box((2 * c[0], 2 * c[1], st), center=(0.0, 0.0, zs)))
+            parts.append(box((2 * corner[0], 2 * corner[1], st), center=(0.0, 0.0, zs)))
 
     sym = cyclic_z(n) if round_top else cyclic_z(4 if shape == "square" else 2)
     return Assembly(parts, sym)

@@ -6,7 +6,7 @@ so these tests take milliseconds."""
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -77,16 +77,19 @@ def write_run(
         rows = [{**r, "class_given": True} for r in rows]
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
-    summary = summarise(s, backend, sorted(rows, key=lambda r: (r["item"], r["view"])))
-    summary["track"] = getattr(s, "track", None)
-    summary["uses_class_hint"] = uses_hint
-    summary["model_digest"] = digest
-    summary["privileged"] = privileged
-    summary["provenance"] = {
-        "suite": asdict(s),
-        "backend_kwargs": kwargs or {},
-        "model_digest": digest,
-        "library_version": 1,
-    }
+    summary = summarise(
+        s,
+        backend,
+        sorted(rows, key=lambda r: (r["item"], r["view"])),
+        uses_class_hint=uses_hint,
+        model_digest=digest,
+        privileged=privileged,
+        provenance={
+            "suite": s.record(),
+            "backend_kwargs": kwargs or {},
+            "model_digest": digest,
+            "library_version": 1,
+        },
+    ).to_json()
     (out / "summary.json").write_text(json.dumps(summary))
     return summary

@@ -40,7 +40,7 @@ def peek():
     try:
         yield "test-peek"
     finally:
-        B._REGISTRY.pop("test-peek", None)
+        B.unregister_backend("test-peek")
 
 
 def _cfg(backend: str, allow: bool = False, n: int = 2, **opts) -> RunConfig:
@@ -53,7 +53,7 @@ def test_a_privileged_plugin_needs_allow_privileged(tmp_path, peek) -> None:
         run(_cfg(peek), out, progress=False, workers=1)
     assert not (out / "results.jsonl").exists()  # refused before anything was scored
     with pytest.raises(B.PrivilegeError):
-        Evaluator(get_suite("pose-1dof"), peek)  # a worker refuses it too
+        Evaluator.of(get_suite("pose-1dof"), peek)  # a worker refuses it too
     s = run(_cfg(peek, allow=True), out, progress=False, workers=1)
     assert s["privileged"] is True and s["provenance"]["privileged"] is True
     assert json.loads((out / "run.json").read_text())["privileged"] is True
@@ -101,12 +101,12 @@ class StackSearch:
 def test_the_truth_is_not_on_predicts_call_stack(suite) -> None:
     B.register_backend("test-stack-search")(StackSearch)
     try:
-        ev = Evaluator(get_suite(suite).with_overrides(size=2), "test-stack-search")
+        ev = Evaluator.of(get_suite(suite).with_overrides(size=2), "test-stack-search")
         rows = ev.run_item(1)
         ev.close()
     finally:
-        B._REGISTRY.pop("test-stack-search", None)
+        B.unregister_backend("test-stack-search")
     assert rows and all(r.get("failure") is None for r in rows)
-    found = ev.backend.found  # type: ignore[attr-defined]
+    found = ev.backend.inner.found  # type: ignore[attr-defined]  # a plain class, wrapped
     assert found == [], f"the truth was on the stack at {found}"
     assert np.isfinite(rows[0]["item_ms"])

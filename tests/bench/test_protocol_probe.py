@@ -96,7 +96,7 @@ def probe_backend():
     try:
         yield memory
     finally:
-        B._REGISTRY.pop("test-probe", None)
+        B.unregister_backend("test-probe")
 
 
 @pytest.mark.slow
@@ -113,13 +113,13 @@ def test_a_probe_of_the_non_image_fields_scores_like_chance(name, probe_backend)
     hides = HIDES[name]
     rng = np.random.default_rng(0)
     for attack in ("origin", "neighbour"):
-        ev = Evaluator(suite, "test-probe", {"attack": attack})
+        ev = Evaluator.of(suite, "test-probe", {"attack": attack})
         assert not ev.privileged and not ev.class_hint
         ests, truths = [], []
         for i in range(n):
-            views = ev.views(i)
+            views = ev.items.views(i)
             ests += [ev.predict(i, j, v)[0] for j, v in enumerate(views)]
-            truths += ev.truths(i, views)
+            truths += ev.items.truths(i, views)
         ev.close()
         assert all(e is not None for e in ests)
         if "class" in hides and attack == "neighbour":

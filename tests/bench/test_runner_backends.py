@@ -28,7 +28,7 @@ def test_a_failing_backend_is_recorded_and_the_run_goes_on(tmp_path) -> None:
         with pytest.raises(RunError, match="could not set up the backend"):
             short_run(tmp_path / "two", "pose-3dof", "test-boom", 4, workers=2)
     finally:
-        B._REGISTRY.pop("test-boom", None)
+        B.unregister_backend("test-boom")
     rows = read_rows(tmp_path / "pose-3dof-test-boom-12" / "results.jsonl")
     failed = [r for r in rows if r["failure"]]
     assert s["n"] == 12 and s["failures"] == len(failed) > 0
@@ -56,7 +56,7 @@ def test_prepare_runs_once_before_the_items_with_the_suite_classes(tmp_path) -> 
         short_run(tmp_path, "pick", "test-prepared", 1, workers=1)
         short_run(tmp_path, "pick", "test-prepared", 1, workers=1, resume=True)  # nothing to do
     finally:
-        B._REGISTRY.pop("test-prepared", None)
+        B.unregister_backend("test-prepared")
     from beo_bench.envs.pick import default_categories
 
     assert calls == [default_categories()]

@@ -66,7 +66,7 @@ def faults():
     import tests.bench.runner_faults as mod
 
     yield mod
-    B._REGISTRY.pop(mod.NAME, None)  # other test modules see the in-tree set
+    B.unregister_backend(mod.NAME)  # other test modules see the in-tree set
     sys.modules.pop(FAULTS, None)
 
 
@@ -413,10 +413,10 @@ def test_a_resume_with_another_model_is_refused(tmp_path) -> None:
     @B.register_backend("test-digest")
     class Learned:
         name = "test-digest"
+        privileged = True  # a plain class: its capabilities are its class attributes
 
         def __init__(self) -> None:
             self.inner = B.get_backend("oracle")
-            self.privileged = True
 
         def model_digest(self) -> str:
             return model["digest"]
@@ -454,7 +454,7 @@ def test_a_resume_with_another_model_is_refused(tmp_path) -> None:
                 workers=1,
             )
     finally:
-        B._REGISTRY.pop("test-digest", None)
+        B.unregister_backend("test-digest")
 
 
 def test_the_item_timeout_does_not_identify_a_run_and_must_be_positive(tmp_path) -> None:

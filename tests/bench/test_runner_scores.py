@@ -42,7 +42,7 @@ def test_oracle_on_tabletop_scores_every_visible_object(tmp_path) -> None:
 def test_oracle_picks_exactly_like_the_ground_truth_planner(tmp_path) -> None:
     """Episode by episode, the oracle's pick (its exact mesh, the other objects' true
     surfaces as obstacles) does what ``pick-check``'s ground-truth planner does."""
-    from beo_bench.bench.evaluate import episode_seed
+    from beo_bench.bench.suites import episode_seed
     from beo_bench.envs.pickcheck import ground_truth_pick_check
 
     n = 10
@@ -99,7 +99,7 @@ def test_a_backend_that_fails_on_some_views_loses_on_every_mean(tmp_path) -> Non
             tmp_path, "pose-3dof", "test-flaky-oracle", 12, workers=1, allow_privileged=True
         )
     finally:
-        B._REGISTRY.pop("test-flaky-oracle", None)
+        B.unregister_backend("test-flaky-oracle")
     oracle = short_run(tmp_path, "pose-3dof", "oracle", 12)
     assert 0 < flaky["failures"] < 12 and oracle["failures"] == 0
     assert flaky["metrics"]["failure_rate"] == flaky["failures"] / 12
@@ -115,7 +115,7 @@ def test_the_runner_scores_an_equivalent_symmetric_pose_as_exact(tmp_path) -> No
     bounding-box centre (its equivalent poses are 0.39 cm away), so the translation part is
     exercised too."""
     from beo_bench import metrics
-    from beo_bench.bench.evaluate import item_rng
+    from beo_bench.bench.suites import item_rng
 
     @B.register_backend("test-symmetric")
     class Symmetric:
@@ -142,7 +142,7 @@ def test_the_runner_scores_an_equivalent_symmetric_pose_as_exact(tmp_path) -> No
         run(RunConfig(base.with_overrides(size=11, seed=seed), "test-symmetric", {}, True), out,
             progress=False, workers=1)  # fmt: skip
     finally:
-        B._REGISTRY.pop("test-symmetric", None)
+        B.unregister_backend("test-symmetric")
     rows = read_rows(out / "results.jsonl")
     assert len(rows) == 11 and not any(r["failure"] for r in rows)
     assert rows[10]["key"].endswith("/table/test/30")

@@ -40,9 +40,11 @@ class HintSpy:
 
 @pytest.fixture
 def spy():
-    B._add(SPY, HintSpy, "test")  # registered here: the runner scores it in-process
+    B.register(
+        B.BackendSpec.from_factory(SPY, HintSpy, "test")
+    )  # registered here: the runner scores it in-process
     yield SPY
-    B._REGISTRY.pop(SPY, None)
+    B.unregister_backend(SPY)
 
 
 def _run(out: Path, suite: str, backend: str, n: int, track: str | None = None, **kw) -> dict:
@@ -72,15 +74,20 @@ def test_a_track_on_a_suite_without_tracks_or_an_unknown_track_is_a_usage_error(
 
 
 def test_no_backend_takes_the_class_by_an_option() -> None:
-    """The hint is the track's: the backends that can use it say so (``wants_class_hint``)
-    and have no option that turns it on or off."""
+    """The hint is the track's: the backends that can use it say so (their spec's
+    capabilities) and have no option that turns it on or off."""
+
+    def hint(name: str) -> B.ClassHint:
+        spec = B.get_spec(name)
+        return spec.capabilities_of(spec.parse({})).class_hint
+
     for name in ("icp", "icp-plain", "beo"):
-        assert getattr(B.get_backend(name), "wants_class_hint", False) is True
+        assert hint(name) is B.ClassHint.OPTIONAL
         assert "class_given" not in (B.backend_options(name) or {})
     with pytest.raises(UsageError, match="no option 'class_given'"):
         B.get_backend("icp", class_given=True)
     for name in ("oracle", "random"):
-        assert not getattr(B.get_backend(name), "wants_class_hint", False)
+        assert hint(name) is B.ClassHint.NONE
 
 
 def test_the_hint_is_given_in_the_class_given_track_only(tmp_path, spy) -> None:
@@ -182,14 +189,14 @@ def test_a_backend_that_needs_the_hint_runs_in_the_class_given_track_only(tmp_pa
     the campaign runs them class-given only, and a class-free run of one is refused."""
     suite = get_suite("pose-3dof")
     assert backend_tracks(suite, True, needs_class_hint=True) == ("class-given",)
-    B._add("test-percat-spy", PerCategorySpy, "test")
+    B.register(B.BackendSpec.from_factory("test-percat-spy", PerCategorySpy, "test"))
     try:
         with pytest.raises(UsageError, match=r"needs the class hint.*--track class-given"):
             _run(tmp_path / "free", "pose-3dof", "test-percat-spy", 2, track="class-free")
         s = _run(tmp_path / "given", "pose-3dof", "test-percat-spy", 2, track="class-given")
         assert s["track"] == "class-given"
     finally:
-        B._REGISTRY.pop("test-percat-spy", None)
+        B.unregister_backend("test-percat-spy")
 
 
 def test_the_per_category_suite_draws_only_its_classes(tmp_path, spy) -> None:

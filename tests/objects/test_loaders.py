@@ -32,15 +32,17 @@ from beo_bench.objects import (
     loaders,
 )
 from beo_bench.objects.cache import entry_path
+from beo_bench.objects.dataset import instance_from_key as resolve
+from beo_bench.objects.dataset import object_set, open_dataset
+from beo_bench.objects.dataset_load import hash_split
 from beo_bench.objects.instance import COACD_CACHE_PARAMS, ObjectInstance
+from beo_bench.objects.layouts import FOLDER, LAYOUTS, MODELNET, SHAPENET, Layout, get_layout
+from beo_bench.objects.layouts.modelnet import modelnet_split
 from beo_bench.objects.loaders import (
     SHAPENET_TO_CANONICAL,
     axes_rotation,
-    dataset_roots,
     default_size,
     detect_layout,
-    load_any,
-    set_dataset_roots,
 )
 from beo_bench.objects.prepare import prepare
 from beo_bench.objects.processing import estimate_symmetry, rotation_iou
@@ -103,7 +105,7 @@ def _modelnet_names(prefix: str, want: dict[str, int]) -> list[str]:
     while any(len(got[s]) < n for s, n in want.items()):
         i += 1
         name = f"{prefix}_{i:04d}"
-        split = loaders._modelnet_split("train", name)
+        split = modelnet_split("train", name)
         if len(got[split]) < want[split]:
             got[split].append(name)
     return sorted(got["train"] + got["val"])
@@ -182,10 +184,11 @@ def test_shapenet_categories_and_round_trip(shapenet_root: Path) -> None:
     for inst in insts:
         by_cat[inst.category] = by_cat.get(inst.category, 0) + 1
     assert by_cat == {"chair": 4, "mug": 3, UNKNOWN: 1}  # unknown synset keeps its id
+    dataset = open_dataset(shapenet_root)
     for inst in insts:
         assert inst.source == "shapenet"
         assert inst.key.startswith("shapenet/") and str(shapenet_root) not in inst.key
-        again = instance_from_key(inst.key)
+        again = instance_from_key(inst.key, dataset)
         assert (again.category, again.split, again.index) == (inst.category, inst.split, inst.index)
         assert again.content_hash == inst.content_hash
 
@@ -225,7 +228,9 @@ def test_real_world_size_option(shapenet_root: Path) -> None:
     inst = load_shapenet(shapenet_root, "train", size=0.3).instances("chair")[0]
     assert inst.mesh.extents.max() == pytest.approx(0.3)
     assert "size=0.3" in inst.key
-    assert instance_from_key(inst.key).content_hash == inst.content_hash
+    assert (
+        instance_from_key(inst.key, open_dataset(shapenet_root)).content_hash == inst.content_hash
+    )
     per_cat = _all(load_shapenet, shapenet_root, size={"mug": 0.09})
     for inst in per_cat:
         want = 0.09 if inst.category == "mug" else default_size(inst.category)
@@ -256,12 +261,13 @@ def test_modelnet_splits_and_names(modelnet_root: Path) -> None:
     assert train and val and not train & val
     files = {f"modelnet/cup/train/{p.stem}" for p in (modelnet_root / "cup/train").iterdir()}
     assert train | val == files
+    dataset = open_dataset(modelnet_root)
     for inst in load_modelnet(modelnet_root, "val"):
-        assert inst.split == "val" and instance_from_key(inst.key).split == "val"
+        assert inst.split == "val" and dataset.instance(inst.key).split == "val"
     with pytest.raises(UnknownSplitError, match="ood"):
         load_modelnet(modelnet_root, "ood")
     with pytest.raises(UnknownSplitError, match="ood"):
-        ObjectSet("ood", root=modelnet_root)
+        object_set(dataset, "ood")
     with pytest.raises(UnknownSplitError):
         load_modelnet(modelnet_root, "holdout")
 
@@ -274,7 +280,7 @@ def test_modelnet_glued_off_header_and_frame(modelnet_root: Path) -> None:
     np.testing.assert_allclose(m.extents / m.extents.max(), [1 / 3, 2 / 3, 1], atol=1e-9)
     np.testing.assert_allclose(m.bounds.mean(axis=0), 0.0, atol=1e-9)
     assert m.extents.max() == pytest.approx(default_size("chair"))
-    assert instance_from_key(inst.key).content_hash == inst.content_hash
+    assert open_dataset(modelnet_root).instance(inst.key).content_hash == inst.content_hash
 
 
 # -------------------------------------------------------------------------------- folder
@@ -283,12 +289,13 @@ def test_modelnet_glued_off_header_and_frame(modelnet_root: Path) -> None:
 def test_folder_round_trip_and_splits(folder_root: Path) -> None:
     insts = _all(load_folder, folder_root)
     assert sorted(i.path.name for i in insts) == ["a.obj", "b.ply", "c.stl", "d.glb", "e.off"]
+    dataset = open_dataset(folder_root)
     for inst in insts:
         rel = inst.path.relative_to(folder_root).as_posix()
         assert inst.key == f"folder/{rel}"
-        assert inst.split == loaders._hash_split(rel)
+        assert inst.split == hash_split(rel)
         assert inst.mesh.is_watertight
-        assert instance_from_key(inst.key).content_hash == inst.content_hash
+        assert instance_from_key(inst.key, dataset).content_hash == inst.content_hash
     with pytest.raises(UnknownSplitError):
         load_folder(folder_root, "ood")
 
@@ -309,51 +316,82 @@ def test_folder_axes_option(folder_root: Path) -> None:
     inst = _find(load_folder, folder_root, "a.obj", up="y", front="z", size="native")
     np.testing.assert_allclose(inst.mesh.extents, [0.12, 0.04, 0.06], atol=1e-9)
     assert "up=y" in inst.key and "front=z" in inst.key and "size=native" in inst.key
-    assert instance_from_key(inst.key).content_hash == inst.content_hash
+    # the key carries the options: the dataset opened with the defaults resolves it
+    assert instance_from_key(inst.key, open_dataset(folder_root)).content_hash == inst.content_hash
     with pytest.raises(ValueError, match="different axes"):
         load_folder(folder_root, up="z", front="-z")
 
 
-def test_load_any_and_objectset_detect_layout(
+def test_detect_layout_and_open_dataset(
     shapenet_root: Path, modelnet_root: Path, folder_root: Path
 ) -> None:
     assert detect_layout(shapenet_root) == "shapenet"
     assert detect_layout(modelnet_root) == "modelnet"
     assert detect_layout(folder_root) == "folder"
-    assert load_any(modelnet_root, "test", None, None).source == "modelnet"
-    s = ObjectSet("test", root=modelnet_root, categories=["mug"])
+    dataset = open_dataset(modelnet_root)
+    assert dataset.layout == "modelnet" and dataset.layout_spec is get_layout("modelnet")
+    assert dataset.objects("test").source == "modelnet"
+    s = object_set(dataset, "test", ["mug"])
     assert s.source == "modelnet" and s.categories == ("mug",) and len(s) == 1
+    # the loaders and the dataset give the same instances
+    assert [i.key for i in s] == [i.key for i in load_modelnet(modelnet_root, "test", ["mug"])]
+
+
+def test_each_layout_is_a_layout() -> None:
+    assert list(LAYOUTS) == ["shapenet", "modelnet", "folder"]
+    for name, layout in LAYOUTS.items():
+        typed: Layout = layout
+        assert typed.name == name and get_layout(name) is layout
+        assert layout.root_env == f"BEO_BENCH_{name.upper()}"
+        assert layout.key_form.startswith(f"{name}/")
+    assert (SHAPENET.default_units, MODELNET.default_units, FOLDER.default_units) == (
+        "normalised",
+        "normalised",
+        "auto",
+    )
+    assert [layout.axes_option for layout in LAYOUTS.values()] == [False, False, True]
+    with pytest.raises(DatasetLayoutError, match="unknown dataset layout 'obj'"):
+        get_layout("obj")
 
 
 # ------------------------------------------------------------------------------- keys
 
 
-def test_keys_resolve_from_environment_in_a_fresh_process(
-    shapenet_root: Path, monkeypatch: pytest.MonkeyPatch
+def test_keys_resolve_given_their_dataset_or_the_environment(
+    shapenet_root: Path, modelnet_root: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     inst = load_shapenet(shapenet_root, "train").instances("chair")[0]
-    roots = dataset_roots()
-    assert roots == {"shapenet": str(shapenet_root.resolve())}
-    monkeypatch.setattr(loaders, "_ROOTS", {})  # what a new worker process knows
+    # a process knows no dataset roots, not even of a dataset it loaded: no global state
     with pytest.raises(InvalidKeyError, match="BEO_BENCH_SHAPENET"):
         instance_from_key(inst.key)
+    dataset = open_dataset(shapenet_root)
+    assert instance_from_key(inst.key, dataset).content_hash == inst.content_hash
+    assert resolve(inst.key, dataset) is dataset.instance(inst.key)  # one instance per key
+    # what a worker process is given: the (picklable) dataset
+    shipped = pickle.loads(pickle.dumps(dataset))
+    assert shipped == dataset
+    assert shipped.instance(inst.key).content_hash == inst.content_hash
+    # a procedural key needs no dataset, and ignores one
+    assert dataset.instance("proc/v1/mug/test/3").key == "proc/v1/mug/test/3"
+    # the dataset must be the key's
+    with pytest.raises(InvalidKeyError, match="is a shapenet key, but the dataset"):
+        instance_from_key(inst.key, open_dataset(modelnet_root))
     monkeypatch.setenv("BEO_BENCH_SHAPENET", str(shapenet_root))
     assert instance_from_key(inst.key).content_hash == inst.content_hash
-    monkeypatch.delenv("BEO_BENCH_SHAPENET")
-    set_dataset_roots(roots)
-    assert instance_from_key(inst.key).content_hash == inst.content_hash
 
 
-def test_bad_keys(shapenet_root: Path) -> None:
-    load_shapenet(shapenet_root)
-    for key in (
-        "shapenet/0300/abc",
-        "shapenet/03001627/nope",
-        "shapenet/03001627/c0?x=1",
-        "modelnet/cup/x",
+def test_bad_keys(shapenet_root: Path, modelnet_root: Path) -> None:
+    shapenet, modelnet = open_dataset(shapenet_root), open_dataset(modelnet_root)
+    for key, dataset, why in (
+        ("shapenet/0300/abc", shapenet, "is not shapenet/<8-digit synset>/<model id>"),
+        ("shapenet/03001627/nope", shapenet, "no such model"),
+        ("shapenet/03001627/c0?x=1", shapenet, "unknown option"),
+        ("modelnet/cup/x", modelnet, "is not modelnet/<class>/<train|test>/<name>"),
+        ("modelnet/cup/x", None, "BEO_BENCH_MODELNET"),
+        ("mesh/cup/x", shapenet, "unknown source 'mesh'; known: folder, modelnet, proc"),
     ):
-        with pytest.raises(InvalidKeyError):
-            instance_from_key(key)
+        with pytest.raises(InvalidKeyError, match=re.escape(why)):
+            instance_from_key(key, dataset)
 
 
 # ------------------------------------------------------------------------ bad input
@@ -418,16 +456,16 @@ def test_repair_modes(bad_root: Path) -> None:
 def test_layout_errors(tmp_path: Path, shapenet_root: Path, modelnet_root: Path) -> None:
     missing = tmp_path / "nowhere"
     for call in (
-        lambda: load_any(missing, "test", None, None),
+        lambda: open_dataset(missing),
         lambda: load_shapenet(missing),
-        lambda: ObjectSet(root=missing),
+        lambda: detect_layout(missing),
     ):
         with pytest.raises(DatasetLayoutError, match="nowhere"):
             call()
     empty = tmp_path / "empty"
     empty.mkdir()
     with pytest.raises(DatasetLayoutError, match="ShapeNetCore v2"):
-        load_any(empty, "test", None, None)
+        open_dataset(empty)
     with pytest.raises(DatasetLayoutError, match="load_modelnet"):
         load_shapenet(modelnet_root)
     with pytest.raises(DatasetLayoutError, match="no modelnet data"):
@@ -472,7 +510,7 @@ def test_loaded_symmetry_is_lazy_and_cached(modelnet_root: Path, tmp_path: Path)
     sym = inst.symmetry
     assert _sym_size(sym) == (1, 1)
     assert entry_path("symmetry", inst.content_hash, loaders.SYMMETRY_CACHE_PARAMS).exists()
-    assert instance_from_key(inst.key).symmetry == sym
+    assert open_dataset(modelnet_root).instance(inst.key).symmetry == sym
 
 
 # ------------------------------------------------------------------------- collision
@@ -500,7 +538,7 @@ def test_coacd_collision_parts_are_cached(tmp_path: Path) -> None:
     first = time.perf_counter() - t
     assert path.exists() and len(parts) >= 2 and all(p.is_convex for p in parts)
     t = time.perf_counter()
-    again = instance_from_key(inst.key).collision_parts()
+    again = open_dataset(tmp_path / "mugs").instance(inst.key).collision_parts()
     second = time.perf_counter() - t
     assert len(again) == len(parts)
     assert second < first / 5

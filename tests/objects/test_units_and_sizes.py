@@ -13,7 +13,9 @@ import trimesh
 
 from beo_bench.errors import ImplausibleSizeError, MeshError
 from beo_bench.objects import categories as library_categories
-from beo_bench.objects import instance_from_key, load_folder, load_modelnet, load_shapenet, loaders
+from beo_bench.objects import instance_from_key, load_folder, load_modelnet, load_shapenet
+from beo_bench.objects.dataset import open_dataset
+from beo_bench.objects.dataset_load import LoadOptions, hash_split
 from beo_bench.objects.loaders import (
     CATEGORY_SIZES,
     DEFAULT_SIZE,
@@ -58,7 +60,7 @@ def _folder(tmp_path: Path, category: str, mesh: trimesh.Trimesh, name: str = "m
     root = tmp_path / "data"
     for k in range(200):
         rel = f"{category}/{k}_{name}"
-        if loaders._hash_split(rel) == "test":
+        if hash_split(rel) == "test":
             _write(mesh, root / rel)
             return root
     raise AssertionError("no test-split name found")
@@ -76,7 +78,7 @@ def test_millimetre_file_loads_at_real_size(tmp_path: Path) -> None:
     inst = s.instances("lemon")[0]
     assert "units=mm" in inst.key
     np.testing.assert_allclose(inst.mesh.extents, mesh.extents, rtol=1e-9)
-    assert instance_from_key(inst.key).content_hash == inst.content_hash
+    assert instance_from_key(inst.key, open_dataset(root)).content_hash == inst.content_hash
     # the default (auto) has the plain key: one key per object
     assert "units" not in load_folder(root, "test", units="auto").instances("lemon")[0].key
 
@@ -188,4 +190,4 @@ def test_object_larger_than_the_table_is_refused(tmp_path: Path) -> None:
 
 def test_bad_units_option() -> None:
     with pytest.raises(ValueError, match="units='inch'"):
-        loaders._Options.make("basic", units="inch")
+        LoadOptions.make("basic", units="inch")

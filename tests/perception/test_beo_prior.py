@@ -12,7 +12,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from beo_bench.backend import backend_options, sample_views
+from beo_bench.backend import backend_options, get_backend, sample_views
 from beo_bench.bench.evaluate import ItemViews
 from beo_bench.bench.suites import get_suite
 from beo_bench.geometry import super_fibonacci
@@ -118,7 +118,8 @@ def test_the_coarse_candidates_cover_the_support_evenly() -> None:
 def test_pose_prior_is_a_documented_option_on_by_default() -> None:
     opts = backend_options("beo")
     assert opts is not None and opts["pose_prior"] is True
-    assert BEOBackend(pose_prior="no").pose_prior is False
+    assert get_backend("beo", pose_prior="no").pose_prior is False  # parsed by its type
+    assert BEOBackend(pose_prior=False).pose_prior is False
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ from scipy import ndimage
 from scipy.spatial.transform import Rotation
 from scipy.stats import multivariate_normal
 
-from beo_bench.backend import check_backend, sample_views
+from beo_bench.backend import ClassHint, check_backend, get_spec, sample_views
 from beo_bench.errors import CheckpointError, InvalidNameError, ViewError
 from beo_bench.metrics import rotation_error
 from beo_bench.objects import ObjectSet
@@ -47,6 +47,7 @@ from beo_bench.perception.hbeo_train import (
     model_path,
     train_hbeo,
 )
+from tests.perception.contexts import run_context
 
 CATS = ("airplane", "bowl", "chair")
 
@@ -483,13 +484,15 @@ def test_per_category_networks_are_chosen_by_the_hint_and_never_trained_in_a_run
 
     monkeypatch.setattr(hbeo_train, "train_hbeo", refuse)
     b = HBEOBackend("likelihood", per_category=True)
-    assert b.wants_class_hint and b.needs_class_hint
-    assert not HBEOBackend("likelihood").needs_class_hint
+    spec = get_spec("hbeo-mdn-likelihood")
+    assert spec.capabilities_of(b.options).class_hint is ClassHint.REQUIRED
+    assert spec.capabilities_of(spec.parse({})).class_hint is ClassHint.NONE
+    assert spec.capabilities_of(spec.parse({"per_category": "yes"})).needs_class_hint
     with pytest.raises(
         CheckpointError,
         match=r"`beo-bench train hbeo-mdn --categories lamp --recipe per-category`",
     ):
-        b.prepare(("lamp",))
+        b.prepare(run_context("hbeo-mdn-likelihood", ("lamp",), per_category=True))
     (view,) = sample_views(picks=[("car", 0)], seed=3)
     cats = ("airplane", "car", "sofa")
     assert b._classes(dc_replace(view, categories=cats, class_hint=1)) == ("car",)

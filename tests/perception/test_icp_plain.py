@@ -10,7 +10,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from beo_bench.backend import backend_options, check_backend, get_backend, sample_views
+from beo_bench.backend import (
+    ClassHint,
+    backend_options,
+    check_backend,
+    get_backend,
+    get_spec,
+    sample_views,
+)
 from beo_bench.errors import UsageError
 from beo_bench.perception.icp import PLAIN_DEFAULTS, UPRIGHT, ICPBackend
 from tests.perception.test_icp import FAST, _angle_deg, _synthetic_view
@@ -34,9 +41,10 @@ def test_icp_plain_is_icp_with_the_plain_defaults(plain) -> None:
     assert {k: v for k, v in opts.items() if k not in PLAIN_DEFAULTS} == {
         k: v for k, v in icp_opts.items() if k not in PLAIN_DEFAULTS
     }
-    assert plain.name == "icp-plain" and plain.wants_class_hint is True
+    caps = get_spec("icp-plain").capabilities_of(plain.options)
+    assert plain.name == "icp-plain" and caps.class_hint is ClassHint.OPTIONAL
     # its options are checked like any backend's
-    with pytest.raises(UsageError, match=r"no option 'startz'.*starts=1"):
+    with pytest.raises(UsageError, match=r"no option 'startz'.*starts \(an integer, default 1\)"):
         get_backend("icp-plain", startz=2)
     assert get_backend("icp-plain", trim=0.8, **FAST).trim == 0.8
 

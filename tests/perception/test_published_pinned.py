@@ -46,9 +46,10 @@ import numpy as np
 import pytest
 
 from beo_bench import metrics
-from beo_bench.backend import get_backend, prepare_backend, validate_estimate
-from beo_bench.bench.evaluate import ItemViews, _resample
-from beo_bench.bench.runner import suite_categories
+from beo_bench.backend import get_backend, validate_estimate
+from beo_bench.bench.evaluate import ItemViews
+from beo_bench.bench.runs import RunConfig, RunContext
+from beo_bench.bench.scoring import resample
 from beo_bench.bench.suites import get_suite
 from beo_bench.objects import instance_from_key
 
@@ -109,8 +110,8 @@ def scores(suite_name: str, track: str | None) -> dict[str, dict[str, Any]]:
     assert not suite.gives_class  # the views carry no class hint: what class-free runs see
     names = [b for b, (s, t, _) in PINNED.items() if (s, t) == (suite_name, track)]
     backends = {b: get_backend(b) for b in names}
-    for b in backends.values():
-        prepare_backend(b, suite_categories(suite))
+    for name, b in backends.items():
+        b.prepare(RunContext.of(RunConfig(suite, name)))  # as the runner prepares it
     out: dict[str, dict[str, Any]] = {
         b: {"digest": be.model_digest(), "correct": [], "rot_err_deg": [], "iou": []}
         for b, be in backends.items()
@@ -125,7 +126,7 @@ def scores(suite_name: str, track: str | None) -> dict[str, dict[str, Any]]:
                 o = out[b]
                 o["correct"].append(est.class_index == gt.class_index)
                 o["rot_err_deg"].append(metrics.rotation_error(est.rotation, gt.R_cam, gt.symmetry))
-                o["iou"].append(metrics.voxel_iou(_resample(est.shape, suite.resolution), truth))
+                o["iou"].append(metrics.voxel_iou(resample(est.shape, suite.resolution), truth))
     finally:
         items.close()
     return out

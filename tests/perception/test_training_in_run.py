@@ -16,6 +16,7 @@ from beo_bench.cli import main
 from beo_bench.envs.pick import default_categories
 from beo_bench.errors import TrainingInRunError, UsageError
 from beo_bench.objects.cache import cache_root
+from tests.perception.contexts import run_context
 
 TWO = ("mug", "bowl")
 
@@ -68,7 +69,7 @@ def test_training_options_refuse_naming_the_train_command(name, opts, cats, want
     before = _models()
     b = get_backend(name, **opts)
     with pytest.raises(TrainingInRunError) as e:
-        b.prepare(cats)
+        b.prepare(run_context(name, cats, **opts))
     assert isinstance(e.value, UsageError) and e.value.exit_code == 2
     assert f"`{want}`" in str(e.value)
     assert all(f"--opt {k}={v}" in str(e.value) for k, v in opts.items() if k != "size")
@@ -81,9 +82,12 @@ def _trained_by(argv: list[str]) -> Path:
     args = cli.build_parser().parse_args(argv[1:])
     if args.model == "beo":
         from beo_bench.perception.beo_model import default_name, model_path
+        from beo_bench.training import beo_config
 
-        cats = cli._categories(args)
-        return model_path(default_name(cats, args.resolution, args.per_category)) / "config.json"
+        req = cli._train_request(args)
+        cats = beo_config(req).categories
+        name = default_name(cats, args.resolution, args.per_category, req.dataset)
+        return model_path(name) / "config.json"
     from beo_bench.perception.hbeo_train import default_name, model_path
 
     return model_path(default_name(cli._hbeo_config(args, args.model))) / "weights.pt"

@@ -11,41 +11,61 @@ It fits a box to the observed points and reads the class off the box's size:
 4. The class is the one whose mean training size (from beo-bench's class means) is
    nearest in log-size. The shape is that class's mean occupancy grid.
 
-It is deliberately simple: it shows the contract (``name``, ``predict``, an optional
-``prepare``, determinism, clear errors), not a good method.
+It is deliberately simple: it shows the contract (a :class:`~beo_bench.backend.BackendSpec`
+with typed options and capabilities, a :class:`~beo_bench.backend.Backend` with ``name``,
+``predict`` and ``prepare(ctx)``, determinism, clear errors), not a good method.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from beo_bench.backend import Backend, BackendSpec, Capabilities
 from beo_bench.errors import ViewError
+from beo_bench.options import option
 from beo_bench.perception.means import ClassMeans, class_means
 from beo_bench.types import Estimate, View
 
-__all__ = ["BoxFitBackend"]
+__all__ = ["SPEC", "BoxFitBackend", "BoxFitOptions"]
 
 
-class BoxFitBackend:
-    """Options arrive as keyword arguments: ``beo-bench run --opt KEY=VALUE`` passes JSON
-    values as numbers or booleans and anything else as a string, so convert them."""
+@dataclass(frozen=True)
+class BoxFitOptions:
+    """``beo-bench run --opt KEY=VALUE``: beo-bench converts each value to the field's type
+    (a bad one is a usage error listing these), so the backend never parses strings."""
+
+    instances: int | None = option(20, "training instances per class in the means (null: all)")
+    temperature: float = option(0.25, "softmax temperature of the log-size distances (> 0)")
+
+    def __post_init__(self) -> None:
+        if self.temperature <= 0:
+            raise ValueError(f"temperature={self.temperature} must be > 0")
+
+
+class BoxFitBackend(Backend):
+    """A box fitted to the observed points; the class by its size."""
 
     name = "box-fit"
 
-    def __init__(self, instances: int | str | None = 20, temperature: float | str = 0.25):
-        self.instances = None if instances in (None, "None") else int(instances)
-        self.temperature = float(temperature)
-        if self.temperature <= 0:
-            raise ValueError(f"temperature={temperature} must be > 0")
+    def __init__(self, options: BoxFitOptions | None = None) -> None:
+        self.options = options if options is not None else BoxFitOptions()
+        self._dataset = None
         self._means: dict[tuple[str, ...], ClassMeans] = {}
 
-    def prepare(self, categories: tuple[str, ...]) -> None:
-        """Called once per worker before any view: build what is slow, cached on disk."""
-        self._class_means(tuple(categories))
+    def prepare(self, ctx) -> None:  # ctx: beo_bench.bench.runs.RunContext
+        """Called once in every process before its first view (the runner's first, then
+        each worker's): build what is slow, cached on disk, for the run's class list and
+        dataset (None: the procedural library)."""
+        self._dataset = ctx.dataset
+        self._class_means(tuple(ctx.categories))
 
     def _class_means(self, cats: tuple[str, ...]) -> ClassMeans:
         if cats not in self._means:
-            self._means[cats] = class_means(cats, per_category=self.instances)
+            self._means[cats] = class_means(
+                cats, per_category=self.options.instances, dataset=self._dataset
+            )
         return self._means[cats]
 
     def predict(self, view: View) -> Estimate:
@@ -68,7 +88,7 @@ class BoxFitBackend:
         means = self._class_means(tuple(view.categories))
         # nearest class by sorted log-extents (the box's axes are not the object's)
         d = np.abs(np.log(np.sort(size)) - np.log(np.sort(means.size, axis=1))).sum(axis=1)
-        logits = -d / self.temperature
+        logits = -d / self.options.temperature
         probs = np.exp(logits - logits.max())
         probs /= probs.sum()
         shape = means.shape[int(np.argmax(probs))].astype(np.float32)
@@ -97,3 +117,15 @@ def _axes(p: np.ndarray, up: np.ndarray | None) -> np.ndarray:
     if np.linalg.det(R) < 0:
         R[:, 0] = -R[:, 0]
     return R
+
+
+SPEC = BackendSpec(
+    name="box-fit",
+    build=BoxFitBackend,
+    options=BoxFitOptions,
+    capabilities=Capabilities(),  # no class hint, not privileged, no trained model
+    description="a box fitted to the observed points; the class by its size",
+    module=__name__,
+)
+"""What the entry point names: beo-bench reads the options and capabilities from it without
+building the backend."""

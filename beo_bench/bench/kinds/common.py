@@ -1,0 +1,116 @@
+"""What the item kinds share: the items' base interface, and scoring the views of an item
+that are each scored on an estimate (isolated views, tabletop scenes' objects)."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from beo_bench.bench import tally
+from beo_bench.bench.scoring import base_row, view_row
+from beo_bench.bench.suites import Suite
+from beo_bench.types import GroundTruth, View
+
+if TYPE_CHECKING:
+    from beo_bench.bench.evaluate import Evaluator
+
+Rows = list[dict[str, Any]]
+Announce = Callable[[Rows], None]
+"""Told an item's rows as far as they are known before the backend is called (the
+worker pool's ``begin`` message)."""
+
+
+def no_announce(rows: Rows) -> None:
+    pass
+
+
+class Items(ABC):
+    """A suite's items without a backend: the views item ``index`` scores, their truth,
+    and the item's rows before any backend call (what a failed item's rows need when its
+    backend hung or crashed). A backend sees a View and nothing else (docs/benchmark.md,
+    "What a backend is told"): :meth:`views` returns only the views, and the truth is
+    looked up after the backend has answered (privileged bounds aside), so it is not a
+    local of any frame on predict's call stack."""
+
+    def __init__(self, suite: Suite, class_given: bool = False) -> None:
+        self.suite = suite
+        self.class_given = class_given
+
+    @abstractmethod
+    def views(self, index: int) -> list[View]: ...
+
+    @abstractmethod
+    def truths(self, index: int, views: list[View]) -> list[GroundTruth]: ...
+
+    @abstractmethod
+    def truth_of(self, index: int, view: View) -> GroundTruth:
+        """The truth of one of item ``index``'s views (after :meth:`views`)."""
+
+    @abstractmethod
+    def templates(self, index: int) -> Rows: ...
+
+    def close(self) -> None:  # noqa: B027 (a default: nothing held)
+        """Release what the items hold (a renderer, an env)."""
+
+    def cases(self, index: int) -> list[tuple[View, GroundTruth]]:
+        """The views (with their truth) that item ``index`` scores."""
+        views = self.views(index)
+        return list(zip(views, self.truths(index, views), strict=True))
+
+    def base_rows(self, index: int, views: list[View]) -> Rows:
+        truths = self.truths(index, views)
+        return [
+            base_row(index, j, v, gt, self.class_given)
+            for j, (v, gt) in enumerate(zip(views, truths, strict=True))
+        ]
+
+
+def run_view_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
+    """An item whose views are each scored on their estimate: the views, announced, then
+    every prediction, then the truths and the rows."""
+    items, suite = ev.items, ev.suite
+    views = items.views(index)
+    announce(items.base_rows(index, views))
+    answers = [ev.predict(index, j, v) for j, v in enumerate(views)]
+    truths = items.truths(index, views)
+    return [
+        view_row(
+            base_row(index, j, v, gt, items.class_given),
+            v,
+            gt,
+            answer,
+            suite.resolution,
+            suite.protocol.scores_pose,
+            suite.dataset,
+        )
+        for j, (v, gt, answer) in enumerate(zip(views, truths, answers, strict=True))
+    ]
+
+
+def failed_view_rows(templates: Rows, reason: str) -> Rows:
+    """The rows of an item whose backend never answered (``reason``: ``timeout after 60
+    s``, ``worker died: signal 6``): scored as a backend's exception is (class wrong, no
+    pose or shape: the summary counts each at its worst case). No time is recorded."""
+    rows = [{**t, "failure": reason, "pred_class": -1, "correct": False} for t in templates]
+    if rows:
+        rows[0]["item_rows"] = len(rows)
+    return rows
+
+
+def view_values(suite: Suite, rows: Rows) -> dict[str, np.ndarray]:
+    return tally.estimate_values(suite, rows)
+
+
+def collect(M: tally.Tally, rows: Rows, values: dict[str, np.ndarray]) -> None:
+    tally.collect_estimates(M, rows, values)
+
+
+def timing(M: tally.Tally, rows: Rows) -> None:
+    """No timing beyond the per-view one."""
+
+
+def worst_cases(suite: Suite) -> dict[str, float]:
+    return tally.worst_cases(suite)

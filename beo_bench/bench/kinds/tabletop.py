@@ -1,0 +1,132 @@
+"""Tabletop items: a BEOPick-v0 scene with 1-4 objects; every object with at least
+``min_pixels`` visible pixels is one scored view (the ``tabletop`` suite)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from beo_bench.bench.kinds.common import (
+    Announce,
+    Items,
+    Rows,
+    collect,
+    failed_view_rows,
+    run_view_item,
+    timing,
+    view_values,
+    worst_cases,
+)
+from beo_bench.bench.suites import Kind, Suite, episode_seed
+from beo_bench.types import GroundTruth, View
+
+if TYPE_CHECKING:
+    from beo_bench.bench.evaluate import Evaluator
+
+KIND = Kind.TABLETOP
+__all__ = [
+    "KIND",
+    "SceneItems",
+    "categories",
+    "collect",
+    "failed_rows",
+    "open",
+    "run_item",
+    "timing",
+    "view_label",
+    "view_values",
+    "worst_cases",
+]
+
+
+def categories(suite: Suite) -> tuple[str, ...]:
+    """The class list the views carry: a dataset's classes, or the env's default ones."""
+    if suite.dataset is not None:
+        from beo_bench.objects.dataset import object_set
+
+        return object_set(suite.dataset, suite.split, suite.categories).categories
+    from beo_bench.envs.pick import default_categories
+
+    return default_categories()
+
+
+def view_label(view: View) -> int:
+    """The segmentation label of the object a scene view shows."""
+    return int(np.asarray(view.segmentation)[np.asarray(view.mask)][0])
+
+
+class SceneItems(Items):
+    """The suite's BEOPick-v0 scenes, from one reused env."""
+
+    def __init__(self, suite: Suite, class_given: bool = False) -> None:
+        super().__init__(suite, class_given)
+        self._env: Any = None
+
+    @property
+    def env(self) -> Any:
+        if self._env is None:
+            from beo_bench.envs.pick import BEOPickEnv
+
+            s = self.suite
+            kw: dict[str, Any] = {}
+            if s.dataset is not None:  # scenes of the user's objects (distinct classes each)
+                objects = s.dataset.objects(s.split, s.categories)
+                kw = {"objects": objects, "num_objects": (1, min(4, len(objects.categories)))}
+            self._env = BEOPickEnv(
+                split=s.split, image_size=s.image_size, fovy_deg=s.fovy_deg, noise=s.noise, **kw
+            )
+        return self._env
+
+    def close(self) -> None:
+        if self._env is not None:
+            self._env.close()
+            self._env = None
+
+    def reset(self, index: int) -> dict[str, Any]:
+        """The env reset to item ``index``'s episode; its observation."""
+        obs, _ = self.env.reset(seed=episode_seed(self.suite, index))
+        return obs
+
+    def scene_views(self, obs: dict[str, Any]) -> list[View]:
+        """The scored views of the scene ``obs`` shows: every object with ``min_pixels``."""
+        env = self.env
+        cats = env.categories
+        labels = [g.label for g in env.ground_truth() if g.pixels >= self.suite.min_pixels]
+        return [View.from_observation(obs, label, cats) for label in labels]
+
+    def scene_truths(self, views: list[View]) -> list[GroundTruth]:
+        """The truth of each view of the env's current scene."""
+        env = self.env
+        by_label = {g.label: g for g in env.ground_truth()}
+        cats = env.categories
+        out = []
+        for v in views:
+            g = by_label[view_label(v)]
+            out.append(GroundTruth.of(g, cats, g.R_cam, g.t_cam))
+        return out
+
+    def views(self, index: int) -> list[View]:
+        return self.scene_views(self.reset(index))
+
+    def truths(self, index: int, views: list[View]) -> list[GroundTruth]:
+        """(The env must still hold item ``index``'s episode.)"""
+        return self.scene_truths(views)
+
+    def truth_of(self, index: int, view: View) -> GroundTruth:
+        return self.scene_truths([view])[0]
+
+    def templates(self, index: int) -> Rows:
+        return self.base_rows(index, self.views(index))
+
+
+def open(suite: Suite, class_given: bool = False) -> SceneItems:
+    return SceneItems(suite, class_given)
+
+
+def run_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
+    return run_view_item(ev, index, announce)
+
+
+def failed_rows(templates: Rows, reason: str) -> Rows:
+    return failed_view_rows(templates, reason)

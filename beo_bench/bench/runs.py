@@ -1,0 +1,272 @@
+"""What a run is: its configuration, its context, its name, its files, its errors, its summary.
+
+A user asks for a run with a :class:`RunConfig` (suite, backend name, options as given,
+``--allow-privileged``). The driver resolves it once into a :class:`RunContext`: the suite
+and its item kind, the dataset, the backend's spec reference with its parsed options and
+capabilities, the class list the views carry, whether the class hint is given and whether
+the backend is handed the truth. The context is frozen and picklable; it is the only thing
+that workers, the evaluator and ``Backend.prepare(ctx)`` receive (no per-process state
+carries a run's configuration).
+
+A run directory holds :data:`RECORD_NAME`, :data:`RESULTS_NAME`, :data:`SUMMARY_NAME`,
+:data:`LOCK_NAME` and :data:`MARKER_NAME`; its default name is :func:`run_name`. The
+summary is a :class:`Summary` (``summary.json`` is its :meth:`Summary.to_json`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from beo_bench.backend import Capabilities, check_privileged, get_spec, load_plugins
+from beo_bench.bench.suites import Suite, check_track
+from beo_bench.errors import BeoBenchError, CorruptDataError, UsageError
+
+if TYPE_CHECKING:
+    from beo_bench.backend import Backend, BackendSpec
+    from beo_bench.objects.dataset import Dataset
+
+
+class RunError(BeoBenchError, ValueError):
+    """A run that cannot start, resume or go on as asked."""
+
+
+class RunUsageError(RunError, UsageError):
+    """A run asked for in a way that cannot work (``--out`` is a file, results there need
+    ``--resume``, they belong to another run or model); exit status 2."""
+
+
+class CorruptRunError(RunError, CorruptDataError):
+    """A run directory's ``run.json`` or ``results.jsonl`` that is damaged beyond skipping a
+    line: nothing is overwritten, the message says what to do."""
+
+
+LOCK_NAME = "run.lock"
+RESULTS_NAME = "results.jsonl"
+RECORD_NAME = "run.json"
+SUMMARY_NAME = "summary.json"
+MARKER_NAME = ".beo-bench-run"
+MARKER_TEXT = (
+    "This directory is a run directory of beo-bench (`beo-bench run --out`, `beo-bench all`).\n"
+    "A run writes and resumes here only while this file marks the directory as its own.\n"
+)
+"""The file marking a directory a run made: a run writes only into an empty directory or
+one carrying it, so nothing the user keeps in a folder given as ``--out`` is replaced."""
+
+
+# -- names -----------------------------------------------------------------------------------
+def options_label(kwargs: dict[str, Any]) -> str:
+    """``k=v, k=v`` (sorted), or "" without options."""
+    return ", ".join(f"{k}={json.dumps(v)}" for k, v in sorted(kwargs.items()))
+
+
+def backend_label(backend: str, kwargs: dict[str, Any]) -> str:
+    """How a leaderboard row names a backend run: ``icp`` or ``icp (starts=48)``."""
+    opts = options_label(kwargs)
+    return f"{backend} ({opts})" if opts else backend
+
+
+def run_name(
+    suite: str,
+    backend: str,
+    kwargs: dict[str, Any],
+    seed: int | None = None,
+    track: str | None = None,
+) -> str:
+    """The run directory's name: ``known-pose__icp``, ``pose-3dof@class-given__icp``,
+    ``pose-3dof@class-free__icp__starts=48``, or with a replaced base seed
+    ``pose-3dof@class-free__icp__suite_seed=7`` (the track is part of what identifies a
+    run, so two tracks never share a directory)."""
+    opts = dict(sorted(kwargs.items()))
+    if seed is not None:
+        opts["suite_seed"] = seed
+    slug = "_".join(f"{k}={v}" for k, v in opts.items())
+    safe = "".join(ch if ch.isalnum() or ch in "=.-_" else "-" for ch in slug)
+    where = f"{suite}@{track}" if track else suite
+    return f"{where}__{backend}" + (f"__{safe}" if safe else "")
+
+
+def parse_option_pairs(pairs: list[str]) -> dict[str, Any]:
+    """``["samples=25", "point_to_plane=false"]`` -> ``{"samples": 25, "point_to_plane":
+    False}`` (values are JSON when they parse, else strings; the backend's options dataclass
+    then converts them by type)."""
+    out: dict[str, Any] = {}
+    for pair in pairs:
+        if "=" not in pair:
+            raise UsageError(f"option {pair!r}: use KEY=VALUE (e.g. samples=25)")
+        k, v = pair.split("=", 1)
+        try:
+            out[k] = json.loads(v)
+        except json.JSONDecodeError:
+            out[k] = v  # a plain string
+    return out
+
+
+def parse_backend_spec(spec: str) -> tuple[str, dict[str, Any]]:
+    """``"icp"`` or ``"hbeo-mdn-posterior:samples=25,seed=1"`` -> (name, options)."""
+    name, _, opts = spec.partition(":")
+    return name, parse_option_pairs([o for o in opts.split(",") if o])
+
+
+# -- configuration and context ---------------------------------------------------------------
+@dataclass(frozen=True)
+class RunConfig:
+    """What a user asks for: everything that determines a run's results (recorded in its
+    summary)."""
+
+    suite: Suite
+    backend: str
+    backend_kwargs: dict[str, Any] = field(default_factory=dict)
+    """The options as given (``--opt``): they name the run and identify it on resume."""
+    allow_privileged: bool = False
+    """Let a plugin that declares ``privileged`` be handed the truth (``--allow-privileged``);
+    in-tree bounds need no leave. Whether the backend *was* privileged is recorded in the run
+    record, summary and provenance."""
+
+
+@dataclass(frozen=True)
+class BackendRef:
+    """A backend as a run uses it: its registered name, the options as given and as parsed
+    into its options dataclass, and its capabilities at those options. Picklable: a worker
+    finds the spec again by name (:meth:`spec`)."""
+
+    name: str
+    kwargs: dict[str, Any]
+    options: Any
+    capabilities: Capabilities
+
+    def spec(self) -> BackendSpec:
+        return get_spec(self.name)
+
+    def build(self) -> Backend:
+        """A new backend with these options (one per process)."""
+        return self.spec().make(self.options)
+
+
+@dataclass(frozen=True)
+class RunContext:
+    """One run, resolved once by the driver (:meth:`of`) and handed to workers, the
+    evaluator and ``Backend.prepare``. The track, seed and sensor settings are the suite's
+    (:attr:`track`, :attr:`seed`, ``suite.noise``, ``suite.image_size``, ``suite.fovy_deg``)."""
+
+    suite: Suite
+    backend: BackendRef
+    categories: tuple[str, ...]
+    """The class list the views carry (``View.categories``)."""
+    privileged: bool = False
+    """The backend is handed each view's ground truth (a bound)."""
+    class_given: bool = False
+    """Views carry the true class (the ``class-given`` track, a backend that can use it)."""
+    allow_privileged: bool = False
+    progress: bool = False
+    """Whether ``prepare`` may show progress bars (the driver's; workers get False)."""
+
+    @property
+    def dataset(self) -> Dataset | None:
+        """The user's dataset the objects come from (None: the procedural library)."""
+        return self.suite.dataset
+
+    @property
+    def track(self) -> str | None:
+        return self.suite.track
+
+    @property
+    def seed(self) -> int:
+        return self.suite.seed
+
+    @property
+    def config(self) -> RunConfig:
+        """The configuration this context was resolved from."""
+        return RunConfig(self.suite, self.backend.name, self.backend.kwargs, self.allow_privileged)
+
+    @classmethod
+    def of(cls, cfg: RunConfig, progress: bool = False) -> RunContext:
+        """Resolve ``cfg``: find the backend's spec (plugins loaded), parse its options,
+        read its capabilities (without building it), refuse a privileged plugin without
+        leave and a track the backend cannot run in, and find the views' class list. Every
+        refusal is a usage error raised here, before any run starts."""
+        load_plugins()
+        spec = get_spec(cfg.backend)
+        options = spec.parse(cfg.backend_kwargs)
+        caps = spec.capabilities_of(options)
+        privileged = check_privileged(cfg.backend, caps, cfg.allow_privileged)
+        check_track(cfg.suite, cfg.backend, caps.wants_class_hint, caps.needs_class_hint)
+        return cls(
+            suite=cfg.suite,
+            backend=BackendRef(cfg.backend, dict(cfg.backend_kwargs), options, caps),
+            categories=suite_categories(cfg.suite),
+            privileged=privileged,
+            class_given=cfg.suite.gives_class and caps.wants_class_hint,
+            allow_privileged=cfg.allow_privileged,
+            progress=progress,
+        )
+
+    def for_workers(self) -> RunContext:
+        """The context workers get (no progress bars)."""
+        return dataclasses.replace(self, progress=False)
+
+
+def suite_categories(suite: Suite) -> tuple[str, ...]:
+    """The class list a suite's views carry (``View.categories``)."""
+    from beo_bench.bench.kinds import get_kind
+
+    return get_kind(suite.kind).categories(suite)
+
+
+# -- the summary -----------------------------------------------------------------------------
+@dataclass
+class Summary:
+    """A run's summary (``summary.json``; docs/design.md "Public names"): what the suite
+    measured over the run's rows (:func:`beo_bench.bench.summary.summarise`), and what a
+    leaderboard groups and labels rows by (the track, whether the backend can use the class
+    hint, the model it scored, whether it was handed the truth) with the run's provenance."""
+
+    suite: str
+    suite_version: int
+    track: str | None
+    backend: str
+    n: int
+    failures: int
+    failure_kinds: dict[str, int]
+    metrics: dict[str, Any]
+    ci95: dict[str, Any]
+    categories: list[str]
+    per_category: dict[str, dict[str, Any]]
+    scoring: dict[str, Any]
+    seed: int
+    uses_class_hint: bool = False
+    model_digest: str | None = None
+    privileged: bool = False
+    provenance: dict[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        """The summary as the JSON object ``summary.json`` holds."""
+        return dataclasses.asdict(self)
+
+    # Read access by key, as to a loaded summary.json: what compares and leaderboards
+    # read, from files or from runs just finished, alike.
+    def __getitem__(self, key: str) -> Any:
+        if key not in _SUMMARY_FIELDS:
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def __contains__(self, key: object) -> bool:
+        return key in _SUMMARY_FIELDS
+
+    def get(self, key: str, default: Any = None) -> Any:
+        return getattr(self, key) if key in _SUMMARY_FIELDS else default
+
+    def keys(self) -> list[str]:
+        return list(_SUMMARY_FIELDS)
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Summary:
+        """A summary read back (keys it does not know, from other versions, are dropped;
+        missing optional ones take their defaults)."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in obj.items() if k in names})
+
+
+_SUMMARY_FIELDS = tuple(f.name for f in dataclasses.fields(Summary))

@@ -1,0 +1,265 @@
+"""Scoring one estimate against the truth: the per-view pose and completion metrics, the
+true shapes they are measured against, and the meshes a pick plans on.
+
+Pure functions of an :class:`~beo_bench.types.Estimate` and a
+:class:`~beo_bench.types.GroundTruth` (the metric definitions themselves are in
+:mod:`beo_bench.metrics`); the item kinds (:mod:`beo_bench.bench.kinds`) call them.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from beo_bench import metrics
+from beo_bench.objects import instance_from_key
+from beo_bench.types import Estimate, GroundTruth, View
+
+if TYPE_CHECKING:
+    from beo_bench.objects.dataset import Dataset
+
+FSCORE_TAU = metrics.FSCORE_TAU
+"""F-score threshold: 1% of the unit cube's side, i.e. of the object's largest extent (the
+canonical shapes are scaled into the unit cube; Tatarchenko et al. 2019)."""
+
+
+ISO_EPS = 1e-6
+"""Marching cubes runs just below the 0.5 level, so that a cell of exactly 0.5, which every
+metric counts as filled (``>= 0.5``), lies inside the surface too."""
+SURFACE_POINTS = 1024
+"""Surface samples per shape for Chamfer-L1 and the F-score: the points whose distances to the
+other surface are taken (each exact, see :class:`~beo_bench.metrics.Surface`), so they only
+average the distance over the area: no sampling floor, and a standard error of at most 1.6%
+on a view's precision and recall (sqrt(0.25 / 1024)), which averages out over a suite. (Sample
+to sample, 2048 were too few by far: a surface scored F = 0.13-0.84 against itself.)"""
+
+
+def grid_mesh(
+    grid: np.ndarray, edge: float = 1.0, level: float = 0.5, mirror_outside: bool = False
+) -> Any:
+    """The ``level`` iso-surface of a (D, D, D) occupancy grid (marching cubes, sub-voxel
+    where the grid holds probabilities) as a mesh in the canonical frame, the grid spanning
+    the cube of side ``edge`` centred at the origin (1: the unit cube; the largest extent:
+    metres). ``None`` when no cell reaches ``level``.
+
+    Outside the grid is empty (0). With ``mirror_outside`` a filled border cell of value
+    ``p`` faces ``2 level - p`` instead, so the surface leaves the grid half a voxel beyond
+    it whatever ``p`` is, as it does for a 0/1 grid (against 0 it would sit ``(p - level)
+    / p`` of a voxel out: a perfect estimate given as 0.6/0.4 would lie a third of a voxel
+    inside the truth wherever the object touches the cube, which is everywhere along its
+    largest extent). Empty border cells still face themselves (no surface)."""
+    import trimesh
+    from skimage.measure import marching_cubes
+
+    inner = np.asarray(grid, dtype=np.float32)
+    g = np.pad(inner, 1)
+    if mirror_outside:
+        e = np.pad(inner, 1, mode="edge")
+        border = np.ones(g.shape, dtype=bool)
+        border[1:-1, 1:-1, 1:-1] = False
+        g[border] = np.minimum(e, 2.0 * level - e)[border]
+    if g.max() < level or g.min() > level - ISO_EPS:
+        # no cell crosses the level: nothing reaches it, or (a grid of exactly ``level``
+        # with the outside mirrored) nothing falls below it; either way there is no surface
+        return None
+    verts, faces, _, _ = marching_cubes(g, level - ISO_EPS)
+    D = g.shape[0] - 2
+    unit = (verts - 0.5) / D - 0.5  # padded index j is voxel j - 1, centred at (j-1+0.5)/D
+    return trimesh.Trimesh(unit * edge, faces, process=False)
+
+
+def surface_points(grid: np.ndarray, n: int = SURFACE_POINTS) -> np.ndarray:
+    """``n`` area-uniform samples (seeded) of a grid's 0.5 iso-surface (:func:`grid_surface`)
+    in the unit cube [-0.5, 0.5]^3; empty when the grid is."""
+    return grid_surface(grid, n).samples
+
+
+def grid_surface(grid: np.ndarray, n: int = SURFACE_POINTS) -> metrics.Surface:
+    """A grid's 0.5 iso-surface (:func:`grid_mesh` with the outside mirrored, in the unit
+    cube; a 0/1 grid's is the same either way) with ``n`` area-uniform samples of it
+    (seeded), ready for exact distances (:class:`~beo_bench.metrics.Surface`) [Tatarchenko:
+    F-score on surfaces]; empty when the grid is."""
+    import trimesh
+
+    mesh = grid_mesh(grid, mirror_outside=True)
+    if mesh is None:
+        return metrics.Surface(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), np.zeros((0, 3)))
+    points, _ = trimesh.sample.sample_surface(mesh, n, seed=0)
+    return metrics.Surface(mesh.vertices, mesh.faces, np.asarray(points, dtype=np.float64))
+
+
+@dataclass(frozen=True)
+class TruthShape:
+    """What scoring needs of one instance's true shape at resolution D, computed once per
+    process (0.1-1 MB at 32^3, mostly the surface's triangles; its EDT, 4x the voxels, is
+    recomputed per view instead)."""
+
+    voxels: np.ndarray
+    """(D, D, D) bool occupancy."""
+    surface: metrics.Surface
+    """Its 0.5 iso-surface in the unit cube, with SURFACE_POINTS samples."""
+    model_points: np.ndarray
+    """(H, 3) the vertices of the true mesh's convex hull (canonical frame, metres): the
+    model points of MSSD and MSPD (a distance affine in the point is largest at one of
+    them, so they stand for the whole surface)."""
+
+
+@functools.lru_cache(maxsize=256)
+def truth_shape(key: str, D: int, dataset: Dataset | None = None) -> TruthShape:
+    """The true shape of instance ``key`` (of ``dataset``, for a dataset's key; voxels
+    disk-cached; the rest kept per process)."""
+    inst = instance_from_key(key, dataset)
+    v = inst.voxels(D)
+    out = TruthShape(v, grid_surface(v), np.array(inst.mesh.convex_hull.vertices, dtype=float))
+    for a in (out.voxels, out.surface.triangles, out.surface.samples, out.model_points):
+        a.setflags(write=False)
+    return out
+
+
+def score_shape(
+    est: Estimate, gt: GroundTruth, truth: TruthShape, tau: float = FSCORE_TAU
+) -> dict[str, Any]:
+    """Completion metrics of one estimate against the truth, at the truth's resolution:
+    voxel IoU, camera-frame IoU (shape, pose and size together: what a planner using the
+    estimate sees), the EDT error (eq. 4.5), Chamfer-L1 and F-score at ``tau`` (exact
+    distances from each surface's samples to the other surface: a perfect estimate scores
+    F = 1 at any occupancy probability above 0.5)."""
+    D = truth.voxels.shape[0]
+    pred = resample(est.shape, D)
+    out: dict[str, Any] = {"iou": metrics.voxel_iou(pred, truth.voxels)}
+    out["iou_cam"] = metrics.camera_frame_iou(
+        pred,
+        (est.rotation, est.translation),
+        est.size,
+        truth.voxels,
+        (gt.R_cam, gt.t_cam),
+        gt.size,
+        resolution=D,
+    )
+    out["edt_err"] = metrics.edt_error(pred, truth.voxels)
+    surf = metrics.surface_scores(grid_surface(pred), truth.surface, tau)
+    out["fscore"] = surf["fscore"]
+    out["chamfer_l1"] = surf["chamfer_l1"] if np.isfinite(surf["chamfer_l1"]) else None
+    return out
+
+
+def score_pose(
+    est: Estimate, gt: GroundTruth, truth: TruthShape, K: np.ndarray | None
+) -> dict[str, Any]:
+    """Pose metrics of one estimate, each under the object's symmetry group: rotation
+    error (deg), translation error (cm; at the symmetric pose nearest in translation), size
+    error (%), MSSD (cm) and, where the camera ``K`` is known, MSPD (pixels; None when the
+    estimate puts the object behind the camera) over the true model's hull vertices."""
+    sym = gt.symmetry
+    args = (est.rotation, est.translation, gt.R_cam, gt.t_cam)
+    out: dict[str, Any] = {
+        "rot_err_deg": metrics.rotation_error(est.rotation, gt.R_cam, sym),
+        "trans_err_cm": metrics.translation_error(est.translation, gt.t_cam, gt.R_cam, sym),
+        "size_err_pct": metrics.size_error(est.size, gt.size),
+        "mssd_cm": 100.0 * metrics.mssd(*args, truth.model_points, sym),
+    }
+    if K is not None:
+        px = metrics.mspd(*args, np.asarray(K, dtype=np.float64), truth.model_points, sym)
+        out["mspd_px"] = px if np.isfinite(px) else None
+    return out
+
+
+def resample(grid: np.ndarray, D: int) -> np.ndarray:
+    g = np.asarray(grid, dtype=np.float32)
+    if g.shape[0] == D:
+        return g
+    idx = ((np.arange(D) + 0.5) * g.shape[0] / D).astype(int)
+    return g[np.ix_(idx, idx, idx)]
+
+
+def local_mesh(est: Estimate) -> Any:
+    """The estimate's surface in its canonical frame (metres): ``Estimate.mesh`` when given,
+    else :func:`grid_mesh` of its occupancy scaled by the estimated size (the grid's cube
+    edge is the largest extent). ``None`` when the grid is empty."""
+    if est.mesh is not None:
+        return est.mesh
+    return grid_mesh(est.shape, edge=float(np.max(est.size)))
+
+
+def _to_world(points: np.ndarray, est: Estimate, cam_to_world: np.ndarray) -> np.ndarray:
+    cam = points @ np.asarray(est.rotation).T + np.asarray(est.translation)
+    return cam @ cam_to_world[:3, :3].T + cam_to_world[:3, 3]
+
+
+def estimate_mesh(est: Estimate, cam_to_world: np.ndarray) -> Any:
+    """The estimate's surface (:func:`local_mesh`) placed by its pose, then by
+    ``cam_to_world``: a world-frame mesh (``None`` when the shape is empty)."""
+    import trimesh
+
+    mesh = local_mesh(est)
+    if mesh is None:
+        return None
+    world = _to_world(np.asarray(mesh.vertices), est, cam_to_world)
+    return trimesh.Trimesh(world, mesh.faces, process=False)  # the planner fixes orientation
+
+
+def obstacle_points(est: Estimate | None, view: View, cam_to_world: np.ndarray) -> np.ndarray:
+    """World points that a grasp of another object must avoid: ``SURFACE_SAMPLES`` samples
+    of this object's estimated surface, placed by its estimate (the same samples the
+    ground-truth planner takes of a true mesh), or its observed points when there is no
+    estimate or the shape is empty."""
+    from beo_bench.objects.instance import SURFACE_SAMPLES
+    from beo_bench.objects.processing import surface_samples
+
+    mesh = local_mesh(est) if est is not None else None
+    if est is None or mesh is None:
+        return view.points() @ cam_to_world[:3, :3].T + cam_to_world[:3, 3]
+    points, _ = surface_samples(mesh, SURFACE_SAMPLES, seed=0)
+    return _to_world(points, est, cam_to_world)
+
+
+Answer = tuple[Estimate | None, float, str | None]
+"""A backend's answer for one view: the estimate (None: it failed), the seconds it took,
+and why it failed (None: it did not)."""
+
+
+def base_row(index: int, j: int, view: View, gt: GroundTruth, class_given: bool) -> dict[str, Any]:
+    """The row of view ``j`` of item ``index`` as far as it is known without the backend."""
+    return {
+        "item": index,
+        "view": j,
+        "key": gt.key,
+        "category": gt.category,
+        "true_class": gt.class_index,
+        "pixels": int(np.count_nonzero(view.mask)),
+        "class_given": class_given,
+    }
+
+
+def view_row(
+    row: dict[str, Any],
+    view: View,
+    gt: GroundTruth,
+    answer: Answer,
+    resolution: int,
+    scores_pose: bool,
+    dataset: Dataset | None = None,
+) -> dict[str, Any]:
+    """``row`` (:func:`base_row`) completed with the scores of ``answer``: the class, and
+    where the protocol does not give the pose (``scores_pose``) the pose metrics and Pix3D
+    viewpoints, then the completion metrics at ``resolution``."""
+    est, seconds, failure = answer
+    row.update(ms=1000 * seconds, failure=failure)
+    if est is None:
+        row.update(pred_class=-1, correct=False)
+        return row
+    row["pred_class"] = est.class_index
+    row["correct"] = est.class_index == gt.class_index
+    row["class_prob_true"] = float(est.class_probs[gt.class_index])
+    truth = truth_shape(gt.key, resolution, dataset)
+    if scores_pose:
+        row.update(score_pose(est, gt, truth, view.K))
+        # Pix3D viewpoints, against the symmetric truth nearest to the estimate
+        R_sym = metrics.closest_symmetric_pose(est.rotation, gt.R_cam, gt.symmetry)
+        row["viewpoint_est"] = list(metrics.viewpoint(est.rotation))
+        row["viewpoint_gt"] = list(metrics.viewpoint(R_sym))
+    row.update(score_shape(est, gt, truth))
+    return row

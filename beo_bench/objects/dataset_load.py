@@ -1,0 +1,316 @@
+"""What every dataset layout shares: the loading options (:class:`LoadOptions`, which a
+key's ``?option=value`` part spells), the model files a layout finds (:class:`Entry`), the
+stable hash split, and turning an entry into a lazily built instance
+(:func:`make_instance`: read, rotate, repair, centre, scale, check; symmetry estimated on
+first use).
+
+The layouts themselves (:mod:`beo_bench.objects.layouts`) say what differs: where the
+models are, what their categories and splits are, what their axes are.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from urllib.parse import parse_qsl, quote, urlencode
+
+import numpy as np
+import trimesh
+
+from beo_bench.errors import ImplausibleSizeError, InvalidKeyError
+from beo_bench.objects import cache, processing
+from beo_bench.objects.instance import ObjectInstance
+from beo_bench.objects.meshfile import (
+    MAX_DIAGONAL,
+    MIN_EXTENT,
+    UNIT_MODES,
+    axes_rotation,
+    check_plausible_size,
+    how_scaled,
+    read_mesh,
+    scale_factor,
+)
+from beo_bench.objects.registry import Generated, get_category
+from beo_bench.objects.registry import categories as registered_categories
+from beo_bench.objects.symmetry import DEFAULT_MARGIN, ESTIMATOR_VERSION
+from beo_bench.types import Mat3, Symmetry
+
+REPAIR_MODES: tuple[str, ...] = processing.REPAIR_MODES
+"""See :func:`~beo_bench.objects.processing.repair`."""
+
+DEFAULT_REPAIR = "solid"
+"""The loaders' default: ``basic``'s clean-up for a mesh that is already a solid, and a
+watertight rebuild (:func:`~beo_bench.objects.processing.solidify`) only for one that is
+still open or not a manifold afterwards. With ``basic`` as the default, 4 of 14 real meshes
+from public robotics packages loaded; real files are rarely clean solids."""
+
+SYMMETRY_THRESHOLD = 0.95
+"""Volume IoU below which no candidate rotation counts as a symmetry of a loaded mesh (the
+floor of :mod:`beo_bench.objects.symmetry`'s acceptance rule, which also asks for a score
+within its margin of the mesh's best candidate)."""
+
+SYMMETRY_CACHE_PARAMS = {
+    "threshold": SYMMETRY_THRESHOLD,
+    "margin": DEFAULT_MARGIN,
+    "v": ESTIMATOR_VERSION,
+}
+"""Cache key of estimated symmetries: the estimator's version, so groups found by an older
+estimator (z-only search, hard threshold, offsets at the centre of mass) are recomputed."""
+
+HASH_SPLITS: tuple[tuple[str, float], ...] = (("train", 0.80), ("val", 0.05), ("test", 0.15))
+"""Shares of the hash-based splits of ShapeNet and folders."""
+
+OPTION_NAMES = ("repair", "size", "up", "front", "units")
+"""The options a key's query may carry."""
+
+
+# --------------------------------------------------------------------------------------
+# options
+
+
+@dataclass(frozen=True)
+class LoadOptions:
+    """Processing options of a load call (hashable: they go into build partials)."""
+
+    repair: str = DEFAULT_REPAIR
+    size: float | str | tuple[tuple[str, float | str], ...] | None = None
+    """Largest extent in metres, ``"native"``, per category (sorted ``(category, size)``
+    pairs), or None (the category's size)."""
+    up: str = "z"
+    front: str = "x"
+    units: str | None = None
+    """One of :data:`~beo_bench.objects.meshfile.UNIT_MODES`; None: the layout's default
+    (``Layout.default_units``), so that an object has one key whether its default was
+    passed explicitly or not."""
+
+    @classmethod
+    def make(
+        cls,
+        repair: str,
+        size: float | Mapping[str, float] | str | None = None,
+        up: str = "z",
+        front: str = "x",
+        units: str | None = None,
+        default_units: str | None = None,
+    ) -> LoadOptions:
+        """Checked options; ``units`` equal to ``default_units`` (the layout's) become None.
+        Raises ``ValueError`` for an unknown option value and
+        :class:`~beo_bench.errors.ImplausibleSizeError` for a size no tabletop object has."""
+        if repair not in REPAIR_MODES:
+            raise ValueError(f"repair={repair!r}: use one of {', '.join(REPAIR_MODES)}")
+        axes_rotation(up, front)  # validates
+        if isinstance(size, Mapping):
+            sz: float | str | tuple[tuple[str, float | str], ...] | None = tuple(
+                sorted((str(k), check_size(v)) for k, v in size.items())
+            )
+        else:
+            sz = None if size is None else check_size(size)
+        if units is not None:
+            units = "normalised" if units == "normalized" else units
+            if units not in UNIT_MODES:
+                raise ValueError(f"units={units!r}: use one of {', '.join(UNIT_MODES)}")
+            if units == default_units:
+                units = None
+        return cls(repair, sz, up, front, units)
+
+    def size_for(self, category: str) -> float | str | None:
+        """The size option that applies to ``category`` (None: the category default)."""
+        if isinstance(self.size, tuple):
+            return dict(self.size).get(category)
+        return self.size
+
+    def key_query(self, category: str) -> str:
+        """``?k=v`` of the options that differ from the defaults ('' if none)."""
+        q: dict[str, str] = {}
+        if self.repair != DEFAULT_REPAIR:
+            q["repair"] = self.repair
+        size = self.size_for(category)
+        if size is not None:
+            q["size"] = size if isinstance(size, str) else repr(float(size))
+        elif self.units is not None:  # an explicit size makes the units irrelevant
+            q["units"] = self.units
+        if self.up != "z":
+            q["up"] = self.up
+        if self.front != "x":
+            q["front"] = self.front
+        return "?" + urlencode(sorted(q.items())) if q else ""
+
+    @classmethod
+    def from_query(cls, key: str, query: str, default_units: str | None = None) -> LoadOptions:
+        """The options a key's query spells (:meth:`key_query`'s inverse); an
+        :class:`~beo_bench.errors.InvalidKeyError` naming ``key`` for a bad one."""
+        try:
+            q = dict(parse_qsl(query, keep_blank_values=True, strict_parsing=bool(query)))
+        except ValueError:
+            raise InvalidKeyError(f"key {key!r}: malformed options {query!r}") from None
+        unknown = set(q) - set(OPTION_NAMES)
+        if unknown:
+            raise InvalidKeyError(f"key {key!r}: unknown option(s) {sorted(unknown)}")
+        size: float | str | None = q.get("size")
+        if size is not None and size != "native":
+            try:
+                size = float(size)
+            except ValueError:
+                raise InvalidKeyError(f"key {key!r}: size {size!r} is not a number") from None
+        try:
+            return cls.make(
+                q.get("repair", DEFAULT_REPAIR),
+                size,
+                q.get("up", "z"),
+                q.get("front", "x"),
+                q.get("units"),
+                default_units,
+            )
+        except ValueError as e:
+            raise InvalidKeyError(f"key {key!r}: {e}") from None
+
+
+def check_size(v: object) -> float | str:
+    """A ``size`` option value: metres in the plausible range, or ``"native"``."""
+    if v == "native":
+        return "native"
+    if isinstance(v, str):
+        raise ValueError(
+            f"size={v!r}: use metres (a number), a mapping, or 'native' (for file units "
+            f"other than metres pass units='cm', 'mm' or 'auto' instead)"
+        )
+    f = float(v)  # type: ignore[arg-type]
+    if not (np.isfinite(f) and f > 0):
+        raise ValueError(f"size={v!r}: the largest extent must be positive metres")
+    # refused here, before any file is read: the plausibility check would refuse every mesh
+    if not MIN_EXTENT <= f <= MAX_DIAGONAL:
+        raise ImplausibleSizeError(
+            f"size={v!r}: a tabletop object's largest extent is {MIN_EXTENT}-{MAX_DIAGONAL} m "
+            f"(at most the table's depth); give metres in that range"
+        )
+    return f
+
+
+# --------------------------------------------------------------------------------------
+# entries and splits
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One model file of a dataset."""
+
+    ident: str
+    """The key without its source prefix and options, e.g. ``03001627/1a2b``."""
+    category: str
+    split: str
+    path: Path
+
+
+def unit_hash(text: str) -> float:
+    """A stable hash of ``text`` in [0, 1) (sha256: unlike ``hash()``, the same in every
+    process and run)."""
+    return int.from_bytes(hashlib.sha256(text.encode()).digest()[:8], "big") / 2.0**64
+
+
+def hash_split(text: str) -> str:
+    """The split (:data:`HASH_SPLITS`) a model id falls in: adding models never moves
+    the others."""
+    u, acc = unit_hash(text), 0.0
+    for name, share in HASH_SPLITS:
+        acc += share
+        if u < acc:
+            return name
+    return HASH_SPLITS[-1][0]
+
+
+def subdirs(path: Path) -> list[str]:
+    """Names of the visible sub-folders of ``path``, sorted ([] if it cannot be listed)."""
+    try:
+        return sorted(e.name for e in os.scandir(path) if e.is_dir() and not e.name.startswith("."))
+    except OSError:
+        return []
+
+
+# --------------------------------------------------------------------------------------
+# instances
+
+
+def make_instance(
+    source: str,
+    entry: Entry,
+    index: int,
+    opts: LoadOptions,
+    rotation: Mat3,
+    default_units: str,
+) -> ObjectInstance:
+    """The lazily built instance of ``entry`` (instance ``index`` of its split), loaded with
+    ``opts``; ``source`` is the layout's name (the key's prefix), ``rotation`` takes the
+    file's axes into ours and ``default_units`` is the layout's."""
+    registered = entry.category in registered_categories()
+    return ObjectInstance(
+        key=f"{source}/{quote(entry.ident, safe='/')}{opts.key_query(entry.category)}",
+        category=entry.category,
+        split=entry.split,
+        index=index,
+        source=source,
+        build=functools.partial(
+            build_mesh,
+            str(entry.path),
+            entry.category,
+            tuple(map(tuple, np.asarray(rotation).tolist())),
+            opts,
+            opts.units or default_units,
+        ),
+        pickable=get_category(entry.category).pickable if registered else True,
+        path=entry.path,
+    )
+
+
+class _LoadedGenerated(Generated):
+    """A loaded mesh whose symmetry is estimated on first use (cached on disk), so that
+    only callers that need the symmetry pay for it."""
+
+    def __init__(self, mesh: trimesh.Trimesh) -> None:  # no super(): symmetry is lazy
+        self.mesh = mesh
+        self.parts = None
+
+    @functools.cached_property
+    def symmetry(self) -> Symmetry:  # type: ignore[override]
+        return loaded_symmetry(self.mesh)
+
+
+def loaded_symmetry(mesh: trimesh.Trimesh) -> Symmetry:
+    """:func:`~beo_bench.objects.symmetry.estimate_symmetry` of a canonical mesh at
+    :data:`SYMMETRY_THRESHOLD`, cached on disk by content hash."""
+    arrays = cache.cached(
+        "symmetry",
+        cache.mesh_hash(mesh),
+        SYMMETRY_CACHE_PARAMS,
+        lambda: processing.pack_symmetry(
+            processing.estimate_symmetry(mesh, threshold=SYMMETRY_THRESHOLD)
+        ),
+    )
+    return processing.unpack_symmetry(arrays)
+
+
+def build_mesh(
+    path: str,
+    category: str,
+    rotation: tuple[tuple[float, ...], ...],
+    opts: LoadOptions,
+    units: str = "normalised",
+) -> Generated:
+    """Read, rotate, repair, centre, scale and check one file (the lazy part of an
+    instance); ``units`` is the option with the layout's default filled in."""
+    mesh = read_mesh(path)
+    R = np.asarray(rotation, dtype=np.float64)
+    if not np.allclose(R, np.eye(3)):
+        T = np.eye(4)
+        T[:3, :3] = R
+        mesh.apply_transform(T)
+    mesh = processing.repair(mesh, what=path, mode=opts.repair)
+    # centre and scale after the repair, which may move the bounds (voxel remeshing)
+    mesh.apply_translation(-mesh.bounds.mean(axis=0))
+    size = opts.size_for(category)
+    mesh.apply_scale(scale_factor(mesh, path, category, size, units))
+    check_plausible_size(mesh, path, how_scaled(size, units))
+    return _LoadedGenerated(mesh)

@@ -1,0 +1,392 @@
+"""One mesh file into one canonical mesh: reading it safely (:func:`read_mesh` and its
+checks), its axes (:func:`axes_rotation`), its units and size (:func:`detect_units`,
+:func:`default_size`, :data:`CATEGORY_SIZES`) and the plausibility check of the result
+(:func:`check_plausible_size`).
+
+Shared by every dataset layout (:mod:`beo_bench.objects.layouts`); what differs between
+layouts is not here. The module docstring of :mod:`beo_bench.objects.loaders` describes the
+rules ("Units and size").
+"""
+
+from __future__ import annotations
+
+import functools
+import io
+import re
+import warnings
+from pathlib import Path
+from typing import Any, NoReturn
+
+import numpy as np
+import trimesh
+
+from beo_bench.errors import (
+    EmptyMeshError,
+    ImplausibleSizeError,
+    MeshLoadError,
+    TruncatedMeshError,
+)
+from beo_bench.objects import processing
+from beo_bench.objects.objectset import procedural_instance
+from beo_bench.objects.registry import categories as registered_categories
+from beo_bench.types import Mat3
+
+MESH_SUFFIXES: tuple[str, ...] = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf")
+"""File types :func:`load_folder` picks up (matched case-insensitively)."""
+
+
+DEFAULT_SIZE = 0.15
+"""Largest extent (m) of a normalised mesh whose category is neither in
+:data:`CATEGORY_SIZES` nor registered (a :class:`UnknownSizeWarning` says so), and the
+reference size :func:`detect_units` aims at for such categories: about the geometric mean of
+the plausible range, 2 cm to 1 m."""
+
+
+MIN_EXTENT = 0.01
+"""Smallest plausible largest extent (m) of a loaded object: below 1 cm an object is half a
+finger pad (2 cm wide) and a few pixels at the cameras' 0.7-1.1 m, neither graspable nor
+seen; a millimetre value read as centimetres usually lands here."""
+
+
+MAX_DIAGONAL = 0.70
+"""Largest plausible bounding-box diagonal (m): the table's depth (``TableConfig``:
+2 x 0.35 m). An object within it lies on the table in every pose (its footprint radius is
+at most half the diagonal), so placement can never push it off; beyond it, objects were
+placed hanging over the edge, fell off and gave episodes with no visible target."""
+
+
+UNITS: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+"""Metres per file unit of the units a file may be stated or detected to be in."""
+
+
+UNIT_MODES: tuple[str, ...] = ("auto", *UNITS, "normalised")
+"""Values of the ``units`` option: ``auto`` (detect, :func:`detect_units`), ``m``, ``cm``,
+``mm`` (keep the file's scale, in these units), ``normalised`` (the file has no meaningful
+scale: scale the largest extent to the category's size, :func:`default_size`)."""
+
+
+# Typical largest extent (m) of each category, for normalised datasets. Values are for the
+# object as it sits on a table and is grasped:
+# - the library's 11 classes: the median of its procedural test instances (SIZE_SAMPLES; a
+#   test checks they agree), toy-scale for chair, sofa, table, car and airplane, since the
+#   real objects cannot be picked up;
+# - household and YCB objects: real sizes (YCB's published dimensions where it has them);
+# - ShapeNet and ModelNet classes whose real object does not fit on a table (furniture,
+#   vehicles, buildings, people): toy models, like the library's, at 10-25 cm;
+# - nothing above 0.40 m, so that any normalised shape (diagonal <= sqrt(3) x extent) stays
+#   within MAX_DIAGONAL.
+CATEGORY_SIZES: dict[str, float] = {
+    # the library's classes
+    "airplane": 0.145, "bottle": 0.253, "bowl": 0.158, "box": 0.105, "can": 0.123,
+    "car": 0.097, "chair": 0.096, "lamp": 0.254, "mug": 0.106, "sofa": 0.138, "table": 0.126,
+    # food (YCB)
+    "apple": 0.075, "banana": 0.19, "lemon": 0.068, "orange": 0.073, "peach": 0.059,
+    "pear": 0.10, "plum": 0.052, "strawberry": 0.05,
+    # kitchen and household (YCB where listed)
+    "cup": 0.09, "glass": 0.12, "jar": 0.15, "pitcher": 0.24, "plate": 0.26, "pot": 0.25,
+    "flower_pot": 0.20, "vase": 0.25, "plant": 0.30, "spoon": 0.16, "fork": 0.20,
+    "knife": 0.22, "spatula": 0.35, "scissors": 0.20, "hammer": 0.33, "power_drill": 0.18,
+    "screwdriver": 0.20, "wrench": 0.20, "cracker_box": 0.21, "sugar_box": 0.175,
+    "mustard_bottle": 0.19, "bleach_cleanser": 0.25, "tomato_soup_can": 0.10,
+    "tuna_fish_can": 0.085, "sponge": 0.11, "basket": 0.30, "bag": 0.35, "cap": 0.25,
+    "helmet": 0.28, "pillow": 0.40, "clock": 0.25, "trash_bin": 0.30, "birdhouse": 0.25,
+    "faucet": 0.25, "cone": 0.20, "glass_box": 0.20, "book": 0.24,
+    # electronics
+    "camera": 0.12, "cellphone": 0.15, "telephone": 0.20, "remote_control": 0.18,
+    "earphone": 0.18, "microphone": 0.20, "keyboard": 0.40, "laptop": 0.35,
+    "display": 0.40, "monitor": 0.40, "loudspeaker": 0.25, "radio": 0.25, "printer": 0.40,
+    "microwave": 0.40, "xbox": 0.30, "pistol": 0.20,
+    # toy models of things that do not fit on a table
+    "bathtub": 0.15, "bed": 0.15, "bench": 0.15, "bookshelf": 0.15, "cabinet": 0.12,
+    "dishwasher": 0.10, "file_cabinet": 0.12, "piano": 0.15, "washer": 0.10, "stove": 0.10,
+    "desk": 0.15, "dresser": 0.12, "night_stand": 0.10, "wardrobe": 0.15, "tv_stand": 0.15,
+    "stool": 0.10, "sink": 0.12, "toilet": 0.12, "bus": 0.20, "train": 0.25,
+    "motorcycle": 0.15, "bicycle": 0.17, "skateboard": 0.20, "vessel": 0.20, "rocket": 0.20,
+    "tower": 0.25, "mailbox": 0.12, "guitar": 0.25, "rifle": 0.25, "person": 0.20,
+    "tent": 0.15, "stairs": 0.15, "door": 0.20, "curtain": 0.20, "mantel": 0.15,
+    "range_hood": 0.12,
+}  # fmt: skip
+"""Typical largest extent (m) per category for normalised datasets (see the comment above
+for where the values come from); ``size={category: metres}`` overrides an entry."""
+
+
+class UnknownSizeWarning(UserWarning):
+    """A normalised mesh of a category with no known size: it gets :data:`DEFAULT_SIZE`."""
+
+
+SIZE_SAMPLES = 7
+"""Procedural ``test`` instances whose median largest extent is a category's size."""
+
+
+@functools.cache
+def default_size(category: str) -> float:
+    """The largest extent (m) a normalised mesh of ``category`` is scaled to: its entry in
+    :data:`CATEGORY_SIZES`; else, for a category registered after import (a user's own
+    procedural class), the median over :data:`SIZE_SAMPLES` of its procedural ``test``
+    instances; else :data:`DEFAULT_SIZE`."""
+    if category in CATEGORY_SIZES:
+        return CATEGORY_SIZES[category]
+    if category in registered_categories():
+        return procedural_size(category)
+    return DEFAULT_SIZE
+
+
+def procedural_size(category: str) -> float:
+    """The median largest extent (m) of :data:`SIZE_SAMPLES` procedural ``test`` instances of
+    a registered category."""
+    ext = [
+        float(procedural_instance(category, "test", i).mesh.extents.max())
+        for i in range(SIZE_SAMPLES)
+    ]
+    return round(float(np.median(ext)), 6)
+
+
+@functools.cache
+def _warn_unknown_size(category: str) -> None:
+    # once per category and process: one line per mesh would bury the advice
+    warnings.warn(
+        f"category {category!r} has no known size (not in CATEGORY_SIZES nor registered): its "
+        f"normalised meshes get {DEFAULT_SIZE} m; pass size={{{category!r}: <metres>}} to the "
+        f"loader for its real size",
+        UnknownSizeWarning,
+        stacklevel=3,
+    )
+
+
+def _size_of(category: str) -> float:
+    if category not in CATEGORY_SIZES and category not in registered_categories():
+        _warn_unknown_size(category)
+    return default_size(category)
+
+
+def detect_units(extent: float, category: str | None = None) -> str:
+    """The units (``"m"``, ``"cm"`` or ``"mm"``) of a file whose largest extent is
+    ``extent`` file units.
+
+    Rule: of the three readings (``extent`` x 1, x 0.01, x 0.001 m), keep those whose
+    largest extent lies in [:data:`MIN_EXTENT`, :data:`MAX_DIAGONAL`], and take the one
+    nearest, by ratio, to the category's typical size (:func:`default_size`;
+    :data:`DEFAULT_SIZE` for categories without one). Ties go to the larger unit. So a
+    45-unit file is a 4.5 cm lemon in millimetres but a 45 cm object in centimetres when
+    its category is unknown (45 cm is 3.0x the 15 cm reference, 4.5 cm 3.3x). Raises
+    :class:`~beo_bench.errors.ImplausibleSizeError` when no reading is plausible.
+    """
+    ref = DEFAULT_SIZE
+    if category is not None and (category in CATEGORY_SIZES or category in registered_categories()):
+        ref = default_size(category)
+    plausible = [u for u, f in UNITS.items() if MIN_EXTENT <= extent * f <= MAX_DIAGONAL]
+    if not plausible:
+        raise ImplausibleSizeError(
+            f"a largest extent of {extent:.6g} file units is no tabletop object in metres, "
+            f"centimetres or millimetres (each reading is outside {MIN_EXTENT}-{MAX_DIAGONAL} "
+            f"m); pass size=<metres> for its largest extent"
+        )
+    return min(plausible, key=lambda u: abs(np.log(extent * UNITS[u] / ref)))
+
+
+def check_plausible_size(mesh: trimesh.Trimesh, what: str, how: str) -> None:
+    """Raise :class:`~beo_bench.errors.ImplausibleSizeError` (naming ``what``, the file, and
+    ``how`` it was scaled) unless the canonical mesh is a plausible tabletop object: largest
+    extent >= :data:`MIN_EXTENT` and bounding-box diagonal <= :data:`MAX_DIAGONAL`."""
+    ext = np.asarray(mesh.extents, dtype=np.float64)
+    largest, diagonal = float(ext.max()), float(np.linalg.norm(ext))
+    if largest >= MIN_EXTENT and diagonal <= MAX_DIAGONAL:
+        return
+    dims = " x ".join(f"{e:.4g}" for e in ext)
+    if largest < MIN_EXTENT:
+        why = (
+            f"its largest extent is below {MIN_EXTENT} m: too small to see or grasp with "
+            f"the 2 cm finger pads"
+        )
+    else:
+        why = (
+            f"its diagonal {diagonal:.3g} m exceeds {MAX_DIAGONAL} m, the table's depth: it "
+            f"cannot lie on the table"
+        )
+    raise ImplausibleSizeError(
+        f"{what}: loaded at {dims} m ({how}); {why}. If the file's units are wrong, pass "
+        f"units='mm', 'cm' or 'm' (or 'auto' to detect them); for a normalised model pass "
+        f"units='normalised' or size=<metres> (largest extent; typical sizes are in "
+        f"CATEGORY_SIZES)"
+    )
+
+
+def scale_factor(
+    mesh: trimesh.Trimesh, path: str, category: str, size: float | str | None, units: str
+) -> float:
+    """The factor from file units to metres of ``mesh`` (the file at ``path``, of
+    ``category``); precedence: an explicit ``size`` (metres), ``'native'``, then ``units``."""
+    extent = float(mesh.extents.max())
+    if isinstance(size, float):
+        return size / extent
+    if size == "native":
+        return 1.0  # older keys: the file's units are metres, as they always were
+    if units == "normalised":
+        return _size_of(category) / extent
+    if units == "auto":
+        try:
+            units = detect_units(extent, category)
+        except ImplausibleSizeError as e:
+            raise ImplausibleSizeError(f"{path}: {e}") from None
+    return UNITS[units]
+
+
+def how_scaled(size: float | str | None, units: str) -> str:
+    """How a mesh got its size (from the ``size`` option and ``units``), for the
+    plausibility error."""
+    if isinstance(size, float):
+        return f"size={size} m"
+    if size == "native":
+        return "size='native': the file's units taken as metres"
+    if units == "normalised":
+        return "units='normalised': scaled to the category's size"
+    return f"units={units!r}"
+
+
+def axes_rotation(up: str = "z", front: str = "x") -> Mat3:
+    """The rotation taking a mesh whose up and front axes are ``up`` and ``front`` (``"x"``,
+    ``"-y"``, ...) into the canonical frame (+z up, +x front)."""
+    u, f = _axis(up), _axis(front)
+    if abs(float(u @ f)) > 0.5:
+        raise ValueError(f"up={up!r} and front={front!r} must be different axes")
+    # rows: front -> x, up x front -> y (right-handed), up -> z
+    return np.stack([f, np.cross(u, f), u])
+
+
+def _axis(name: str) -> np.ndarray:
+    s = name.strip().lower()
+    sign = -1.0 if s.startswith("-") else 1.0
+    s = s.lstrip("+-")
+    if s not in ("x", "y", "z"):
+        raise ValueError(f"axis {name!r}: use 'x', 'y', 'z' with an optional sign ('-y')")
+    v = np.zeros(3)
+    v["xyz".index(s)] = sign
+    return v
+
+
+# ------------------------------------------------------------------------------ reading
+
+
+_TEXT_SUFFIXES = (".obj", ".off")
+
+
+# ``OFF490 518 0``: ModelNet's common defect, the count line glued to the header
+_GLUED_OFF = re.compile(rb"\A(\s*C?OFF)(?=[ \t]*[-+0-9])")
+
+
+def read_mesh(path: str | Path) -> trimesh.Trimesh:
+    """Read one mesh file as a single :class:`trimesh.Trimesh` (scenes are concatenated,
+    materials skipped), in the file's own axes and units.
+
+    Raises, each naming the file: :class:`~beo_bench.errors.MeshLoadError` for a missing,
+    unreadable or unparseable file; :class:`~beo_bench.errors.NonFiniteMeshError` for NaN
+    or infinite coordinates; :class:`~beo_bench.errors.TruncatedMeshError` for an OBJ that
+    was cut off (its last line is incomplete, or unterminated while the surface is open);
+    :class:`~beo_bench.errors.EmptyMeshError` for one without faces.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise MeshLoadError(
+            f"{p}: mesh file not found; check the dataset root (is the "
+            f"download complete?) or remove the model's folder"
+        )
+    try:
+        data = p.read_bytes()
+    except OSError as e:
+        raise MeshLoadError(f"{p}: cannot read the file ({e}); check its permissions") from e
+    suffix = p.suffix.lower()
+    if suffix == ".off":
+        data = _GLUED_OFF.sub(rb"\1\n", data, count=1)
+    # before parsing: a cut file may not parse at all, and a parser error would hide why
+    cut = _obj_unterminated_line(data) if suffix == ".obj" else None
+    if cut is not None and not _obj_line_ok(cut):
+        _raise_truncated(p, cut, "which is incomplete")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # e.g. missing texture images: irrelevant here
+            # process=False: processing silently drops NaN vertices with their faces, which
+            # turned a corrupt coordinate into a misleading "not watertight" later
+            if suffix == ".off":
+                loaded = trimesh.load(
+                    io.BytesIO(data), file_type="off", force="mesh", process=False
+                )
+            else:
+                kw: dict[str, Any] = {"skip_materials": True} if suffix == ".obj" else {}
+                loaded = trimesh.load(str(p), force="mesh", process=False, **kw)
+    except Exception as e:
+        if cut is not None:
+            _raise_truncated(p, cut, "and the file does not parse")
+        raise MeshLoadError(
+            f"{p}: cannot parse the {suffix or 'mesh'} file ({type(e).__name__}: {e}); it is "
+            f"corrupt or not a mesh: re-download or re-export it"
+        ) from e
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        if suffix in _TEXT_SUFFIXES and not _looks_like_text(data):
+            raise MeshLoadError(
+                f"{p}: not a text {suffix} file (binary garbage); it is "
+                f"corrupt: re-download or re-export it"
+            )
+        raise EmptyMeshError(
+            f"{p}: the file has no faces; use a mesh with geometry or remove the file"
+        )
+    processing.check_finite(loaded, str(p))
+    if cut is not None:
+        closed = loaded.copy()
+        closed.merge_vertices(merge_tex=True, merge_norm=True)
+        if not closed.is_watertight:
+            _raise_truncated(p, cut, "and the surface is open")
+    loaded.process()  # what trimesh does by default: merge duplicate vertices
+    return loaded
+
+
+_OBJ_REF = re.compile(rb"^-?\d+(/(-?\d+)?){0,2}$")
+
+
+_OBJ_MIN_ARGS = {b"v": 3, b"vn": 3, b"vt": 1, b"f": 3, b"l": 2}
+
+
+def _obj_unterminated_line(data: bytes) -> list[bytes] | None:
+    """The tokens of an OBJ's last line if it has no line break (None if it has one).
+
+    Exporters end every line with a line break, so a file cut at an arbitrary byte (an
+    interrupted download or copy) almost always ends in an unterminated line. That line is
+    proof when it is malformed (``f 12 1``, ``v 0.5 -``); a well-formed one only counts
+    when the surface is open, since a few writers omit the final line break. A cut exactly
+    at a line break cannot be told from a complete file of an open mesh.
+    """
+    if not data.strip() or data.endswith((b"\n", b"\r")):
+        return None
+    return data[data.rfind(b"\n") + 1 :].split()
+
+
+def _raise_truncated(p: Path, tokens: list[bytes], why: str) -> NoReturn:
+    shown = b" ".join(tokens)[:60].decode("utf-8", errors="replace")
+    raise TruncatedMeshError(
+        f"{p}: the file is truncated: it ends in the middle of a line ({shown!r}, {why}); "
+        f"re-download or re-export it (a complete file ends with a line break)"
+    )
+
+
+def _obj_line_ok(tokens: list[bytes]) -> bool:
+    """Whether an OBJ statement is complete (statements other than data pass)."""
+    if not tokens or tokens[0] not in _OBJ_MIN_ARGS:
+        return True
+    args = tokens[1:]
+    if len(args) < _OBJ_MIN_ARGS[tokens[0]]:
+        return False
+    if tokens[0] in (b"f", b"l"):
+        return all(_OBJ_REF.match(a) for a in args)
+    try:
+        [float(a) for a in args]
+    except ValueError:
+        return False
+    return True
+
+
+def _looks_like_text(data: bytes) -> bool:
+    """Whether the bytes look like a text file (>= 95 % printable ASCII, no NUL)."""
+    sample = np.frombuffer(data[:65536], dtype=np.uint8)
+    if sample.size == 0:
+        return True
+    printable = ((sample >= 32) & (sample < 127)) | np.isin(sample, (9, 10, 13))
+    return bool(printable.mean() >= 0.95 and not (sample == 0).any())

@@ -1,0 +1,291 @@
+"""BEOPick-v0's tabletop scenes, without the env: draw, settle, look, render.
+
+:class:`TabletopScenes` is what ``BEOPickEnv.reset`` runs (docs/design.md "Environments"):
+1-k objects of distinct categories placed on the table in their rest poses with a random
+yaw (:mod:`.layout`), compiled (:mod:`.builder`), settled by physics (:mod:`.execute`) and
+seen by one depth camera sampled around the table (:mod:`.camera`), the target drawn among
+the placed objects and guaranteed to show at least ``min_target_pixels`` pixels. The env
+delegates to it; code below the envs (HBEO's training crops, ``beo_bench.perception``)
+uses it directly, since backends never import envs.
+
+One generator drives every draw, in the order the env always made them, so a seed gives
+the same scene, camera, target and image here as in ``BEOPickEnv.reset(seed=...)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from beo_bench.errors import BeoBenchError
+from beo_bench.objects import ObjectSet, pickable_categories
+from beo_bench.scenes.builder import Scene, TableConfig, build_tabletop
+from beo_bench.scenes.camera import TABLE_RIG, CameraRig, Intrinsics
+from beo_bench.scenes.execute import park, settle
+from beo_bench.scenes.layout import ObjectTooLargeError, PlacementError, place_objects
+from beo_bench.scenes.renderer import UINT8_LABELS, Frame, Renderer
+from beo_bench.types import Mat4, ObjectState
+
+SCENE_DRAWS = 20
+"""Object draws a reset tries before giving up (placement failures and scenes whose
+target stays hidden both count)."""
+
+CAMERA_DRAWS = 10
+"""Camera poses a reset tries per scene for a visible target before drawing a new scene
+(a target hidden behind a larger object is usually seen from another side)."""
+
+MIN_TARGET_PIXELS_640x480 = 50
+"""Default least number of target pixels at 640x480 (the suites' ``min_pixels``: a
+scored view needs at least as many), scaled by image area for other sizes."""
+
+
+class NoVisibleTargetError(BeoBenchError, RuntimeError):
+    """``reset`` found no scene whose target shows at least ``min_target_pixels`` pixels:
+    an episode without a visible target cannot be solved, so none is produced."""
+
+
+def default_categories() -> tuple[str, ...]:
+    """BEOPick-v0's default ``categories`` (the ``target_class`` list, and the class list
+    its scenes' views carry): every registered category meant to be picked, sorted
+    (:func:`beo_bench.objects.pickable_categories`)."""
+    return pickable_categories()
+
+
+def default_min_target_pixels(intrinsics: Intrinsics) -> int:
+    """:data:`MIN_TARGET_PIXELS_640x480` scaled by the image area (at least 1)."""
+    area = intrinsics.width * intrinsics.height / (640 * 480)
+    return max(1, round(MIN_TARGET_PIXELS_640x480 * area))
+
+
+class TabletopScenes:
+    """Tabletop scenes of ``objects``, drawn as BEOPick-v0 draws them, and the current one.
+
+    ``categories``: the classes to draw from, in ``target_class`` order (each in
+    ``objects``); ``num_objects``: the (min, max) objects per scene, of distinct classes;
+    ``intrinsics``: the depth camera (default 640x480, 45 degrees); ``rig``: where cameras
+    are sampled (around the table top's centre); ``table``: the physical set-up;
+    ``min_target_pixels``: the least visible pixels of the target (default
+    :func:`default_min_target_pixels`).
+
+    :meth:`reset` draws a new scene and returns its observation and ground truth (the env's
+    ``obs_mode="image"`` observation without sensor noise, and ``env.ground_truth()``);
+    :meth:`draw` is the same from a caller's generator. The current scene stays for physics
+    and more renders (``scene``, ``cam``, ``target``, :meth:`render`, :meth:`render_rgb`)
+    until the next draw. The renderer's GL context is made on the first render and freed by
+    :meth:`close`; a later draw makes a new one.
+    """
+
+    def __init__(
+        self,
+        objects: ObjectSet,
+        categories: Sequence[str] | None = None,
+        *,
+        num_objects: tuple[int, int] = (1, 4),
+        intrinsics: Intrinsics | None = None,
+        rig: CameraRig = TABLE_RIG,
+        table: TableConfig | None = None,
+        min_target_pixels: int | None = None,
+    ) -> None:
+        self.objects = objects
+        self.categories: tuple[str, ...] = (
+            tuple(categories) if categories is not None else objects.categories
+        )
+        missing = [c for c in self.categories if c not in objects.categories]
+        if missing:
+            raise ValueError(
+                f"categories {missing} are not in the object set {list(objects.categories)}"
+            )
+        lo, hi = (int(n) for n in num_objects)
+        if not 1 <= lo <= hi <= len(self.categories):
+            raise ValueError(
+                f"num_objects={num_objects}: give (min, max) with 1 <= min <= max <= "
+                f"{len(self.categories)} (the classes to draw from: a scene's are distinct)"
+            )
+        self.num_objects = (lo, hi)
+        self.intrinsics = intrinsics if intrinsics is not None else Intrinsics()
+        self.rig = rig
+        self.table = table if table is not None else TableConfig()
+        self.min_target_pixels = (
+            default_min_target_pixels(self.intrinsics)
+            if min_target_pixels is None
+            else int(min_target_pixels)
+        )
+        # labels 0..k: one byte per pixel while they fit, as the renderer gives them
+        self.seg_dtype = np.dtype(np.uint8 if hi <= UINT8_LABELS else np.int32)
+        # the current scene: what was drawn (category, index) and placed where, the camera
+        # and the target's label
+        self.scene: Scene | None = None
+        self.drawn: tuple[list[tuple[str, int]], list[Mat4]] | None = None
+        self.cam: Mat4 = np.eye(4)
+        self.target = 0
+        self.renderer: Renderer | None = None
+        self._bound: Scene | None = None  # the scene the renderer holds
+        self._rng: np.random.Generator | None = None
+
+    # -- drawing ---------------------------------------------------------------------------------
+    def reset(self, seed: int | None = None) -> tuple[dict[str, Any], list[ObjectState]]:
+        """A new scene: its observation (``depth``, ``segmentation``, ``target_class``,
+        ``intrinsics``, ``cam_to_world``, as BEOPick-v0's without noise) and every object's
+        ground truth. ``seed`` starts the generator anew (the env's ``reset(seed=...)``
+        gives the same scene); without it the draws continue from the last reset's."""
+        if seed is not None or self._rng is None:
+            self._rng = np.random.default_rng(seed)  # gymnasium's seeding, bit for bit
+        frame, _ = self.draw(self._rng)
+        obs = self.observation(frame)
+        return obs, self.ground_truth(obs["segmentation"])
+
+    def draw(self, rng: np.random.Generator) -> tuple[Frame, int]:
+        """Draw a scene from ``rng`` (objects, placement, camera, target) and make it the
+        current one; returns its rendering and the target's visible pixels.
+
+        Raises :class:`NoVisibleTargetError` when no scene and camera of
+        :data:`SCENE_DRAWS` x :data:`CAMERA_DRAWS` shows ``min_target_pixels`` of the
+        target, :class:`~beo_bench.scenes.layout.PlacementError` when no draw fit on the
+        table and :class:`~beo_bench.scenes.layout.ObjectTooLargeError` for an object too
+        large for the table."""
+        placed, best = 0, (-1, "")
+        look_at = np.array([0.0, 0.0, self.table.table_height])
+        # Draws happen in the order they always did, so a seed whose first scene and camera
+        # show the target gives the episode it gave before the visibility guarantee.
+        for _ in range(SCENE_DRAWS):
+            k = int(rng.integers(self.num_objects[0], self.num_objects[1] + 1))
+            cats = [self.categories[j] for j in rng.choice(len(self.categories), k, replace=False)]
+            drawn = [(c, int(rng.integers(self.objects.count(c)))) for c in cats]
+            insts = [self.objects.get(c, i) for c, i in drawn]
+            try:
+                poses = place_objects(
+                    insts,
+                    rng,
+                    self.table.table_height,
+                    self.table.area_half,
+                    table_half=self.table.table_half,
+                )
+            except ObjectTooLargeError:
+                raise  # no other draw makes this object fit: say which one it is
+            except PlacementError:
+                continue  # these did not fit: draw another set (deterministic under the seed)
+            placed += 1
+            self.scene = build_tabletop(insts, poses, self.intrinsics, self.table)
+            self.drawn = (drawn, [np.array(T, dtype=np.float64) for T in poses])
+            park(self.scene)
+            settle(self.scene)
+            self.cam = self.rig.sample(rng, look_at)
+            self.target = int(rng.integers(k)) + 1
+            for view in range(CAMERA_DRAWS):
+                if view:
+                    self.cam = self.rig.sample(rng, look_at)
+                frame = self.render()
+                pixels = int(np.count_nonzero(frame.segmentation == self.target))
+                if pixels >= self.min_target_pixels:
+                    break
+                if pixels > best[0]:
+                    best = (pixels, f"{cats[self.target - 1]} among {cats}")
+            else:
+                continue  # hidden from every camera pose: draw another scene
+            break
+        else:
+            if not placed:
+                raise PlacementError(
+                    f"{SCENE_DRAWS} draws of objects did not fit on the table without overlap; "
+                    "use fewer objects (num_objects) or a larger TableConfig.area_half"
+                )
+            raise NoVisibleTargetError(
+                f"BEOPick-v0 reset: in {placed} scenes x {CAMERA_DRAWS} camera poses the target "
+                f"never showed {self.min_target_pixels} pixels (best {best[0]}: {best[1]}); "
+                f"lower min_target_pixels, use a larger image_size, or a camera rig that "
+                f"frames the table (camera=...)"
+            )
+        return frame, pixels
+
+    def restore(
+        self, drawn: list[tuple[str, int]], poses: list[Mat4], cam: Mat4, target: int
+    ) -> Scene:
+        """Make the scene of an earlier draw current again (a copy of an env): ``drawn``
+        (category, index) placed at ``poses``, seen from ``cam``, target label ``target``.
+        Returns the newly compiled scene, at rest where it was placed (not settled)."""
+        insts = [self.objects.get(c, i) for c, i in drawn]
+        self.scene = build_tabletop(insts, poses, self.intrinsics, self.table)
+        self.drawn = (drawn, poses)
+        self.cam = cam
+        self.target = target
+        return self.scene
+
+    # -- looking ---------------------------------------------------------------------------------
+    def _bound_renderer(self) -> Renderer:
+        """The renderer, (re)created when there is none (first render, after ``close``) and
+        bound to the current scene."""
+        assert self.scene is not None
+        if self.renderer is None:
+            self.renderer = Renderer(self.intrinsics)
+            self._bound = None
+        if self._bound is not self.scene:
+            self.renderer.bind(self.scene.model, self.scene.geom_labels)
+            self._bound = self.scene
+        return self.renderer
+
+    def render(self) -> Frame:
+        """Depth and segmentation of the current scene from ``cam``."""
+        assert self.scene is not None
+        return self._bound_renderer().render(self.scene.data, self.cam)
+
+    def render_rgb(self) -> np.ndarray:
+        """(H, W, 3) uint8 colour image of the current scene from ``cam``."""
+        assert self.scene is not None
+        return self._bound_renderer().render_rgb(self.scene.data, self.cam)
+
+    @property
+    def target_class(self) -> int:
+        """The target's index in ``categories``."""
+        assert self.scene is not None
+        return int(self.categories.index(self.scene.instances[self.target - 1].category))
+
+    def observation(self, frame: Frame) -> dict[str, Any]:
+        """The current scene's observation from its rendering ``frame``: ``depth``,
+        ``segmentation`` (``seg_dtype``), ``target_class``, ``intrinsics`` and
+        ``cam_to_world`` (BEOPick-v0's ``obs_mode="image"`` layout)."""
+        return {
+            "depth": frame.depth,
+            # the renderer may already give uint8 labels: then this is no copy
+            "segmentation": frame.segmentation.astype(self.seg_dtype, copy=False),
+            "target_class": self.target_class,
+            "intrinsics": self.intrinsics.K,
+            "cam_to_world": self.cam.copy(),
+        }
+
+    def ground_truth(self, segmentation: np.ndarray) -> list[ObjectState]:
+        """Per object of the current scene: label, category, key, symmetry, size, pose in
+        camera and world frames, and its pixels in ``segmentation`` (the current view's)."""
+        assert self.scene is not None
+        world_to_cam = np.linalg.inv(self.cam)
+        counts = np.bincount(segmentation.ravel(), minlength=len(self.scene.instances) + 1)
+        out = []
+        for i, inst in enumerate(self.scene.instances):
+            Tw = self.scene.object_pose(i)
+            Tc = world_to_cam @ Tw
+            out.append(
+                ObjectState(
+                    label=i + 1,
+                    category=inst.category,
+                    key=inst.key,
+                    symmetry=inst.symmetry,
+                    size=np.asarray(inst.size, dtype=np.float64),
+                    R_cam=Tc[:3, :3].copy(),
+                    t_cam=Tc[:3, 3].copy(),
+                    R_world=Tw[:3, :3].copy(),
+                    t_world=Tw[:3, 3].copy(),
+                    pixels=int(counts[i + 1]),
+                )
+            )
+        return out
+
+    def close(self) -> None:
+        """Free the renderer (its GL context) and forget the current scene. Not final: a
+        later draw starts again with a new renderer."""
+        if self.renderer is not None:
+            self.renderer.close()
+            self.renderer = None
+        self._bound = None
+        self.scene = None
+        self.drawn = None
