@@ -728,23 +728,8 @@ class _MainParser(argparse.ArgumentParser):
 EXIT_STATUS = __doc__.split("\n\n", 1)[1]
 
 
-def build_parser() -> argparse.ArgumentParser:
-    import beo_bench
-    from beo_bench.bench.suites import TRACKS
-    from beo_bench.objects.cache import KINDS
-
-    p = _MainParser(
-        prog="beo-bench",
-        description="Benchmark object-centric perception (class, pose and full 3D shape from\n"
-        "one segmented depth image) in simulation, and the grasps planned from it.",
-        epilog=EXIT_STATUS,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    p.add_argument("--version", action="version", version=f"beo-bench {beo_bench.__version__}")
-    # the commands' parsers are plain ones: only the top-level help lists the registries
-    sub = p.add_subparsers(dest="command", required=True, parser_class=argparse.ArgumentParser)
-    data = dataset_parent()
-
+def _add_demo(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``demo`` command."""
     d = sub.add_parser(
         "demo",
         help="the main job on the embedded defaults",
@@ -756,6 +741,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     d.set_defaults(func=cmd_demo)
 
+
+def _add_objects(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``objects`` command."""
     o = sub.add_parser(
         "objects",
         help="process and summarise an object set",
@@ -776,6 +764,9 @@ def build_parser() -> argparse.ArgumentParser:
     o.add_argument("--sheet", type=Path, default=None, help="write a contact sheet PNG")
     o.set_defaults(func=cmd_objects)
 
+
+def _add_view(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``view`` command."""
     v = sub.add_parser(
         "view",
         help="write a BEOPick-v0 scene to a rerun .rrd and a PNG",
@@ -793,6 +784,9 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--no-rrd", action="store_true", help="only the PNG")
     v.set_defaults(func=cmd_view)
 
+
+def _add_pick_check(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``pick-check`` command."""
     pc = sub.add_parser(
         "pick-check",
         help="pick success of the ground-truth grasp planner (the ceiling)",
@@ -803,6 +797,11 @@ def build_parser() -> argparse.ArgumentParser:
         ],
     )
     pc.set_defaults(func=cmd_pick_check)
+
+
+def _add_run(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``run`` command."""
+    from beo_bench.bench.suites import TRACKS
 
     r = sub.add_parser(
         "run",
@@ -844,6 +843,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.set_defaults(func=cmd_run)
 
+
+def _add_all(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``all`` command."""
     al = sub.add_parser(
         "all",
         help="run every suite with every backend (resuming), then regenerate leaderboards/",
@@ -880,6 +882,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     al.set_defaults(func=cmd_all)
 
+
+def _add_compare(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``compare`` command."""
     cp = sub.add_parser(
         "compare",
         help="runs side by side; each run paired with the first on their common items",
@@ -896,6 +901,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     cp.set_defaults(func=cmd_compare)
 
+
+def _add_leaderboard(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``leaderboard`` command."""
     lb = sub.add_parser(
         "leaderboard",
         help="regenerate leaderboards/ from run summaries",
@@ -903,6 +911,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     lb.set_defaults(func=cmd_leaderboard)
 
+
+def _add_train(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``train`` command."""
     tr = sub.add_parser(
         "train",
         help="train a perception model (beo, hbeo, hbeo-mdn)",
@@ -961,6 +972,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tr.set_defaults(func=cmd_train)
 
+
+def _add_publish(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``publish`` command."""
     pb = sub.add_parser(
         "publish",
         help="write a trained model into the published models the backends load",
@@ -974,6 +988,9 @@ def build_parser() -> argparse.ArgumentParser:
     pb.add_argument("--float32", action="store_true", help="keep float32 weights (default fp16)")
     pb.set_defaults(func=cmd_publish)
 
+
+def _add_render_dataset(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``render-dataset`` command."""
     rd = sub.add_parser(
         "render-dataset",
         help="render HBEO's training crops (cached shards)",
@@ -991,6 +1008,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     rd.set_defaults(func=cmd_render_dataset)
 
+
+def _add_cache(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``cache`` command."""
+    from beo_bench.objects.cache import KINDS
+
     c = sub.add_parser("cache", help="inspect or clear the asset cache")
     c.add_argument("action", choices=["info", "clear"])
     # a kind is a name from a fixed list, never a path: `clear` deletes what it names
@@ -1002,6 +1024,42 @@ def build_parser() -> argparse.ArgumentParser:
         + "; ".join(f"{k}: {v}" for k, v in KINDS.items()),
     )
     c.set_defaults(func=cmd_cache)
+
+
+_COMMANDS = (
+    _add_demo,
+    _add_objects,
+    _add_view,
+    _add_pick_check,
+    _add_run,
+    _add_all,
+    _add_compare,
+    _add_leaderboard,
+    _add_train,
+    _add_publish,
+    _add_render_dataset,
+    _add_cache,
+)
+"""Each command's parser, in the order ``--help`` lists them."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    import beo_bench
+
+    p = _MainParser(
+        prog="beo-bench",
+        description="Benchmark object-centric perception (class, pose and full 3D shape from\n"
+        "one segmented depth image) in simulation, and the grasps planned from it.",
+        epilog=EXIT_STATUS,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--version", action="version", version=f"beo-bench {beo_bench.__version__}")
+    # the commands' parsers are plain ones: only the top-level help lists the registries
+    sub = p.add_subparsers(dest="command", required=True, parser_class=argparse.ArgumentParser)
+    data = dataset_parent()
+
+    for add in _COMMANDS:
+        add(sub, data)
     return p
 
 

@@ -107,11 +107,11 @@ def plugins(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 
 def test_broken_plugins_are_named_skipped_and_the_others_load(plugins) -> None:
-    random_before = B._REGISTRY["random"]
+    random_before = B.get_spec("random")
     with pytest.warns(B.PluginWarning) as caught:
         names = B.load_plugins()
     assert names == ["good-demo"]  # the good one still loads
-    assert B._REGISTRY["random"] == random_before  # the clash did not replace the in-tree one
+    assert B.get_spec("random") is random_before  # the clash did not replace the in-tree one
     messages = sorted(str(w.message) for w in caught)
     assert len(messages) == 4
     assert all("beo-plugin-mixed" in m and "fix or uninstall" in m for m in messages)

@@ -43,7 +43,9 @@ class Protocol(str, Enum):
     told"): each member's fields are that table's row."""
 
     reveals: str
-    """In words, what the backend is handed."""
+    """In words, what the View reveals about the object (docs/benchmark.md's table)."""
+    hides: str
+    """In words, what stays hidden: what the suite scores."""
     pose_hint: bool
     """``View.pose_hint``: the true rotation, translation and size."""
     up_hint: bool
@@ -55,20 +57,55 @@ class Protocol(str, Enum):
     and the table plane in the robot's frame, as a real robot knows them)."""
 
     def __new__(
-        cls, value: str, reveals: str, pose_hint: bool, up_hint: bool, world_frame: str
+        cls,
+        value: str,
+        reveals: str,
+        hides: str,
+        pose_hint: bool,
+        up_hint: bool,
+        world_frame: str,
     ) -> Protocol:
         obj = str.__new__(cls, value)
         obj._value_ = value
         obj.reveals = reveals
+        obj.hides = hides
         obj.pose_hint = pose_hint
         obj.up_hint = up_hint
         obj.world_frame = world_frame
         return obj
 
-    KNOWN_POSE = ("known-pose", "the pose and size", True, False, "random")
-    ONE_DOF = ("1dof", "the up axis only", False, True, "random-yaw")
-    THREE_DOF = ("3dof", "nothing about the pose", False, False, "random")
-    FREE = ("free", "the camera and the table plane", False, False, "robot")
+    KNOWN_POSE = (
+        "known-pose",
+        "the true pose and size",
+        "the class",
+        True,
+        False,
+        "random",
+    )
+    ONE_DOF = (
+        "1dof",
+        "the object's up axis",
+        "the class, the rotation about the up axis, the translation",
+        False,
+        True,
+        "random-yaw",
+    )
+    THREE_DOF = (
+        "3dof",
+        "nothing about the pose",
+        "the class, the rotation, the translation",
+        False,
+        False,
+        "random",
+    )
+    FREE = (
+        "free",
+        "the camera and the table plane in the robot's frame",
+        "the class, each object's pose on the table",
+        False,
+        False,
+        "robot",
+    )
 
     @classmethod
     def of(cls, value: str) -> Protocol:
