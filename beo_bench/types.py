@@ -197,7 +197,8 @@ class View:
       labels are below 255 (every BEOPick-v0 scene), int32 otherwise (see
       ``scenes.renderer.Frame``): widen it before arithmetic such as ``seg - 1``;
     - ``class_hint``: optional index of the true class, given in the ``class-given`` track
-      of a pose suite (``Suite.track``) to backends that declare ``wants_class_hint``; a
+      of a pose suite (``Suite.track``) to backends whose capabilities use it
+      (``Capabilities.class_hint``: optional or required); a
       backend that can use it uses it whenever a view carries it (the dissertation's pose
       comparisons gave every method the class);
     - ``up_hint``: optional (3,) unit vector, the object's canonical +z in the camera frame,

@@ -54,7 +54,7 @@ class IsolatedView:
         Suites' protocol hints are left out (``dataclasses.replace(view, class_hint=...,
         up_hint=...)`` adds them). ``cam_to_world`` is the render's own, with the object
         at the origin in its canonical frame, so it gives the pose away: the suites replace
-        it by a random rigid frame (``beo_bench.bench.evaluate.world_frame``). Raises
+        it by a random rigid frame (``beo_bench.bench.kinds.isolated.world_frame``). Raises
         :class:`~beo_bench.errors.ViewError` for a class list without the instance's
         category."""
         from beo_bench.errors import ViewError

@@ -166,7 +166,7 @@ def check_command(argv: list[str]) -> None:
     """Parse ``argv`` with the real parser and look up what it names (suites, tracks,
     backends and their options); raises ``AssertionError`` saying what is wrong."""
     from beo_bench.backend import get_backend, load_plugins
-    from beo_bench.bench.campaign import parse_backend_spec, parse_options
+    from beo_bench.bench.runs import parse_backend_spec, parse_option_pairs
     from beo_bench.bench.suites import get_suite
     from beo_bench.cli import build_parser
 
@@ -182,7 +182,7 @@ def check_command(argv: list[str]) -> None:
             suite.with_overrides(track=args.track)
     backends: list[tuple[str, dict]] = []
     if getattr(args, "backend", None):
-        backends.append((args.backend, parse_options(args.opt)))
+        backends.append((args.backend, parse_option_pairs(args.opt)))
     for spec in getattr(args, "backends", None) or []:
         backends.append(parse_backend_spec(spec))
     for name, kwargs in backends:

@@ -65,6 +65,7 @@ def run_campaign(c: Campaign) -> list[Path]:
     """Run every pair (resuming) in each of its tracks, then regenerate the leaderboard;
     returns its Markdown files. A backend whose construction fails stops the campaign before
     anything runs."""
+    from beo_bench.backend import get_spec, load_plugins
     from beo_bench.bench.leaderboard import regenerate
     from beo_bench.bench.runner import WorkerPool, item_timeout_s, run
     from beo_bench.bench.suites import backend_tracks, get_suite
@@ -76,13 +77,13 @@ def run_campaign(c: Campaign) -> list[Path]:
         item_timeout_s(suite, c.item_timeout)  # a bad value fails here, before any run
     # every run's context, resolved before any run starts: a bad option, a privileged plugin
     # without leave, or a track a backend cannot run in fails with its message here
+    load_plugins()
     contexts = []
     for suite in suites:
         for name, kwargs in c.backends:
-            caps = RunContext.of(RunConfig(suite, name, kwargs, c.allow_privileged)).backend
-            for track in backend_tracks(
-                suite, caps.capabilities.wants_class_hint, caps.capabilities.needs_class_hint
-            ):
+            spec = get_spec(name)
+            caps = spec.capabilities_of(spec.parse(kwargs))  # the tracks it runs in
+            for track in backend_tracks(suite, caps.wants_class_hint, caps.needs_class_hint):
                 tracked = suite.with_overrides(track=track)
                 cfg = RunConfig(tracked, name, kwargs, c.allow_privileged)
                 out = c.runs / run_name(suite.name, name, kwargs, c.seed, track)

@@ -126,7 +126,8 @@ class Protocol(str, Enum):
 
 TRACKS: tuple[str, ...] = ("class-given", "class-free")
 """The two tracks of a suite that allows the class hint (``Suite.class_hint``): in
-``class-given`` every backend that can use the true class (``wants_class_hint``) is told
+``class-given`` every backend that can use the true class (its spec's
+``Capabilities.class_hint``) is told
 it, as in the dissertation's pose comparisons (Figures 3.6 and 4.3); in ``class-free`` no
 backend is. The hint belongs to the track, never to a backend's option, so two rows of one
 table are always scored under the same rules."""
@@ -151,12 +152,12 @@ class Suite:
     rotation about the vertical is unknown), ``3dof`` (nothing about the pose), ``free``
     (tabletop and pick: the camera and the table plane in the robot's frame, as a real
     robot knows them). An isolated view's world frame is a random rigid frame (a yaw and a
-    translation in 1-DOF, a rotation and a translation otherwise: ``evaluate.world_frame``),
+    translation in 1-DOF, a rotation and a translation otherwise: ``kinds.isolated.world_frame``),
     so ``cam_to_world`` reveals nothing the protocol does not (docs/benchmark.md, "What a
     backend is told"). ``size``: items (views
     for isolated suites, scenes or episodes otherwise). ``class_hint``: the suite is scored
     in two tracks (:data:`TRACKS`), and ``track`` says which one this is: in
-    ``class-given`` a backend that can use the true class (``wants_class_hint``) is given
+    ``class-given`` a backend that can use the true class (``Capabilities.class_hint``) is given
     it (such rows are marked and left out of the class accuracy), in ``class-free`` none
     is; a suite with tracks defaults to :data:`DEFAULT_TRACK`. Suites that score
     classification (``known-pose``, ``tabletop``, ``pick``) have no track (``None``) and
@@ -432,7 +433,8 @@ def check_track(
         )
     if suite.track == "class-given" and not uses_class_hint:
         raise UsageError(
-            f"backend {backend!r} does not use the class hint (no wants_class_hint), so its "
+            f"backend {backend!r} does not use the class hint (its class_hint capability is "
+            f"none), so its "
             f"class-given run on {suite.name} would score exactly as its class-free one: run "
             "it with --track class-free (the leaderboard lists that run in both tracks)"
         )
