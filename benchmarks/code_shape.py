@@ -1,0 +1,67 @@
+"""The shape of the package's code: its lines, its largest functions and its import cycles
+(as ``tests/test_import_graph.py`` counts them), for this checkout or another one.
+
+    python benchmarks/code_shape.py [ROOT] [--top N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import sys
+from pathlib import Path
+
+import networkx as nx
+
+FOLDERS = ("beo_bench", "envs", "scenes", "perception")
+
+
+def functions(root: Path) -> tuple[int, list[tuple[int, str]]]:
+    """(lines of the package, [(lines, "path:function")] largest first)."""
+    total, out = 0, []
+    for folder in FOLDERS:
+        for f in sorted((root / folder).rglob("*.py")):
+            src = f.read_text()
+            total += len(src.splitlines())
+            for node in ast.walk(ast.parse(src)):
+                if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                    assert node.end_lineno is not None
+                    size = node.end_lineno - node.lineno + 1
+                    out.append((size, f"{f.relative_to(root)}:{node.name}"))
+    return total, sorted(out, reverse=True)
+
+
+def cycles(root: Path) -> list[list[str]]:
+    """The import graph's strongly connected components of more than one module."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from tests import test_import_graph as graph
+
+    graph.PACKAGES = {
+        "beo_bench": root / "beo_bench",
+        "beo_bench.envs": root / "envs",
+        "beo_bench.scenes": root / "scenes",
+        "beo_bench.perception": root / "perception",
+    }
+    G = graph.import_graph()
+    return sorted(sorted(c) for c in nx.strongly_connected_components(G) if len(c) > 1)
+
+
+def main(argv: list[str]) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("root", nargs="?", type=Path, default=Path(__file__).resolve().parents[1])
+    p.add_argument("--top", type=int, default=10)
+    args = p.parse_args(argv)
+    total, funcs = functions(args.root)
+    print(f"package lines: {total}")
+    print(f"largest functions (of {len(funcs)}):")
+    for n, name in funcs[: args.top]:
+        print(f"  {n:5d}  {name}")
+    found = cycles(args.root)
+    print(f"import cycles: {len(found)}")
+    for c in found:
+        print("  " + " <-> ".join(c))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
