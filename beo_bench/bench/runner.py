@@ -7,6 +7,10 @@ backend can use the class hint), and a resume must match it. The summary carries
 track (``"track"``: ``class-given``, ``class-free`` or null for a suite without tracks),
 ``"uses_class_hint"`` and ``"model_digest"`` at its top level, for the leaderboard.
 
+A run is resolved once into its :class:`~beo_bench.bench.runs.RunContext` (the backend's
+options parsed and capabilities read without building it); the driver then builds the
+backend once and prepares it, and each worker gets that context alone.
+
 Integrity (see the "Failure behaviour" doc):
 
 - one run at a time per directory: the run holds an exclusive ``flock`` on ``OUT/run.lock``
