@@ -267,6 +267,7 @@ class BackendSpec:
             obj = factory(**options.kwargs())
             if isinstance(obj, Backend) or not isinstance(obj, PerceptionBackend):
                 return obj  # make() refuses a non-backend
+            _warn_instance_capabilities(name, obj, caps)
             return LegacyBackend(obj)
 
         build.factory = factory  # type: ignore[attr-defined]  # what buildable_... inspects
@@ -284,6 +285,31 @@ class BackendSpec:
     def factory(self) -> Callable[..., Any]:
         """What was registered (the class or function; for a spec, its ``build``)."""
         return getattr(self.build, "factory", self.build)
+
+
+def _warn_instance_capabilities(name: str, obj: object, caps: Capabilities) -> None:
+    """A :class:`PluginWarning` when the object a plain factory built says another
+    capability than its class or factory (an attribute set in ``__init__``, or a factory
+    function returning a class that has them): the runner reads the registered object's."""
+    if multiprocessing.parent_process() is not None:
+        return  # a runner worker: the driver built it first and warned
+    declared = {
+        "privileged": caps.privileged,
+        "wants_class_hint": caps.wants_class_hint,
+        "needs_class_hint": caps.needs_class_hint,
+    }
+    for attr, expected in declared.items():
+        value = getattr(obj, attr, None)
+        if value is not None and bool(value) != expected:
+            warnings.warn(
+                f"backend {name!r}: the object its factory returns has {attr} = {value!r}, "
+                f"but beo-bench reads a plain backend's capabilities from what was registered "
+                f"(where {attr} is {expected}): declare it as a class attribute of the "
+                'registered class, or register a BackendSpec (docs/backends.md, "Migrating '
+                'a plain class")',
+                PluginWarning,
+                stacklevel=4,
+            )
 
 
 class LegacyBackend(Backend):
@@ -412,7 +438,8 @@ def _skip_plugin(ep: EntryPoint, e: Exception) -> None:
     if multiprocessing.parent_process() is not None:
         return  # a runner worker: the main process loaded the plugins first and warned
     warnings.warn(
-        f"backend {_BROKEN[key]}; fix or uninstall that package (the other backends are available)",
+        f"backend {_BROKEN[key]}; fix, reinstall or uninstall that package (the other "
+        "backends are available)",
         PluginWarning,
         stacklevel=3,
     )
@@ -498,7 +525,9 @@ def get_backend(name: str, **kwargs: Any) -> Backend:
 def _unknown_backend(name: str) -> BackendError:
     broken = [why for (ep_name, _), why in _BROKEN.items() if ep_name == name]
     if broken:
-        return PluginError(f"backend {name!r}: {broken[0]}; fix or reinstall that package")
+        return PluginError(
+            f"backend {name!r}: {broken[0]}; fix, reinstall or uninstall that package"
+        )
     return BackendError(
         f"unknown backend {name!r}; registered: {sorted(_REGISTRY)} (third-party backends "
         f"need their package installed and `load_plugins()`, which `beo-bench` calls)"

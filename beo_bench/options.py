@@ -61,9 +61,9 @@ def _type_name(tp: Any) -> str:
         return " or ".join(_type_name(a) for a in typing.get_args(tp))
     if origin is tuple:
         args = typing.get_args(tp)
-        inner = _type_name(args[0]) if args else "value"
+        inner = _PLURALS.get(args[0], "values") if args else "values"
         count = len(args) if args and args[-1] is not Ellipsis else "any number of"
-        return f"a list of {count} {inner}s"
+        return f"a list of {count} {inner}"
     return {
         bool: "a boolean (true/false, yes/no, on/off, 1/0)",
         int: "an integer",
@@ -71,6 +71,9 @@ def _type_name(tp: Any) -> str:
         str: "a string",
         type(None): "null",
     }.get(tp, getattr(tp, "__name__", str(tp)))
+
+
+_PLURALS = {bool: "booleans", int: "integers", float: "numbers", str: "strings"}
 
 
 def _coerce(value: Any, tp: Any) -> Any:
@@ -135,7 +138,7 @@ def _hints(cls: type) -> dict[str, Any]:
 def describe_options(cls: type) -> str:
     """``name (type, default D): doc`` for each option, ``; ``-separated ("it takes no
     options" for none)."""
-    fields = dataclasses.fields(cls)
+    fields = [f for f in dataclasses.fields(cls) if not f.metadata.get("hidden")]
     if not fields:
         return "it takes no options"
     hints = _hints(cls)

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from beo_bench.backend import IN_TREE, Backend, BackendSpec, Capabilities, get_spec, register
-from beo_bench.errors import ViewError
+from beo_bench.errors import UsageError, ViewError
 from beo_bench.objects import instance_from_key
 from beo_bench.options import option, parse_options
 from beo_bench.types import Estimate, View
@@ -49,7 +49,8 @@ class SwapOptions:
     )
     base_options: Any = field(
         default=None,
-        metadata={"doc": "the base backend's options: every other KEY=VALUE, parsed by it"},
+        # not a user option: every other KEY=VALUE, parsed by the base backend
+        metadata={"doc": "the base backend's options", "hidden": True},
     )
 
     def __post_init__(self) -> None:
@@ -69,6 +70,11 @@ def parse_swap(raw: Mapping[str, Any]) -> SwapOptions:
     """``swap``'s options from ``--opt`` values: ``base`` and ``truth`` as its own (a
     :class:`~beo_bench.errors.UsageError` for a bad one), the rest parsed by the base
     backend's spec (its own usage error for an option it does not have)."""
+    if "base_options" in raw:
+        raise UsageError(
+            "swap has no option 'base_options': give the base backend's options as they are "
+            "(--opt base=hbeo --opt samples=100)"
+        )
     own = parse_options(SwapOptions, {k: v for k, v in raw.items() if k in OWN}, "swap")
     rest = {k: v for k, v in raw.items() if k not in OWN}
     return replace(own, base_options=get_spec(own.base).parse(rest))

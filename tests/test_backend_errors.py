@@ -114,7 +114,7 @@ def test_broken_plugins_are_named_skipped_and_the_others_load(plugins) -> None:
     assert B.get_spec("random") is random_before  # the clash did not replace the in-tree one
     messages = sorted(str(w.message) for w in caught)
     assert len(messages) == 4
-    assert all("beo-plugin-mixed" in m and "fix or uninstall" in m for m in messages)
+    assert all("beo-plugin-mixed" in m and "fix, reinstall or uninstall" in m for m in messages)
     text = "\n".join(messages)
     assert "broken-demo = beo_plugin_broken_mod:Backend" in text
     assert "No module named 'no_such_dependency_xyz'" in text
@@ -134,3 +134,50 @@ def test_a_broken_plugin_warns_once_and_its_name_says_why(plugins) -> None:
     assert isinstance(e.value, BackendError) and e.value.exit_code == 1
     with pytest.raises(PluginError, match="not a backend"):
         B.get_backend("number-demo")
+
+
+def test_a_non_finite_option_value_is_a_usage_error() -> None:
+    from beo_bench.bench.runs import parse_option_pairs
+
+    assert parse_option_pairs(["starts=4", "scale_range=[0.5, 2]"]) == {
+        "starts": 4,
+        "scale_range": [0.5, 2],
+    }
+    for text in ("x=NaN", "x=Infinity", "x=-Infinity"):
+        with pytest.raises(UsageError, match="give a finite number"):
+            parse_option_pairs([text])
+
+
+def test_a_list_option_names_its_type_in_plain_words() -> None:
+    with pytest.raises(UsageError, match=r"expected a list of 2 numbers or null"):
+        B.get_backend("icp", scale_range=3)
+
+
+def test_swaps_base_options_are_not_an_option() -> None:
+    with pytest.raises(UsageError, match="swap has no option 'base_options'"):
+        B.get_backend("swap", base_options={"starts": 2})
+    with pytest.raises(UsageError) as e:
+        B.get_backend("swap", truth="nothing")
+    assert "base_options" not in str(e.value)  # the listing shows only the user's options
+
+
+def test_a_capability_set_on_the_instance_is_named_in_a_warning() -> None:
+    """A plain class's capabilities are read from the class: one that sets them in
+    ``__init__`` is told so, rather than silently running without the hint."""
+
+    class InitHint:
+        name = "test-init-hint"
+
+        def __init__(self) -> None:
+            self.wants_class_hint = True
+            self.inner = B.get_backend("oracle")
+
+        def predict(self, view):
+            return self.inner.predict(view)
+
+    B.register_backend("test-init-hint")(InitHint)
+    try:
+        with pytest.warns(B.PluginWarning, match=r"wants_class_hint = True.*class attribute"):
+            B.get_backend("test-init-hint")
+    finally:
+        B.unregister_backend("test-init-hint")

@@ -148,12 +148,18 @@ class WorkerState:
         return index, [clean_row(r) for r in self.evaluator.run_item(index)]
 
 
-def setup_error(ctx: RunContext, why: str) -> RunError:
-    return RunError(
-        f"a worker could not set up the backend {ctx.backend.name!r}: {why} (a backend "
-        "registered at run time, not by an import or an entry point, exists only in its own "
-        "process: use workers=1, or WorkerPool(imports=[its module]))"
-    )
+def setup_error(ctx: RunContext, why: str, imports: tuple[str, ...] = ()) -> RunError:
+    """A worker's failed set-up; with the hint about backends registered at run time only
+    for such a backend (``imports``: the modules the workers import)."""
+    from beo_bench.backend import buildable_in_fresh_process
+
+    hint = ""
+    if not buildable_in_fresh_process(ctx.backend.name, imports):
+        hint = (
+            " (a backend registered at run time, not by an import or an entry point, exists "
+            "only in its own process: use workers=1, or WorkerPool(imports=[its module]))"
+        )
+    return RunError(f"a worker could not set up the backend {ctx.backend.name!r}: {why}{hint}")
 
 
 def _import_all(modules: Iterable[str]) -> str:
@@ -398,7 +404,7 @@ class WorkerPool:
             if kind == "setup":
                 if rest[0]:
                     self._kill(slot)
-                    raise setup_error(ctx, rest[0])
+                    raise setup_error(ctx, rest[0], self.imports)
                 self._phase(slot, "scene", timeout)
             elif kind == "begin":
                 slot.phase, slot.begun = "backend", rest[1]
@@ -426,7 +432,7 @@ class WorkerPool:
         self.restarts += 1
         why = reason or exit_reason(code)
         if phase == "setup":
-            raise setup_error(ctx, why)
+            raise setup_error(ctx, why, self.imports)
         if phase == "scene" or begun is None:
             raise RunError(
                 f"item {index} of suite {ctx.suite.name}: {why} while its views were "

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -101,6 +102,9 @@ def parse_option_pairs(pairs: list[str]) -> dict[str, Any]:
             out[k] = json.loads(v)
         except json.JSONDecodeError:
             out[k] = v  # a plain string
+        if isinstance(out[k], float) and not math.isfinite(out[k]):
+            # NaN never equals itself: a run's context would never match its own copy
+            raise UsageError(f"option {pair!r}: give a finite number")
     return out
 
 

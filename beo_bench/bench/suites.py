@@ -434,7 +434,8 @@ def check_track(
     if suite.track == "class-given" and not uses_class_hint:
         raise UsageError(
             f"backend {backend!r} does not use the class hint (its class_hint capability is "
-            f"none), so its "
+            "none; a plain backend class declares wants_class_hint = True as a class "
+            f"attribute), so its "
             f"class-given run on {suite.name} would score exactly as its class-free one: run "
             "it with --track class-free (the leaderboard lists that run in both tracks)"
         )
