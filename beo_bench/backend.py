@@ -202,10 +202,18 @@ class BackendSpec:
     description: str = ""
     origin: str = "in-tree"
     module: str = ""
-    """Where the spec is defined (a spawned worker imports it to find the backend again)."""
+    """Where the spec is defined (a spawned worker imports it to find the backend again);
+    default: the module of ``build``."""
     parser: Callable[[Mapping[str, Any]], Any] | None = None
     """Parses the options instead of :func:`~beo_bench.options.parse_options` (``swap``,
     whose options include its base backend's)."""
+
+    def __post_init__(self) -> None:
+        # an in-tree backend's line is IN_TREE's (listed without importing its module)
+        if not self.description and self.name in IN_TREE:
+            object.__setattr__(self, "description", IN_TREE[self.name].description)
+        if not self.module:
+            object.__setattr__(self, "module", getattr(self.build, "__module__", "") or "")
 
     def parse(self, raw: Mapping[str, Any] | None = None) -> Any:
         """``raw`` (``--opt`` values) as this backend's options; a :class:`UsageError`
@@ -491,7 +499,7 @@ def list_backends(diagnostic: bool = True) -> list[str]:
 
 def _static_caps(spec: BackendSpec) -> Capabilities:
     """The spec's capabilities at its default options."""
-    return spec.capabilities_of(spec.parse({}) if spec.options is not LegacyOptions else None)
+    return spec.capabilities_of(spec.parse({}))
 
 
 def describe_backend(name: str) -> str:

@@ -131,17 +131,13 @@ def _coerce(value: Any, tp: Any) -> Any:
     raise _Mismatch(_type_name(tp))
 
 
-def _hints(cls: type) -> dict[str, Any]:
-    return typing.get_type_hints(cls)
-
-
 def describe_options(cls: type) -> str:
     """``name (type, default D): doc`` for each option, ``; ``-separated ("it takes no
     options" for none)."""
     fields = [f for f in dataclasses.fields(cls) if not f.metadata.get("hidden")]
     if not fields:
         return "it takes no options"
-    hints = _hints(cls)
+    hints = typing.get_type_hints(cls)
     parts = [
         f"{f.name} ({_type_name(hints[f.name])}, default {f.default!r})"
         + (f": {f.metadata['doc']}" if f.metadata.get("doc") else "")
@@ -169,7 +165,7 @@ def parse_options(cls: type[T], raw: Mapping[str, Any], who: str) -> T:
             f"backend {who!r} has no option {', '.join(map(repr, unknown))}; "
             f"{describe_options(cls)} (on the command line: --opt KEY=VALUE)"
         )
-    hints = _hints(cls)
+    hints = typing.get_type_hints(cls)
     values: dict[str, Any] = {}
     for key, value in raw.items():
         try:

@@ -59,7 +59,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import torch
 
-from beo_bench.backend import IN_TREE, Backend, BackendSpec, Capabilities, ClassHint, register
+from beo_bench.backend import Backend, BackendSpec, Capabilities, ClassHint, register
 from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
 from beo_bench.names import check_name
 from beo_bench.options import option
@@ -678,7 +678,5 @@ register(
         build=BEOBackend,
         options=BEOOptions,
         capabilities=Capabilities(class_hint=ClassHint.OPTIONAL, model="beo"),
-        description=IN_TREE["beo"].description,
-        module=__name__,
     )
 )

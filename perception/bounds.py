@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from beo_bench.backend import IN_TREE, Backend, BackendSpec, Capabilities, register
+from beo_bench.backend import Backend, BackendSpec, Capabilities, register
 from beo_bench.errors import ViewError
 from beo_bench.objects import instance_from_key
 from beo_bench.options import option
@@ -134,8 +134,6 @@ register(
         build=OracleBackend,
         options=OracleOptions,
         capabilities=Capabilities(privileged=True),
-        description=IN_TREE["oracle"].description,
-        module=__name__,
     )
 )
 register(
@@ -143,7 +141,5 @@ register(
         name="random",
         build=RandomBackend,
         options=RandomOptions,
-        description=IN_TREE["random"].description,
-        module=__name__,
     )
 )

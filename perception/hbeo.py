@@ -35,7 +35,7 @@ import torch.nn.functional as F
 from scipy.spatial.transform import Rotation
 from scipy.special import logsumexp
 
-from beo_bench.backend import IN_TREE, Backend, BackendSpec, Capabilities, ClassHint, register
+from beo_bench.backend import Backend, BackendSpec, Capabilities, ClassHint, register
 from beo_bench.errors import UsageError
 from beo_bench.geometry import orthonormalise
 from beo_bench.names import check_name
@@ -471,7 +471,6 @@ for _mode, _name in NAMES.items():
             build=functools.partial(HBEOBackend, _mode),
             options=HBEOOptions,
             capabilities=functools.partial(hbeo_capabilities, _mode),
-            description=IN_TREE[_name].description,
             module=__name__,
         )
     )

@@ -63,7 +63,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from beo_bench.backend import IN_TREE, Backend, BackendSpec, Capabilities, ClassHint, register
+from beo_bench.backend import Backend, BackendSpec, Capabilities, ClassHint, register
 from beo_bench.errors import ViewError
 from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
 from beo_bench.options import option
@@ -646,8 +646,6 @@ register(
         build=ICPBackend,
         options=ICPOptions,
         capabilities=Capabilities(class_hint=ClassHint.OPTIONAL),
-        description=IN_TREE["icp"].description,
-        module=__name__,
     )
 )
 register(
@@ -656,8 +654,6 @@ register(
         build=PlainICPBackend,
         options=PlainICPOptions,
         capabilities=Capabilities(class_hint=ClassHint.OPTIONAL),
-        description=IN_TREE["icp-plain"].description,
-        module=__name__,
     )
 )
 

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from beo_bench.backend import IN_TREE, Backend, BackendSpec, Capabilities, get_spec, register
+from beo_bench.backend import Backend, BackendSpec, Capabilities, get_spec, register
 from beo_bench.errors import UsageError, ViewError
 from beo_bench.objects import instance_from_key
 from beo_bench.options import option, parse_options
@@ -149,8 +149,6 @@ register(
         build=SwapBackend,
         options=SwapOptions,
         capabilities=swap_capabilities,
-        description=IN_TREE["swap"].description,
-        module=__name__,
         parser=parse_swap,
     )
 )

@@ -5,13 +5,14 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from beo_bench.bench import tally
 from beo_bench.bench.scoring import base_row, view_row
-from beo_bench.bench.suites import Suite
+from beo_bench.bench.suites import Kind, Suite
 from beo_bench.types import GroundTruth, View
 
 if TYPE_CHECKING:
@@ -100,17 +101,24 @@ def failed_view_rows(templates: Rows, reason: str) -> Rows:
     return rows
 
 
-def view_values(suite: Suite, rows: Rows) -> dict[str, np.ndarray]:
-    return tally.estimate_values(suite, rows)
-
-
-def collect(M: tally.Tally, rows: Rows, values: dict[str, np.ndarray]) -> None:
-    tally.collect_estimates(M, rows, values)
-
-
-def timing(M: tally.Tally, rows: Rows) -> None:
+def no_timing(M: tally.Tally, rows: Rows) -> None:
     """No timing beyond the per-view one."""
 
 
-def worst_cases(suite: Suite) -> dict[str, float]:
-    return tally.worst_cases(suite)
+@dataclass(frozen=True)
+class ItemKind:
+    """What one item kind does, as its module (:mod:`.isolated`, :mod:`.tabletop`,
+    :mod:`.pick`) defines it; the defaults are those of items whose views are each scored on
+    an estimate."""
+
+    kind: Kind
+    categories: Callable[[Suite], tuple[str, ...]]
+    """The class list the views of a suite carry."""
+    open: Callable[[Suite, bool], Items]
+    """The suite's items without a backend (``open(suite, class_given)``)."""
+    run_item: Callable[[Evaluator, int, Announce], Rows] = run_view_item
+    failed_rows: Callable[[Rows, str], Rows] = failed_view_rows
+    view_values: Callable[[Suite, Rows], dict[str, np.ndarray]] = tally.estimate_values
+    collect: Callable[[tally.Tally, Rows, dict[str, np.ndarray]], None] = tally.collect_estimates
+    timing: Callable[[tally.Tally, Rows], None] = no_timing
+    worst_cases: Callable[[Suite], dict[str, float]] = tally.worst_cases

@@ -3,46 +3,17 @@ rig; one scored view per item (the ``known-pose``, ``pose-1dof`` and ``pose-3dof
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from beo_bench.bench.kinds.common import (
-    Announce,
-    Items,
-    Rows,
-    collect,
-    failed_view_rows,
-    run_view_item,
-    timing,
-    view_values,
-    worst_cases,
-)
+from beo_bench.bench.kinds.common import ItemKind, Items, Rows
 from beo_bench.bench.suites import Kind, Protocol, Suite, item_rng
 from beo_bench.geometry import rigid
 from beo_bench.objects import ObjectSet
 from beo_bench.objects.dataset import object_set
 from beo_bench.types import GroundTruth, View, ViewpointPrior
-
-if TYPE_CHECKING:
-    from beo_bench.bench.evaluate import Evaluator
-
-KIND = Kind.ISOLATED
-__all__ = [
-    "KIND",
-    "WORLD_OFFSET_M",
-    "IsolatedItems",
-    "categories",
-    "collect",
-    "failed_rows",
-    "open",
-    "run_item",
-    "timing",
-    "view_values",
-    "world_frame",
-    "worst_cases",
-]
 
 WORLD_OFFSET_M = 1.0
 """Half the side of the cube an isolated view's world origin is drawn from (m): larger than
@@ -161,13 +132,5 @@ class IsolatedItems(Items):
         return self.base_rows(index, self.views(index))
 
 
-def open(suite: Suite, class_given: bool = False) -> IsolatedItems:
-    return IsolatedItems(suite, class_given)
-
-
-def run_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
-    return run_view_item(ev, index, announce)
-
-
-def failed_rows(templates: Rows, reason: str) -> Rows:
-    return failed_view_rows(templates, reason)
+ISOLATED = ItemKind(Kind.ISOLATED, categories, IsolatedItems)
+"""Isolated items: each view scored on its estimate (the defaults of :class:`ItemKind`)."""

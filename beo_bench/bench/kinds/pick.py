@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from beo_bench import metrics
-from beo_bench.bench.kinds.common import Announce, Rows
+from beo_bench.bench.kinds.common import Announce, ItemKind, Rows
 from beo_bench.bench.kinds.tabletop import SceneItems, categories, view_label
 from beo_bench.bench.scoring import estimate_mesh, obstacle_points
 from beo_bench.bench.suites import Kind, Suite
@@ -16,20 +16,6 @@ from beo_bench.bench.tally import Tally, flags
 
 if TYPE_CHECKING:
     from beo_bench.bench.evaluate import Evaluator
-
-KIND = Kind.PICK
-__all__ = [
-    "KIND",
-    "PickItems",
-    "categories",
-    "collect",
-    "failed_rows",
-    "open",
-    "run_item",
-    "timing",
-    "view_values",
-    "worst_cases",
-]
 
 
 class PickItems(SceneItems):
@@ -50,10 +36,6 @@ class PickItems(SceneItems):
     def templates(self, index: int) -> Rows:
         obs = self.reset(index)
         return [self.pick_row(index, obs, len(self.scene_views(obs)))]
-
-
-def open(suite: Suite, class_given: bool = False) -> PickItems:
-    return PickItems(suite, class_given)
 
 
 def run_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
@@ -151,3 +133,17 @@ def timing(M: Tally, rows: Rows) -> None:
 def worst_cases(suite: Suite) -> dict[str, float]:
     """Nothing is capped: an episode succeeds or not."""
     return {}
+
+
+PICK = ItemKind(
+    Kind.PICK,
+    categories,
+    PickItems,
+    run_item=run_item,
+    failed_rows=failed_rows,
+    view_values=view_values,
+    collect=collect,
+    timing=timing,
+    worst_cases=worst_cases,
+)
+"""Pick items: one episode per item, decided from every visible object's estimate."""

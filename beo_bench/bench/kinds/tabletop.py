@@ -3,41 +3,13 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from beo_bench.bench.kinds.common import (
-    Announce,
-    Items,
-    Rows,
-    collect,
-    failed_view_rows,
-    run_view_item,
-    timing,
-    view_values,
-    worst_cases,
-)
+from beo_bench.bench.kinds.common import ItemKind, Items, Rows
 from beo_bench.bench.suites import Kind, Suite, episode_seed
 from beo_bench.types import GroundTruth, View
-
-if TYPE_CHECKING:
-    from beo_bench.bench.evaluate import Evaluator
-
-KIND = Kind.TABLETOP
-__all__ = [
-    "KIND",
-    "SceneItems",
-    "categories",
-    "collect",
-    "failed_rows",
-    "open",
-    "run_item",
-    "timing",
-    "view_label",
-    "view_values",
-    "worst_cases",
-]
 
 
 def categories(suite: Suite) -> tuple[str, ...]:
@@ -46,9 +18,9 @@ def categories(suite: Suite) -> tuple[str, ...]:
         from beo_bench.objects.dataset import object_set
 
         return object_set(suite.dataset, suite.split, suite.categories).categories
-    from beo_bench.envs.pick import default_categories
+    from beo_bench.objects import pickable_categories
 
-    return default_categories()
+    return pickable_categories()  # BEOPick-v0's default class list
 
 
 def view_label(view: View) -> int:
@@ -120,13 +92,5 @@ class SceneItems(Items):
         return self.base_rows(index, self.views(index))
 
 
-def open(suite: Suite, class_given: bool = False) -> SceneItems:
-    return SceneItems(suite, class_given)
-
-
-def run_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
-    return run_view_item(ev, index, announce)
-
-
-def failed_rows(templates: Rows, reason: str) -> Rows:
-    return failed_view_rows(templates, reason)
+TABLETOP = ItemKind(Kind.TABLETOP, categories, SceneItems)
+"""Tabletop items: each visible object's view scored on its estimate."""
