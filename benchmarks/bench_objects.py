@@ -36,6 +36,25 @@ def main() -> None:
         f"{len(keys)} instances over {len(cats)} categories",
     )
 
+    # 1b. generation alone (parameters, parts, union, checks) per category: the slowest
+    # category bounds how fast a cold library builds
+    from beo_bench.objects.registry import generate, instance_params
+
+    per_cat = {}
+    for c in cats:
+        params = [instance_params(c, "val", i) for i in range(8)]
+        pit = iter(params)
+        per_cat[c] = median_time(lambda c=c, pit=pit: generate(c, next(pit)), repeat=len(params))
+    worst = max(per_cat, key=per_cat.__getitem__)
+    report(
+        "generate one instance, slowest category (median of 8)",
+        1000 * per_cat[worst],
+        "ms",
+        "< 60 ms",
+        per_cat[worst] < 0.06,
+        f"{worst}; " + ", ".join(f"{c} {1000 * t:.0f}" for c, t in sorted(per_cat.items())),
+    )
+
     # 2. throughput with 2 worker processes (pool start-up included)
     use_fresh_cache()
     objs = ObjectSet("train", per_category=8)

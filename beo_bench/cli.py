@@ -193,7 +193,7 @@ def cmd_objects(args: argparse.Namespace) -> int:
     if dataset is not None:
         print(f"dataset {dataset.root}: {dataset.layout} layout, digest {dataset.digest}")
     objects, counts = reports.select_objects(
-        args.split, args.categories, args.per_category, dataset=dataset, root=args.root
+        args.split, _categories(args), args.per_category, dataset=dataset, root=args.root
     )
     report = reports.summarise_objects(
         objects,
@@ -253,6 +253,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     suite = _suite(args.suite).with_overrides(
         size=args.episodes, seed=args.seed, track=args.track
     )  # --track on a suite without tracks is a usage error here
+    if args.categories:
+        # a class subset is its own suite (pose-3dof+modelnet10): its own runs and page
+        suite = suite.with_categories(args.categories)
     dataset = _dataset(args)
     _split_needs_dataset(args, dataset)
     if dataset is not None:
@@ -374,7 +377,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 def cmd_leaderboard(args: argparse.Namespace) -> int:
     from beo_bench.bench.leaderboard import regenerate
 
-    written = regenerate(args.runs, args.out)
+    written = regenerate(args.runs, args.out, update=args.update)
     if not written:
         raise BeoBenchError(f"no summary.json under {args.runs}: run `beo-bench run` first")
     for p in written:
@@ -418,6 +421,7 @@ def cmd_all(args: argparse.Namespace) -> int:
         split=args.split,
         allow_privileged=args.allow_privileged,
         item_timeout=args.item_timeout,
+        update=args.update,
     )
     print(leaderboard_text(run_campaign(c), c.leaderboards))
     return 0
@@ -432,7 +436,7 @@ def _train_request(args: argparse.Namespace) -> Any:
     return TrainRequest(
         dataset=dataset,
         split=args.split,
-        categories=tuple(args.categories) if args.categories else None,
+        categories=_categories(args),
         per_category=args.per_category,
         resolution=getattr(args, "resolution", 32),
         variance_fraction=getattr(args, "variance_fraction", 0.6),
@@ -512,7 +516,7 @@ def cmd_publish(args: argparse.Namespace) -> int:
         from beo_bench.perception.beo_model import BEOModel, model_dir
         from beo_bench.training import library_categories
 
-        cats = library_categories(args.categories)
+        cats = library_categories(_categories(args))
         path = model_dir(args.name, cats, 32)
         sha = published.publish_beo(BEOModel.load(path), out)
     else:
@@ -603,9 +607,31 @@ def split_parent(
     return _option_parent("--split", choices=list(choices), default=default, help=help)
 
 
+def update_parent() -> argparse.ArgumentParser:
+    """``--update``: keep the current pages of suites that have no runs."""
+    return _option_parent(
+        "--update",
+        action="store_true",
+        help="keep the pages of suites with no runs under --runs (when of the current suite "
+        "version): run a long campaign suite by suite",
+    )
+
+
 def categories_parent(help: str | None = None) -> argparse.ArgumentParser:
-    """``--categories C [C ...]``: class names (checked where they are used)."""
-    return _option_parent("--categories", nargs="+", default=None, help=help)
+    """``--categories C [C ...]``: class and set names (checked where they are used)."""
+    return _option_parent(
+        "--categories",
+        nargs="+",
+        default=None,
+        help=help or "classes or sets (modelnet10, shapenet-ch5, library)",
+    )
+
+
+def _categories(args: argparse.Namespace) -> tuple[str, ...] | None:
+    """``--categories`` with set names expanded (None: not given)."""
+    from beo_bench.objects.sets import resolve_categories
+
+    return resolve_categories(args.categories) if args.categories else None
 
 
 def out_parent(
@@ -815,6 +841,10 @@ def _add_run(sub: Any, data: argparse.ArgumentParser) -> None:
             ),
             episodes_parent(None, "items (default: the suite's)"),
             seed_parent(None, "replace the suite's base seed"),
+            categories_parent(
+                "isolated suites: only these classes or sets (modelnet10, shapenet-ch5, "
+                "library); the run is then suite SUITE+SET"
+            ),
             workers_parent(None, "worker processes (default: one per core)"),
             out_parent(None, "default: runs/SUITE[@TRACK]__BACKEND"),
             ray_parent(),
@@ -864,6 +894,7 @@ def _add_all(sub: Any, data: argparse.ArgumentParser) -> None:
             runs_parent("where the runs go (resumed when present)"),
             out_parent("leaderboards"),
             privileged_parent(),
+            update_parent(),
         ],
     )
     al.add_argument(
@@ -907,7 +938,7 @@ def _add_leaderboard(sub: Any, data: argparse.ArgumentParser) -> None:
     lb = sub.add_parser(
         "leaderboard",
         help="regenerate leaderboards/ from run summaries",
-        parents=[runs_parent(), out_parent("leaderboards")],
+        parents=[runs_parent(), out_parent("leaderboards"), update_parent()],
     )
     lb.set_defaults(func=cmd_leaderboard)
 
@@ -926,7 +957,9 @@ def _add_train(sub: Any, data: argparse.ArgumentParser) -> None:
                 "with --objects: the dataset's split to train on (default train; all: every "
                 "model, for folders too small for a hash split, which then also validates on it)",
             ),
-            categories_parent("default: the 11 built-in"),
+            categories_parent(
+                "classes or sets (modelnet10, shapenet-ch5, library; default: library)"
+            ),
             model_name_parent("model name, a plain name (default: the default model's name)"),
             per_category_parent(
                 None,
@@ -981,7 +1014,7 @@ def _add_publish(sub: Any, data: argparse.ArgumentParser) -> None:
         parents=[
             model_parent(),
             model_name_parent("the trained model (beo: default model)"),
-            categories_parent("beo: default the 11 built-in"),
+            categories_parent("classes or sets (beo default: library)"),
             out_parent(None, "default: the package's perception/published"),
         ],
     )
@@ -1001,7 +1034,9 @@ def _add_render_dataset(sub: Any, data: argparse.ArgumentParser) -> None:
                 None,
                 "with --objects: the dataset's split to render (default train; all: every model)",
             ),
-            categories_parent("default: the 11 built-in"),
+            categories_parent(
+                "classes or sets (modelnet10, shapenet-ch5, library; default: library)"
+            ),
             per_category_parent(None, "instances per class"),
             *render_parents(RENDER_GROUP),
         ],

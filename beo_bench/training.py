@@ -52,10 +52,11 @@ class TrainRequest:
 
 def library_categories(categories: Sequence[str] | None) -> tuple[str, ...]:
     """The procedural classes to train on: ``categories`` (each must be registered) or
-    every pickable class (the env's default class list)."""
-    from beo_bench.objects import get_category, pickable_categories
+    every class of the library (the ``library`` set: what the isolated suites' views carry)."""
+    from beo_bench.objects import categories as library
+    from beo_bench.objects import get_category
 
-    cats = tuple(categories) if categories else pickable_categories()
+    cats = tuple(categories) if categories else library()
     for c in cats:
         get_category(c)  # an unknown name raises, listing the known ones
     return cats

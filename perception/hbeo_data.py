@@ -4,7 +4,8 @@ Two kinds of shard (docs/design.md "Perception backends"; dissertation section 4
 
 - *isolated*: instances of the split at the origin, cameras from ``OBJECT_RIG`` (azimuth
   over the full circle, elevation 0-60 degrees, roll zero-mean Gaussian with 99% within 25
-  degrees), 128x128 like the pose suites; ``views_per_instance`` views per instance so a
+  degrees) and, for a share ``top_down_share``, from straight above (``TOP_DOWN_RIG``),
+  128x128 like the pose suites; ``views_per_instance`` views per instance so a
   compiled model serves several renders;
 - *tabletop*: BEOPick-v0 scenes of the split (1-4 objects, clutter, occlusion by each
   other and the table edge; ``beo_bench.scenes.tabletop``, which the env runs too), 640x480;
@@ -77,6 +78,11 @@ class DatasetConfig:
     views_per_instance: int = 10
     tabletop_share: float = 0.2
     noise_share: float = 0.3
+    top_down_share: float = 0.15
+    """Of the isolated crops, the share seen from straight above (``TOP_DOWN_RIG``: the
+    ``modelnet10-known-pose`` and ``-1dof`` suites' view, chapter 3's), the rest from
+    ``OBJECT_RIG``: training views cover every isolated suite's viewpoints, as the
+    dissertation's networks were trained on each experiment's own renders."""
     min_pixels: int = 50
     seed: int = 0
     objects: Dataset | None = None
@@ -94,8 +100,12 @@ class DatasetConfig:
             raise ValueError("DatasetConfig.categories is empty")
         if self.images < 1 or self.val_images < 0 or self.shard_size < 1:
             raise ValueError("images >= 1, val_images >= 0 and shard_size >= 1 are required")
-        if not (0 <= self.tabletop_share <= 1 and 0 <= self.noise_share <= 1):
-            raise ValueError("tabletop_share and noise_share are fractions in [0, 1]")
+        if not all(
+            0 <= f <= 1 for f in (self.tabletop_share, self.noise_share, self.top_down_share)
+        ):
+            raise ValueError(
+                "tabletop_share, noise_share and top_down_share are fractions in [0, 1]"
+            )
 
     def shards(self) -> list[tuple[str, int, str, int]]:
         """(split, shard index, kind, crops) of every shard; the kinds interleave, starting
@@ -325,6 +335,7 @@ _WORKER: dict[str, Any] = {}
 
 
 def _isolated_shard(config: DatasetConfig, split: str, rng: np.random.Generator, n: int) -> Shard:
+    from beo_bench.scenes.camera import TOP_DOWN_RIG
     from beo_bench.scenes.isolated import IsolatedRenderer
     from beo_bench.scenes.noise import DepthNoise, apply_noise
 
@@ -339,7 +350,8 @@ def _isolated_shard(config: DatasetConfig, split: str, rng: np.random.Generator,
         cat = config.categories[int(rng.integers(len(config.categories)))]
         inst = objects.get(cat, int(rng.integers(objects.count(cat))))
         for _ in range(min(config.views_per_instance, n - len(col.rows))):
-            v = r.render(inst, r.rig.sample(rng, np.zeros(3)))
+            rig = TOP_DOWN_RIG if rng.random() < config.top_down_share else r.rig
+            v = r.render(inst, rig.sample(rng, np.zeros(3)))
             depth = v.depth
             is_noisy = bool(rng.random() < config.noise_share)
             if is_noisy:

@@ -25,6 +25,7 @@ _EXPORTS = {
     "CameraRig": "camera",
     "TABLE_RIG": "camera",
     "OBJECT_RIG": "camera",
+    "TOP_DOWN_RIG": "camera",
     "look_at": "camera",
     "backproject": "camera",
     "project": "camera",

@@ -72,16 +72,27 @@ class Intrinsics:
         )
 
 
-def look_at(eye: np.ndarray, target: np.ndarray, roll_rad: float = 0.0) -> Mat4:
+def look_at(
+    eye: np.ndarray,
+    target: np.ndarray,
+    roll_rad: float = 0.0,
+    right: np.ndarray | None = None,
+) -> Mat4:
     """cam_to_world (OpenCV axes) of a camera at ``eye`` looking at ``target`` with the
-    world's +z up in the image (before ``roll_rad`` about the optical axis)."""
+    world's +z up in the image (before ``roll_rad`` about the optical axis). Looking
+    straight up or down, "up in the image" is undefined: the image's +x is then ``right``
+    (a horizontal vector; default world +y or -y, by the sign of the view)."""
     eye = np.asarray(eye, dtype=np.float64)
     z = np.asarray(target, dtype=np.float64) - eye
     z /= np.linalg.norm(z)
     up = np.array([0.0, 0.0, 1.0])
     x = np.cross(z, up)
-    if np.linalg.norm(x) < 1e-9:  # looking straight up or down: any right vector will do
-        x = np.cross(z, np.array([1.0, 0.0, 0.0]))
+    if np.linalg.norm(x) < 1e-9:  # looking straight up or down
+        x = (
+            np.cross(z, np.array([1.0, 0.0, 0.0]))
+            if right is None
+            else np.asarray(right, dtype=np.float64) - np.dot(right, z) * z
+        )
     x /= np.linalg.norm(x)
     y = np.cross(z, x)
     R = np.stack([x, y, z], axis=1)
@@ -135,7 +146,9 @@ class CameraRig:
         eye = look + d * np.array(
             [math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)]
         )
-        return look_at(eye, look, roll)
+        # at elevation +-90 deg the azimuth still turns the image: the image's +x is the
+        # limit of cross(view, up) as the elevation tends to 90 deg, (-sin az, cos az, 0)
+        return look_at(eye, look, roll, right=np.array([-math.sin(az), math.cos(az), 0.0]))
 
 
 TABLE_RIG = CameraRig()
@@ -143,6 +156,13 @@ TABLE_RIG = CameraRig()
 
 OBJECT_RIG = CameraRig(elevation_deg=(0.0, 60.0), distance=(0.45, 0.8), target_jitter=0.0)
 """Views of an isolated instance centred at the origin (training data, pose suites)."""
+
+TOP_DOWN_RIG = CameraRig(
+    elevation_deg=(90.0, 90.0), roll_sigma_deg=0.0, distance=(0.45, 0.8), target_jitter=0.0
+)
+"""Chapter 3's single view from straight above (section 3.3.2: the ``modelnet10-*``
+top-down suites). The azimuth turns the image about the optical axis, which is the object's
+yaw; the distance range is ``OBJECT_RIG``'s, so objects fill the image as they do there."""
 
 
 def project(points_cam: np.ndarray, K: Mat3) -> np.ndarray:

@@ -338,7 +338,7 @@ def _shard(n: int, seed: int) -> Shard:
         depth=rng.random((n, 8, 8)).astype(np.float16),
         label=np.arange(n, dtype=np.int16) % 2,
         instance=np.zeros(n, np.int32),
-        keys=["proc/v1/bowl/train/0"],
+        keys=["proc/v2/bowl/train/0"],
         rotation=np.tile(np.eye(3, dtype=np.float32), (n, 1, 1)),
         offset=np.zeros((n, 3), np.float32),
         log_size=np.zeros((n, 3), np.float32),

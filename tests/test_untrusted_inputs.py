@@ -267,7 +267,7 @@ def test_a_published_zip_bomb_is_refused_when_the_manifest_is_edited(tmp_path) -
     ids=["short", "2-D", "float"],
 )
 def test_a_tampered_voxel_entry_with_a_valid_checksum_is_rebuilt(bad) -> None:
-    inst = instance_from_key("proc/v1/mug/test/0")
+    inst = instance_from_key("proc/v2/mug/test/0")
     truth = inst.voxels(8)
     path = cache.entry_path("voxels", inst.content_hash, {"D": 8, "v": 2})
     cache.atomic_save_npz(path, **cache.with_checksum({"occ": bad}))
@@ -344,18 +344,18 @@ def test_an_empty_out_is_a_usage_error(capsys, argv, tmp_path, monkeypatch) -> N
 @pytest.mark.parametrize(
     "key, match",
     [
-        ("proc/v1/mug/test/99999999999999999999999", "out of range, split 'test' has 50"),
-        ("proc/v1/mug/test/50", "out of range"),
-        ("proc/v1/mug/test/\uff11", "ASCII digits"),  # fullwidth 1
-        ("proc/v1/mug/test/\u0661", "ASCII digits"),  # Arabic-Indic 1
-        ("proc/v1/mug/test/01", "leading zeros"),
+        ("proc/v2/mug/test/99999999999999999999999", "out of range, split 'test' has 50"),
+        ("proc/v2/mug/test/50", "out of range"),
+        ("proc/v2/mug/test/\uff11", "ASCII digits"),  # fullwidth 1
+        ("proc/v2/mug/test/\u0661", "ASCII digits"),  # Arabic-Indic 1
+        ("proc/v2/mug/test/01", "leading zeros"),
     ],
 )
 def test_out_of_range_and_non_ascii_instance_keys_are_usage_errors(key, match) -> None:
     with pytest.raises(InvalidKeyError, match=match) as e:
         instance_from_key(key)
     assert e.value.exit_code == 2  # a usage error: the CLI exits 2
-    assert instance_from_key("proc/v1/mug/test/49").key == "proc/v1/mug/test/49"
+    assert instance_from_key("proc/v2/mug/test/49").key == "proc/v2/mug/test/49"
 
 
 def test_a_library_set_larger_than_its_split_is_refused() -> None:

@@ -59,6 +59,9 @@ class Campaign:
     split: str | None = None
     allow_privileged: bool = False
     """``--allow-privileged``: plugins that declare ``privileged`` may run (as bounds)."""
+    update: bool = False
+    """``--update``: keep the current pages of suites this campaign does not run
+    (:func:`~beo_bench.bench.leaderboard.regenerate`)."""
 
 
 def run_campaign(c: Campaign) -> list[Path]:
@@ -100,4 +103,4 @@ def run_campaign(c: Campaign) -> list[Path]:
                 pool=pool,
                 item_timeout=c.item_timeout,
             )
-    return regenerate(c.runs, c.leaderboards)
+    return regenerate(c.runs, c.leaderboards, update=c.update)

@@ -100,6 +100,7 @@ SUMMARY_PER_CATEGORY: tuple[str, ...] = _keys(
 BOARD_PER_CATEGORY: dict[str, tuple[str, ...]] = {
     "pick": _keys("pick_success"),
     "known-pose": _keys("class_acc"),
+    "modelnet10-known-pose": _keys("class_acc", "iou_mean"),
 }
 """The leaderboard's per-category tables' metrics per suite (default:
 :data:`BOARD_PER_CATEGORY_DEFAULT`)."""

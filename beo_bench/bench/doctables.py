@@ -27,6 +27,12 @@ class MissingFigureError(LookupError):
     """A table asks for a row or metric the leaderboards do not have."""
 
 
+class PendingSuiteError(MissingFigureError):
+    """A table asks for a suite the leaderboards do not hold yet (a campaign run suite by
+    suite, ``all --update``): the table says so instead of failing. A row missing from a
+    suite that is there stays an error."""
+
+
 @dataclass(frozen=True)
 class Boards:
     """The committed leaderboards: each suite's run summaries and paired results."""
@@ -34,7 +40,10 @@ class Boards:
     root: Path
 
     def rows(self, suite: str) -> list[dict[str, Any]]:
-        return json.loads((self.root / f"{suite}.json").read_text())
+        path = self.root / f"{suite}.json"
+        if not path.is_file():
+            raise PendingSuiteError(f"leaderboards/{suite}.json is not there")
+        return json.loads(path.read_text())
 
     def paired(self, suite: str) -> list[dict[str, Any]]:
         path = self.root / f"{suite}_paired.json"
@@ -482,9 +491,23 @@ def render(text: str, boards: Boards) -> str:
             raise MissingFigureError(
                 f"no generated table named {name!r}: use one of {sorted(TABLES)}"
             )
-        return m.group(1) + TABLES[name](boards) + m.group(4)
+        try:
+            table = TABLES[name](boards)
+        except PendingSuiteError as e:
+            # a campaign run suite by suite (`all --update`) fills the leaderboards over
+            # several sessions: until the rows are there the table says so, it never shows
+            # another version's figures
+            table = PENDING.format(reason=e)
+        return m.group(1) + table + m.group(4)
 
     return MARK.sub(one, text)
+
+
+PENDING = (
+    "*Not in this suite version's leaderboards yet ({reason}); `beo-bench all --update "
+    "--suites SUITE` makes its runs and this table.*"
+)
+"""What a generated table says while the leaderboards lack a row it needs."""
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -85,6 +85,15 @@ TABLE_5_1_CATEGORIES: tuple[str, ...] = ("car", "airplane", "sofa")
 """The categories of the dissertation's Tables 5.1 and 5.2 (car, plane, couch)."""
 TABLE_5_1_SUITES: tuple[str, ...] = ("pose-3dof", "pose-3dof-percat")
 """The suites whose pages carry a table in the form of Tables 5.1/5.2."""
+DISSERTATION_MODELNET10: dict[str, tuple[str, float]] = {
+    "modelnet10-known-pose": ("BEO, known pose (Table 3.1; 3DShapeNets 54.4%)", 0.763),
+    "modelnet10-1dof": ("BEO, 1-DOF (Table 3.1)", 0.545),
+    "modelnet10-3dof": ("HBEO, 3-DOF (Table 4.1)", 0.818),
+}
+"""The dissertation's ModelNet10 class accuracy (all classes) beside each ``modelnet10-*``
+suite's per-class table, in the form of Tables 3.1 and 4.1. The per-class cells of those
+tables are not in this project's sources; chapter 4's account of them is in
+docs/results.md."""
 OOD_SUFFIX = "-ood"
 DIGEST_CHARS = 8
 
@@ -248,6 +257,77 @@ def table_5_1(rows: list[Row]) -> str:
         ]
         lines.append(f"| {label(r.summary)} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def modelnet10_table(suite: str, rows: list[Row]) -> str:
+    """Tables 3.1 and 4.1 in their own form: a row per backend with its class accuracy per
+    ModelNet10 class and over all of them, and the dissertation's row. Empty for a suite
+    without a dissertation row or rows without classes."""
+    from beo_bench.objects.sets import MODELNET10
+
+    if suite not in DISSERTATION_MODELNET10:
+        return ""
+    ordered = [r for r in _ordered(rows) if r.summary["metrics"].get("class_acc") is not None]
+    if not ordered:
+        return ""
+    acc = spec("class_acc")
+    cats = list(MODELNET10)
+    lines = [
+        "Class accuracy in the form of the dissertation's Tables 3.1 and 4.1, per ModelNet10 "
+        "class:",
+        "",
+        "| method | " + " | ".join(c.replace("_", " ") for c in cats) + " | all |",
+        "|---|" + "---:|" * (len(cats) + 1),
+    ]
+    for r in ordered:
+        pc = r.summary.get("per_category", {})
+        cells = [acc.format(pc.get(c, {}).get(acc.key)) for c in cats]
+        cells.append(acc.format(r.summary["metrics"].get(acc.key)))
+        lines.append(f"| {label(r.summary)} | " + " | ".join(cells) + " |")
+    name, total = DISSERTATION_MODELNET10[suite]
+    lines.append(f"| dissertation: {name} | " + " | " * len(cats) + f"{acc.format(total)} |")
+    return "\n".join(lines)
+
+
+def confused_pairs(s: dict[str, Any], top: int = 3) -> list[tuple[str, str, int, int]]:
+    """The ``top`` most frequent (true class, predicted class, count, true-class views)
+    confusions of a run, from its confusion matrix; empty without one."""
+    conf = s["metrics"].get("confusion")
+    cats = s.get("categories")
+    if not conf or not cats:
+        return []
+    M = np.asarray(conf)
+    pairs = [
+        (cats[i], cats[j], int(M[i, j]), int(M[i].sum()))
+        for i in range(len(cats))
+        for j in range(len(cats))
+        if i != j and M[i, j] > 0
+    ]
+    pairs.sort(key=lambda p: (-p[2], p[0], p[1]))
+    return pairs[:top]
+
+
+def confused_pairs_table(rows: list[Row]) -> str:
+    """Each backend's most frequent confusions (true -> predicted, views of the true class),
+    as chapter 4 accounts for HBEO's gain over BEO; empty when no row has a confusion
+    matrix."""
+    lines = []
+    for r in _ordered(rows):
+        if is_bound(r.summary):
+            continue
+        pairs = confused_pairs(r.summary)
+        if pairs:
+            text = "; ".join(f"{a} -> {b} {k}/{n}" for a, b, k, n in pairs)
+            lines.append(f"| {label(r.summary)} | {text} |")
+    if not lines:
+        return ""
+    head = [
+        "Most frequent confusions (true -> predicted: views of the true class):",
+        "",
+        "| backend | confusions |",
+        "|---|---|",
+    ]
+    return "\n".join(head + lines)
 
 
 def _category_table(rows: list[dict[str, Any]], m: MetricSpec) -> str:
@@ -716,6 +796,8 @@ def _track_part(
         page.md += [category_table(suite, sec.rows), ""]
         t51 = table_5_1(sec.rows) if suite in TABLE_5_1_SUITES else ""
         page.md += [t51, ""] if t51 else []
+        for extra_table in (modelnet10_table(suite, sec.rows), confused_pairs_table(sec.rows)):
+            page.md += [extra_table, ""] if extra_table else []
         plots = _plots(out, _prefix(suite, track), _heading(suite, track), sec.rows)
         page.plots += plots
         page.md += [*[f"![{p}]({p})" for p in plots], ""]
@@ -760,10 +842,72 @@ def _mark_out(out: Path) -> None:
         outdir.mark(out, MARKER_NAME, MARKER_TEXT)
 
 
-def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> list[Path]:
+@dataclass
+class _Kept:
+    """A suite page ``regenerate(update=True)`` keeps as it is: its files and its part of
+    the index, as the last regeneration wrote them."""
+
+    files: set[str]
+    index: list[str]
+
+
+_INDEX_HEAD = "## ["
+
+
+def _index_parts(readme: Path) -> dict[str, list[str]]:
+    """The index's part of each suite (from its ``## [suite](suite.md)`` heading to the
+    next), by suite name; empty when there is no index."""
+    if not readme.is_file():
+        return {}
+    parts: dict[str, list[str]] = {}
+    current: list[str] | None = None
+    for line in readme.read_text().splitlines():
+        if line.startswith(_INDEX_HEAD) and "](" in line:
+            current = parts.setdefault(line[len(_INDEX_HEAD) : line.index("](")], [])
+        if current is not None:
+            current.append(line)
+    return parts
+
+
+def _kept_pages(out: Path, fresh: set[str]) -> dict[str, tuple[_Kept, list[Row]]]:
+    """The pages in ``out`` of registered suites that have no runs now (``fresh`` are those
+    that do) and whose every row is of the suite's current version, with their rows. A page
+    of an older version is not kept: it goes, as its runs are no longer comparable."""
+    from beo_bench.bench.suites import UnknownSuiteError, get_suite
+
+    parts = _index_parts(out / "README.md")
+    kept = {}
+    for path in sorted(out.glob("*.json")):
+        suite = path.stem
+        if suite.endswith("_paired") or suite in fresh or suite not in parts:
+            continue
+        try:
+            version = get_suite(suite).version
+        except UnknownSuiteError:
+            continue
+        rows = [Row(s) for s in json.loads(path.read_text())]
+        if not rows or any(int(r.summary["suite_version"]) != version for r in rows):
+            continue
+        md = out / f"{suite}.md"
+        text = md.read_text() if md.is_file() else ""
+        plots = {ln[ln.index("](") + 2 : -1] for ln in text.splitlines() if ln.startswith("![")}
+        files = {md.name, path.name, f"{suite}_paired.json", *plots}
+        kept[suite] = (_Kept(files, parts[suite]), rows)
+    return kept
+
+
+def regenerate(
+    runs: Path | str = "runs", out: Path | str = "leaderboards", update: bool = False
+) -> list[Path]:
     """Rewrite ``out`` from the summaries under ``runs``; returns the suites' Markdown files.
     Its own files (named after a suite) that no run produces any more are removed. ``out``
-    must be new, empty or marked as a leaderboard directory (:func:`check_out`)."""
+    must be new, empty or marked as a leaderboard directory (:func:`check_out`).
+
+    ``update`` (``--update``): a suite with no runs under ``runs`` keeps its page, files and
+    index part as they are in ``out``, if every row there is of the suite's current
+    version, so that a campaign too long for one machine's session can be run suite by
+    suite. Each page is still made from one regeneration's runs: its rows, paired verdicts
+    and plots always come from the same runs."""
     out = Path(out)
     check_out(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -771,15 +915,24 @@ def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> l
     by_suite: dict[str, list[Row]] = {}
     for r in load_rows(Path(runs)):
         by_suite.setdefault(r.summary["suite"], []).append(r)
+    kept = _kept_pages(out, set(by_suite)) if update else {}
     # every suite's sections first: an -ood suite's page compares with its base's first one
     plan: dict[str, tuple[int, dict[int, int], dict[str | None, list[Section]]]] = {}
     firsts: dict[tuple[str, str | None], Section] = {}
+    for suite, (_, kept_rows) in kept.items():
+        version, newest, _older = _newest(kept_rows)
+        for t, trs in track_rows(newest).items():
+            firsts[(suite, t)] = sections(suite, version, t, trs)[0]
     for suite, rows in sorted(by_suite.items()):
         version, newest, older = _newest(rows)
         tracks = {t: sections(suite, version, t, trs) for t, trs in track_rows(newest).items()}
         plan[suite] = (version, older, tracks)
         firsts.update({(suite, t): secs[0] for t, secs in tracks.items()})
     keep: set[str] = {"README.md"}
+    index_parts: dict[str, list[str]] = {}
+    for suite, (k, _) in kept.items():
+        keep |= k.files
+        index_parts[suite] = k.index + ([""] if k.index and k.index[-1] else [])
     written = []
     index = [
         "# Leaderboards",
@@ -824,8 +977,10 @@ def regenerate(runs: Path | str = "runs", out: Path | str = "leaderboards") -> l
         keep |= {path.name, f"{suite}.json", f"{suite}_paired.json", *page.plots}
         written.append(path)
         mark = " *(partial)*" if partial else ""
-        index += [f"## [{suite}]({suite}.md){mark}", "", desc, ""]
-        index += [*([partial, ""] if partial else []), *page.index]
+        part = [f"## [{suite}]({suite}.md){mark}", "", desc, ""]
+        index_parts[suite] = [*part, *([partial, ""] if partial else []), *page.index]
+    for suite in sorted(index_parts):
+        index += index_parts[suite]
     atomic_write_bytes(out / "README.md", "\n".join(index))
     from beo_bench.bench.suites import list_suites
 

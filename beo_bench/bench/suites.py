@@ -10,6 +10,7 @@ scoring: results of different versions are never compared.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, replace
 from enum import Enum
 from typing import TYPE_CHECKING, Any
@@ -18,6 +19,7 @@ import numpy as np
 
 from beo_bench.errors import BeoBenchError, UsageError
 from beo_bench.objects.dataset import SHORT_CHARS
+from beo_bench.objects.sets import MODELNET10
 
 if TYPE_CHECKING:
     from beo_bench.objects.dataset import Dataset
@@ -132,6 +134,9 @@ it, as in the dissertation's pose comparisons (Figures 3.6 and 4.3); in ``class-
 backend is. The hint belongs to the track, never to a backend's option, so two rows of one
 table are always scored under the same rules."""
 DEFAULT_TRACK = "class-free"
+
+VIEWPOINTS: tuple[str, ...] = ("rig", "top-down")
+"""Where an isolated suite's camera is (``Suite.viewpoint``)."""
 """The track a suite with tracks is run in unless one is asked for (``--track``)."""
 
 
@@ -189,6 +194,11 @@ class Suite:
     categories: tuple[str, ...] | None = None
     """Isolated suites only: the classes its items are drawn from (None: every class of
     the split). Views then carry this class list."""
+    viewpoint: str = "rig"
+    """Isolated suites only: where the camera is. ``rig``: the dissertation's rendered-view
+    distribution of section 4.3 (``scenes.camera.OBJECT_RIG``: full azimuth, elevation
+    0-60 deg, small roll); ``top-down``: chapter 3's single view from straight above
+    (section 3.3.2; ``scenes.camera.TOP_DOWN_RIG``), the object's yaw in the image uniform."""
     dataset: Dataset | None = None
     """The user's dataset the objects come from (``--objects``; None: the procedural
     library). Set by :meth:`with_dataset`, which also names the suite by the dataset's
@@ -204,7 +214,17 @@ class Suite:
                 "library has train, val, test and ood"
             )
         if self.categories is not None and self.kind is not Kind.ISOLATED:
-            raise UsageError(f"suite {self.name!r}: a class subset applies to isolated suites only")
+            raise UsageError(
+                f"suite {self.name!r}: a class subset (--categories) applies to isolated suites "
+                "only; tabletop and pick scenes draw from every pickable class"
+            )
+        if self.viewpoint not in VIEWPOINTS:
+            raise UsageError(
+                f"suite {self.name!r}: viewpoint {self.viewpoint!r}: use one of "
+                f"{', '.join(VIEWPOINTS)}"
+            )
+        if self.viewpoint != "rig" and self.kind is not Kind.ISOLATED:
+            raise UsageError(f"suite {self.name!r}: a viewpoint applies to isolated suites only")
         if self.class_hint and self.track is None:
             # frozen: the default track is filled in once, here
             object.__setattr__(self, "track", DEFAULT_TRACK)
@@ -247,6 +267,27 @@ class Suite:
             track=self.track if track is None else str(track),
         )
 
+    def with_categories(self, names: Sequence[str]) -> Suite:
+        """This suite's protocol on a subset of its classes (``--categories``: class and set
+        names, :func:`beo_bench.objects.sets.resolve_categories`), named
+        ``<suite>+<set>`` (``pose-3dof+modelnet10``) or ``<suite>+<c1>+<c2>``: its items,
+        runs and leaderboard page are its own. Isolated suites only."""
+        from beo_bench.objects.sets import resolve_categories, set_name
+
+        cats = resolve_categories(names)
+        if self.kind is not Kind.ISOLATED:
+            raise UsageError(
+                f"--categories applies to isolated suites only; {self.name!r} is a "
+                f"{self.kind} suite, whose scenes draw from every pickable class"
+            )
+        if self.categories is not None and not set(cats) <= set(self.categories):
+            raise UsageError(
+                f"suite {self.name!r} holds the classes {', '.join(self.categories)}; "
+                f"--categories may only choose among them, not {', '.join(cats)}"
+            )
+        label = set_name(cats) or "+".join(cats)
+        return replace(self, name=f"{self.base_name}+{label}", categories=cats)
+
     def with_dataset(self, dataset: Dataset, split: str | None = None) -> Suite:
         """This suite's protocol on a user's dataset (and its ``split``; None keeps the
         suite's own), named ``<suite>.<digest8>``: results on other data, or on an
@@ -277,7 +318,11 @@ class Suite:
 
 
 def base_name(name: str) -> str:
-    """``pose-3dof.1a2b3c4d`` -> ``pose-3dof`` (a name without a digest is returned as is)."""
+    """``pose-3dof.1a2b3c4d`` -> ``pose-3dof``, ``pose-3dof+modelnet10`` -> ``pose-3dof``
+    (a registered name is returned as is)."""
+    head, plus, _ = name.partition("+")
+    if plus and head in SUITES:
+        return head
     head, dot, tail = name.rpartition(".")
     if (
         dot
@@ -300,7 +345,7 @@ SUITES: dict[str, Suite] = {
     for s in (
         Suite(
             "known-pose",
-            3,
+            4,
             Kind.ISOLATED,
             Protocol.KNOWN_POSE,
             size=500,
@@ -309,7 +354,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pose-1dof",
-            3,
+            4,
             Kind.ISOLATED,
             Protocol.ONE_DOF,
             size=500,
@@ -320,7 +365,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pose-3dof",
-            3,
+            4,
             Kind.ISOLATED,
             Protocol.THREE_DOF,
             size=1000,
@@ -331,7 +376,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pose-3dof-percat",
-            2,
+            3,
             Kind.ISOLATED,
             Protocol.THREE_DOF,
             size=600,
@@ -344,7 +389,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pose-3dof-ood",
-            3,
+            4,
             Kind.ISOLATED,
             Protocol.THREE_DOF,
             size=550,
@@ -355,8 +400,47 @@ SUITES: dict[str, Suite] = {
             "parameter outside the training range): how each method degrades",
         ),
         Suite(
+            "modelnet10-known-pose",
+            1,
+            Kind.ISOLATED,
+            Protocol.KNOWN_POSE,
+            size=500,
+            seed=8000,
+            categories=MODELNET10,
+            viewpoint="top-down",
+            description="Table 3.1's protocol: the ModelNet10 classes from chapter 3's single "
+            "top-down view (section 3.3.2), the true pose and size given; class and "
+            "completion (Figure 3.4)",
+        ),
+        Suite(
+            "modelnet10-1dof",
+            1,
+            Kind.ISOLATED,
+            Protocol.ONE_DOF,
+            size=500,
+            seed=8100,
+            class_hint=True,
+            categories=MODELNET10,
+            viewpoint="top-down",
+            description="Table 3.1's 1-DOF row: the ModelNet10 classes from the top-down "
+            "view at a random rotation about the vertical (Figure 3.7)",
+        ),
+        Suite(
+            "modelnet10-3dof",
+            1,
+            Kind.ISOLATED,
+            Protocol.THREE_DOF,
+            size=500,
+            seed=8200,
+            class_hint=True,
+            categories=MODELNET10,
+            description="Table 4.1's 3-DOF row: the ModelNet10 classes over section 4.3's "
+            "viewpoint distribution, nothing about the pose given (Figure 4.3); the "
+            "headroom suite",
+        ),
+        Suite(
             "tabletop",
-            3,
+            4,
             Kind.TABLETOP,
             Protocol.FREE,
             size=200,
@@ -369,7 +453,7 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "pick",
-            3,
+            4,
             Kind.PICK,
             Protocol.FREE,
             size=100,
@@ -395,6 +479,11 @@ def episode_seed(suite: Suite, index: int) -> int:
 
 
 def get_suite(name: str) -> Suite:
+    """The registered suite ``name``, or a registered isolated suite restricted to classes
+    and sets: ``pose-3dof+modelnet10``, ``known-pose+car+mug`` (:meth:`Suite.with_categories`)."""
+    head, plus, tail = name.partition("+")
+    if plus and head in SUITES and tail:
+        return SUITES[head].with_categories(tail.split("+"))
     if name not in SUITES:
         raise UnknownSuiteError(f"unknown suite {name!r}; the suites are {sorted(SUITES)}")
     return SUITES[name]

@@ -26,16 +26,23 @@ from beo_bench.objects.registry import (
 # One module per category; importing registers it.
 CATEGORY_MODULES = (
     "airplane",
+    "bathtub",
+    "bed",
     "bottle",
     "bowl",
     "box",
     "can",
     "car",
     "chair",
+    "desk",
+    "dresser",
     "lamp",
+    "monitor",
     "mug",
+    "night_stand",
     "sofa",
     "table",
+    "toilet",
 )
 for _m in CATEGORY_MODULES:
     importlib.import_module(f"beo_bench.objects.{_m}")

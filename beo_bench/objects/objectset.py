@@ -1,7 +1,7 @@
 """``ObjectSet``: a split of the object library (procedural, or a real dataset), and the
 procedural library's keys.
 
-Keys are ``<source>/<rest>``: ``proc/v1/mug/test/7`` for procedural instances
+Keys are ``<source>/<rest>``: ``proc/v2/mug/test/7`` for procedural instances
 (:func:`resolve_procedural_key`); a dataset's keys (``shapenet``, ``modelnet``, ``folder``)
 are resolved by :func:`beo_bench.objects.dataset.instance_from_key`, the one function for
 every key.

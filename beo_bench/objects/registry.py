@@ -25,7 +25,7 @@ from beo_bench.objects.primitives import Assembly
 from beo_bench.objects.solid import check_solid
 from beo_bench.types import ContinuousSymmetry, Symmetry
 
-LIBRARY_VERSION = 1
+LIBRARY_VERSION = 2
 """Bump when any generator changes its output: it re-keys every procedural instance."""
 
 SPLITS: tuple[str, ...] = ("train", "val", "test", "ood")

@@ -50,7 +50,7 @@ _MIN_LEG_SHARE = 0.09
         "base_radius": Uniform(0.3, 0.45),  # / top size
     },
     shapenet_synsets=("04379243",),
-    modelnet_names=("table", "desk"),
+    modelnet_names=("table",),
 )
 def build(p: Params) -> Assembly:
     """Table (15 parameters: top shape, size, aspect, thickness; height; legs or pedestal;

@@ -282,3 +282,94 @@ def test_ablations_are_paired_on_their_common_items_and_committed(tmp_path) -> N
         "| beo (pose_prior=false) | beo | BEO's viewpoint prior"
         in (tmp_path / "board" / "pose-1dof.md").read_text()
     )
+
+
+def test_update_keeps_the_current_pages_of_suites_with_no_runs(tmp_path) -> None:
+    """``regenerate(update=True)`` rewrites the suites that have runs and keeps every file
+    and the index part of the others, byte for byte; without it they go. A kept page of an
+    older suite version goes too."""
+    first, second = tmp_path / "runs1", tmp_path / "runs2"
+    write_run(first / "icp", "icp", _rows(0.5))
+    write_run(first / "ood", "hbeo", _rows(0.7), suite="pose-3dof-ood", track="class-free",
+              uses_hint=False)  # fmt: skip
+    write_run(second / "hbeo", "hbeo", _rows(0.7), suite="pose-3dof", track="class-free",
+              uses_hint=False)  # fmt: skip
+    board = tmp_path / "board"
+    regenerate(first, board)
+    before = {p.name: p.read_bytes() for p in board.iterdir()}
+    index_before = (board / "README.md").read_text()
+    regenerate(second, board, update=True)
+    for name, data in before.items():
+        if name.startswith("pose-1dof"):
+            assert (board / name).read_bytes() == data, name
+    readme = (board / "README.md").read_text()
+    part = index_before.split("## [pose-1dof](pose-1dof.md)")[1].split("## [")[0]
+    assert part in readme and "## [pose-3dof](pose-3dof.md)" in readme
+    # pose-3dof-ood's page compares with pose-3dof's rows, now there
+    assert "In distribution (`pose-3dof`)" not in before["pose-3dof-ood.md"].decode()
+    # a stale version of a kept suite's page is not kept
+    rows = json.loads((board / "pose-1dof.json").read_text())
+    (board / "pose-1dof.json").write_text(json.dumps([{**r, "suite_version": 0} for r in rows]))
+    regenerate(second, board, update=True)
+    assert (
+        not (board / "pose-1dof.md").exists()
+        and "pose-1dof" not in (board / "README.md").read_text()
+    )
+    regenerate(second, board)  # without update: only the runs' suites
+    assert sorted(p.name for p in board.glob("*.md")) == ["README.md", "pose-3dof.md"]
+
+
+def _modelnet10_rows(wrong: dict[str, str]) -> list[dict]:
+    """A view of each ModelNet10 class four times; the classes in ``wrong`` predicted as
+    another class on the first two of their views."""
+    from beo_bench.objects.sets import MODELNET10
+
+    rows = []
+    for i in range(40):
+        c = MODELNET10[i % 10]
+        p = wrong.get(c) if i < 20 else None
+        rows.append(
+            pose_row(
+                i,
+                category=c,
+                true_class=MODELNET10.index(c),
+                key=f"{c}/test/{i}",
+                pred_class=MODELNET10.index(p) if p else MODELNET10.index(c),
+                correct=p is None,
+            )
+        )
+    return rows
+
+
+def test_modelnet10_suites_have_tables_3_1_and_4_1_and_the_confused_pairs(tmp_path) -> None:
+    runs = tmp_path / "runs"
+    rows = _modelnet10_rows({"desk": "table", "night_stand": "dresser"})
+    write_run(runs / "hbeo", "hbeo", rows, suite="modelnet10-3dof", track="class-free",
+              uses_hint=False)  # fmt: skip
+    regenerate(runs, tmp_path / "board")
+    md = (tmp_path / "board" / "modelnet10-3dof.md").read_text()
+    table = _table(md, "in the form of the dissertation's Tables 3.1 and 4.1")
+    cells = [c.strip() for c in table[0].split("|")[1:-1]]
+    assert cells[0] == "hbeo"
+    assert cells[1:] == ["100.0%", "100.0%", "100.0%", "50.0%", "100.0%", "100.0%", "50.0%",
+                         "100.0%", "100.0%", "100.0%", "90.0%"]  # fmt: skip
+    assert table[1].startswith("| dissertation: HBEO, 3-DOF (Table 4.1) |")
+    assert table[1].rstrip().endswith("| 81.8% |")
+    pairs = _table(md, "Most frequent confusions")
+    assert pairs == ["| hbeo | desk -> table 2/4; night_stand -> dresser 2/4 |"]
+
+
+def test_a_suite_not_in_the_leaderboards_yet_makes_a_pending_table(tmp_path) -> None:
+    """A generated table that needs a suite the leaderboards lack says so; one that needs
+    a row missing from a suite that is there is still an error."""
+    from beo_bench.bench.doctables import PENDING, Boards, MissingFigureError, render
+
+    text = "<!-- table: headline -->\nold\n<!-- /table -->\n"
+    out = render(text, Boards(tmp_path))
+    assert PENDING.split("(")[0] in out and "leaderboards/" in out and "old" not in out
+    runs = tmp_path / "runs"
+    for suite in ("known-pose", "pose-1dof", "pose-3dof", "tabletop", "pick"):
+        write_run(runs / suite, "icp", _rows(0.5), suite=suite, track=None)
+    regenerate(runs, tmp_path / "board")
+    with pytest.raises(MissingFigureError, match="has no row"):
+        render(text, Boards(tmp_path / "board"))

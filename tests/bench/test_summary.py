@@ -26,7 +26,7 @@ def _row(item: int, view: int = 0, **values) -> dict:
     row = {
         "item": item,
         "view": view,
-        "key": f"proc/v1/mug/test/{item}",
+        "key": f"proc/v2/mug/test/{item}",
         "category": "mug",
         "true_class": 0,
         "class_given": False,

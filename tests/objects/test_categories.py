@@ -45,7 +45,7 @@ def test_solid_centred_and_sized(category: str, split: str) -> None:
 
 @pytest.mark.parametrize("category", CATEGORIES)
 def test_deterministic_and_distinct(category: str) -> None:
-    a = instance_from_key(f"proc/v1/{category}/test/3")
+    a = instance_from_key(f"proc/v2/{category}/test/3")
     b = ObjectSet("test", [category]).get(category, 3)
     c = ObjectSet("test", [category]).get(category, 4)
     assert a.content_hash == b.content_hash

@@ -37,10 +37,10 @@ def test_object_set_api() -> None:
     inst = s.get("mug", 2)
     assert isinstance(inst, ObjectInstance)
     assert (inst.category, inst.split, inst.index) == ("mug", "val", 2)
-    assert inst.key == "proc/v1/mug/val/2"
+    assert inst.key == "proc/v2/mug/val/2"
     assert instance_from_key(inst.key).content_hash == inst.content_hash
     keys = [i.key for i in ObjectSet("test", ["bowl", "mug"], per_category=3)]
-    assert keys == [f"proc/v1/{c}/test/{i}" for c in ("bowl", "mug") for i in range(3)]
+    assert keys == [f"proc/v2/{c}/test/{i}" for c in ("bowl", "mug") for i in range(3)]
     assert set(inst.params) and inst.symmetry.keys() == {"continuous", "discrete"}
     np.testing.assert_allclose(inst.size, inst.mesh.extents)
 
@@ -123,7 +123,8 @@ def test_surface_points_on_surface() -> None:
         (lambda: ObjectSet("testing"), UnknownSplitError, "testing"),
         (lambda: instance_from_key("mug-3"), InvalidKeyError, "mug-3"),
         (lambda: instance_from_key("proc/v0/mug/test/3"), InvalidKeyError, "v0"),
-        (lambda: instance_from_key("proc/v1/mug/test/x"), InvalidKeyError, "proc/v1"),
+        (lambda: instance_from_key("proc/v2/mug/test/x"), InvalidKeyError, "proc/v2"),
+        (lambda: instance_from_key("proc/v1/mug/test/3"), InvalidKeyError, "from library v1"),
         (lambda: instance_from_key("nosuch/abc"), InvalidKeyError, "nosuch"),
     ],
 )

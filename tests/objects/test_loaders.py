@@ -372,7 +372,7 @@ def test_keys_resolve_given_their_dataset_or_the_environment(
     assert shipped == dataset
     assert shipped.instance(inst.key).content_hash == inst.content_hash
     # a procedural key needs no dataset, and ignores one
-    assert dataset.instance("proc/v1/mug/test/3").key == "proc/v1/mug/test/3"
+    assert dataset.instance("proc/v2/mug/test/3").key == "proc/v2/mug/test/3"
     # the dataset must be the key's
     with pytest.raises(InvalidKeyError, match="is a shapenet key, but the dataset"):
         instance_from_key(inst.key, open_dataset(modelnet_root))

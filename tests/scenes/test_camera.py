@@ -79,3 +79,26 @@ def test_project_backproject_round_trip() -> None:
     v, u = np.nonzero(depth > 0)
     np.testing.assert_allclose(uv, np.stack([u, v], 1), atol=1e-4)
     assert OBJECT_RIG.target_jitter == 0.0
+
+
+def test_top_down_views_look_straight_down_with_the_yaw_in_the_image() -> None:
+    """TOP_DOWN_RIG's camera is straight above the object; its azimuth still turns the
+    image (at 90 deg the image's x axis is the limit of the rig's at 90 - epsilon)."""
+    import math
+
+    from beo_bench.scenes.camera import TOP_DOWN_RIG, look_at
+
+    rng = np.random.default_rng(0)
+    yaws = []
+    for _ in range(20):
+        T = TOP_DOWN_RIG.sample(rng, np.zeros(3))
+        np.testing.assert_allclose(T[:3, 2], [0.0, 0.0, -1.0], atol=1e-9)  # looks down
+        assert 0.45 <= T[2, 3] <= 0.8
+        yaws.append(math.degrees(math.atan2(T[1, 0], T[0, 0])))
+    assert np.ptp(yaws) > 270  # the azimuth spreads the yaw over the circle
+    az = math.radians(40.0)
+    for el_deg in (89.999, 90.0):
+        el = math.radians(el_deg)
+        eye = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+        T = look_at(eye, np.zeros(3), right=np.array([-math.sin(az), math.cos(az), 0.0]))
+        np.testing.assert_allclose(T[:3, 0], [-math.sin(az), math.cos(az), 0.0], atol=1e-4)

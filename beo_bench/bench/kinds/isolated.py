@@ -25,6 +25,13 @@ def categories(suite: Suite) -> tuple[str, ...]:
     return object_set(suite.dataset, suite.split, suite.categories).categories
 
 
+def rig(suite: Suite) -> Any:
+    """The camera rig of the suite's viewpoint (``Suite.viewpoint``)."""
+    from beo_bench.scenes.camera import OBJECT_RIG, TOP_DOWN_RIG
+
+    return TOP_DOWN_RIG if suite.viewpoint == "top-down" else OBJECT_RIG
+
+
 def world_frame(rng: np.random.Generator, protocol: Protocol) -> np.ndarray:
     """A random rigid world frame for an isolated view (4x4, applied on the left of the
     rig's ``cam_to_world``): a yaw about +z where the protocol keeps up up (1-DOF, which
@@ -57,7 +64,9 @@ class IsolatedItems(Items):
             from beo_bench.scenes.noise import DepthNoise
 
             w, h = self.suite.image_size
-            self._renderer = IsolatedRenderer(Intrinsics(w, h, self.suite.fovy_deg))
+            self._renderer = IsolatedRenderer(
+                Intrinsics(w, h, self.suite.fovy_deg), rig=rig(self.suite)
+            )
             self._noise = DepthNoise() if self.suite.noise else None
         return self._renderer
 

@@ -1,0 +1,100 @@
+"""The bed category: solid, deterministic, tabletop-sized, long along x with the head at
+-x, 2-fold about z exactly when it is a plain mattress on a base, and every sub-style
+drawn."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import beo_bench.objects.bed  # noqa: F401  (registers the category)
+from beo_bench.geometry import axis_angle, symmetry_transformations
+from beo_bench.objects import DEFAULT_SPLIT_SIZES, SPLITS, ObjectSet, instance_from_key
+from beo_bench.objects.cache import mesh_hash
+from beo_bench.objects.processing import rotation_iou
+from beo_bench.objects.registry import generate, instance_params
+
+CATEGORY = "bed"
+SIZE_RANGE = (0.10, 0.18)  # largest extent, metres
+QUARTER, HALF = axis_angle([0.0, 0.0, 1.0], np.pi / 2), axis_angle([0.0, 0.0, 1.0], np.pi)
+
+
+@pytest.fixture(scope="module")
+def test_set() -> list:
+    return list(ObjectSet("test", [CATEGORY], per_category=50))
+
+
+def _in_group(R: np.ndarray, group: list[np.ndarray]) -> bool:
+    return any(np.allclose(T[:3, :3], R, atol=1e-6) for T in group)
+
+
+def _plain(p: dict) -> bool:
+    """A mattress on a base: no boards, no pillows, neither daybed nor bunk."""
+    return p["style"] == "standard" and p["headboard"] == "none" and not p["pillows"]
+
+
+def test_watertight_one_body_sized_and_long_along_x(test_set: list) -> None:
+    for inst in test_set:
+        m = inst.mesh
+        assert m.is_watertight, inst.key
+        assert m.body_count == 1, (inst.key, "one connected solid, no closed cavities")
+        assert SIZE_RANGE[0] <= m.extents.max() <= SIZE_RANGE[1], (inst.key, m.extents)
+        # long and low: the length along x, at least 1.2 times the width
+        assert m.extents[0] == m.extents.max() and m.extents[0] > 1.2 * m.extents[1], inst.key
+
+
+def test_head_at_minus_x(test_set: list) -> None:
+    """A headboard is the highest part of a standard bed and stands at its -x end."""
+    for inst in test_set:
+        p = instance_params(CATEGORY, "test", inst.index)
+        if p["style"] != "standard" or p["headboard"] == "none":
+            continue
+        v = inst.mesh.vertices
+        top = v[v[:, 2] > v[:, 2].max() - 1e-4]
+        assert top[:, 0].max() < 0.0, inst.key
+
+
+def test_deterministic_per_key(test_set: list) -> None:
+    for inst in test_set[:3]:
+        again = instance_from_key(inst.key)
+        assert again.content_hash == inst.content_hash
+        rebuilt = generate(CATEGORY, instance_params(CATEGORY, "test", inst.index))
+        assert mesh_hash(rebuilt.mesh) == inst.content_hash
+    assert test_set[0].content_hash != test_set[1].content_hash
+
+
+def test_symmetry_as_declared(test_set: list) -> None:
+    """Declared 2-fold exactly for a plain bed; every declared rotation keeps the solid
+    (IoU > 0.95), and the quarter and half turns about z outside the group do not."""
+    for inst in test_set:
+        p = instance_params(CATEGORY, "test", inst.index)
+        group = symmetry_transformations(inst.symmetry)
+        assert not inst.symmetry["continuous"], inst.key
+        assert len(group) == (2 if _plain(p) else 1), inst.key
+        for T in group[1:]:
+            assert rotation_iou(inst.mesh, T) > 0.95, (inst.key, T.round(3))
+        for R in (QUARTER, HALF):
+            if not _in_group(R, group):
+                assert rotation_iou(inst.mesh, R) < 0.95, (inst.key, R.round(3))
+
+
+def test_every_sub_style_occurs() -> None:
+    ps = [instance_params(CATEGORY, "train", i) for i in range(200)]
+    assert {p["style"] for p in ps} == {"standard", "daybed", "bunk"}
+    assert {p["base"] for p in ps} == {"legs", "plinth", "box"}
+    standard = [p for p in ps if p["style"] == "standard"]
+    assert {p["headboard"] for p in standard} == {"none", "panel", "slatted", "upholstered"}
+    assert any(p["footboard"] and p["headboard"] != "none" for p in standard)
+    assert any(p["pillows"] and p["duvet"] for p in standard)
+    assert any(p["headboard"] == "panel" and p["arched"] for p in standard)
+    assert any(p["headboard"] == "panel" and p["posts"] for p in standard)
+    assert any(_plain(p) for p in ps)  # the 2-fold plain bed
+
+
+def test_splits_disjoint() -> None:
+    seen: dict[str, str] = {}
+    for split in SPLITS:
+        for i in range(DEFAULT_SPLIT_SIZES[split]):
+            sig = repr(sorted(instance_params(CATEGORY, split, i).items()))
+            assert sig not in seen, f"{split}/{i} repeats {seen.get(sig)}"
+            seen[sig] = f"{split}/{i}"
