@@ -46,8 +46,9 @@ def library_table(
     for s in stats:
         by_cat.setdefault(s.category, []).append(s)
     splits = "train/val/test" if split_counts is not None else "train/val/test/ood"
+    w = max([10, *(len(c) for c in by_cat)])  # a dataset's class names may be long
     head = (
-        f"{'category':<10} {splits:>18} {'params':>6} {'pick':>4}  "
+        f"{'category':<{w}} {splits:>18} {'params':>6} {'pick':>4}  "
         f"{'symmetry (' + split + ' split)':<52} {'largest extent cm':>17} "
         f"{'parts':>5} {'gen ms':>6} {'proc ms':>7}"
     )
@@ -61,7 +62,7 @@ def library_table(
         ext = np.array([max(s.extents) for s in ss]) * 100
         per_split = split_counts.get(cat, "") if split_counts is not None else sizes
         lines.append(
-            f"{cat:<10} {per_split:>18} {len(spec.params) if spec else 0:>6} "
+            f"{cat:<{w}} {per_split:>18} {len(spec.params) if spec else 0:>6} "
             f"{'yes' if spec is None or spec.pickable else 'no':>4}  {sym:<52} "
             f"{f'{ext.min():.1f}-{ext.max():.1f}':>17} "
             f"{np.mean([s.parts for s in ss]):>5.0f} "

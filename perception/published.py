@@ -5,7 +5,7 @@ read with ``allow_pickle=False``) and ``<stem>.json`` (its ``config.json``: conf
 subspace fingerprint, training history, digest), plus ``MANIFEST.json`` with the SHA-256 of
 every file. The stems:
 
-- ``beo``: the default BEO model (11 classes, 32^3, every training instance), arrays as
+- ``beo``: the default BEO model (18 classes, 32^3, every training instance), arrays as
   trained (float32, losslessly; the basis in ``beo-basis.npz``): the subspace (W, mu) every
   published HBEO model regresses, so
   those do not depend on retraining BEO, whose float reductions differ in the last bits
@@ -46,7 +46,13 @@ MANIFEST = "MANIFEST.json"
 STEMS: tuple[str, ...] = ("beo", "hbeo", "hbeo-mdn")
 NET_PREFIX = "net."
 SPLIT: dict[str, tuple[str, ...]] = {"beo": ("basis",)}
-"""Arrays stored in a file of their own (``beo-basis.npz``): no published file passes 10 MB."""
+"""Arrays stored in files of their own (``beo-basis.npz``, or ``beo-basis-0.npz``,
+``beo-basis-1.npz``... when one would pass :data:`FILE_LIMIT`): no published file passes
+10 MB."""
+FILE_LIMIT = 10_000_000
+"""Most bytes of one published file (the repository's cap: 10 MB a file, 20 MB in all)."""
+CHUNK = "@"
+"""Joins a split array's name and its chunk's index inside a chunk file (``basis@0``)."""
 PLANES, SHAPE, DTYPE = "__planes", "__shape", "__dtype"
 
 
@@ -75,7 +81,7 @@ def read(stem: str, root: Path | None = None) -> tuple[dict[str, Any], dict[str,
     root = PUBLISHED_DIR if root is None else root
     files = manifest(root)
     out: dict[str, bytes] = {}
-    parts = [f"{stem}.npz", *(f"{stem}-{a}.npz" for a in SPLIT.get(stem, ()))]
+    parts = [f"{stem}.npz", *(n for a in SPLIT.get(stem, ()) for n in _split_files(stem, a, files))]
     for name in (f"{stem}.json", *parts):
         want = files.get(name)
         if want is None:
@@ -101,9 +107,41 @@ def read(stem: str, root: Path | None = None) -> tuple[dict[str, Any], dict[str,
         arrays: dict[str, np.ndarray] = {}
         for name in parts:
             arrays.update(_unpack(out[name]))
+        for a in SPLIT.get(stem, ()):
+            chunks = sorted((k for k in arrays if k.startswith(a + CHUNK)), key=_chunk_index)
+            if chunks:
+                arrays[a] = np.concatenate([arrays.pop(k) for k in chunks], axis=0)
     except Exception as e:
         raise CheckpointError(f"the published {stem} model is unreadable ({e})") from e
     return meta, arrays
+
+
+def _split_files(stem: str, array: str, files: dict[str, str]) -> list[str]:
+    """The files of a split array: ``<stem>-<array>.npz``, or its chunks
+    ``<stem>-<array>-0.npz``, ``-1``... as the manifest lists them (the unsplit name when it
+    lists neither, so that the error names the file)."""
+    whole = f"{stem}-{array}.npz"
+    chunks = []
+    while f"{stem}-{array}-{len(chunks)}.npz" in files:
+        chunks.append(f"{stem}-{array}-{len(chunks)}.npz")
+    return chunks if chunks and whole not in files else [whole]
+
+
+def _chunk_index(key: str) -> int:
+    return int(key.rsplit(CHUNK, 1)[1])
+
+
+def _split_blobs(stem: str, name: str, a: np.ndarray) -> dict[str, bytes]:
+    """``name``'s file, or, when it would pass :data:`FILE_LIMIT`, as few chunk files
+    (row blocks of the array, concatenated again by :func:`read`) as keep each under it."""
+    whole = _pack({name: a})
+    if len(whole) <= FILE_LIMIT:
+        return {f"{stem}-{name}.npz": whole}
+    n = -(-len(whole) // int(0.9 * FILE_LIMIT))  # rows compress alike: a margin of 10%
+    return {
+        f"{stem}-{name}-{i}.npz": _pack({f"{name}{CHUNK}{i}": c})
+        for i, c in enumerate(np.array_split(a, n, axis=0))
+    }
 
 
 def _pack(arrays: dict[str, np.ndarray]) -> bytes:
@@ -224,19 +262,31 @@ def write(stem: str, meta: dict[str, Any], arrays: dict[str, np.ndarray], root: 
         raise ValueError(f"stem {stem!r}: one of {STEMS}")
     root.mkdir(parents=True, exist_ok=True)
     split = SPLIT.get(stem, ())
-    blobs = {
-        f"{stem}.npz": _pack({k: v for k, v in arrays.items() if k not in split}),
-        **{f"{stem}-{k}.npz": _pack({k: arrays[k]}) for k in split},
-        f"{stem}.json": (json.dumps(meta, indent=1, sort_keys=True) + "\n").encode(),
-    }
+    blobs = {f"{stem}.npz": _pack({k: v for k, v in arrays.items() if k not in split})}
+    for k in split:
+        blobs.update(_split_blobs(stem, k, arrays[k]))
+    blobs[f"{stem}.json"] = (json.dumps(meta, indent=1, sort_keys=True) + "\n").encode()
+    for name, data in blobs.items():
+        if len(data) > FILE_LIMIT:
+            raise UsageError(
+                f"{name} would take {len(data) / 1e6:.1f} MB, over the {FILE_LIMIT / 1e6:.0f} MB "
+                "a published file may take: publish a smaller model"
+            )
     files = manifest(root)
+    # this stem's split files of an earlier publication that this one does not write (a
+    # basis that was one file and is now chunks): listed in the manifest, so written here
+    old = {n for k in split for n in _split_files(stem, k, files) if n in files} - set(blobs)
     for name, data in blobs.items():
         atomic_write_bytes(root / name, data)
         files[name] = _sha256(data)
+    for name in sorted(old):
+        del files[name]
     atomic_write_bytes(
         root / MANIFEST,
         (json.dumps({"files": dict(sorted(files.items()))}, indent=1) + "\n").encode(),
     )
+    for name in sorted(old):  # after the manifest stops listing them
+        (root / name).unlink(missing_ok=True)
     # the models read from these files (beo_model.published_model, hbeo_train.published_hbeo)
     # are cached by the manifest's digests: they are read again
     return files[f"{stem}.npz"]

@@ -415,7 +415,7 @@ def confusion_figure(conf: Any, categories: list[str] | None, title: str) -> Any
 
     c = np.asarray(conf, dtype=float)
     k = len(c)
-    side = max(5.0, 2.2 + 0.45 * k)  # 11 classes: cells of about 0.4 inch
+    side = max(5.0, 2.2 + 0.45 * k)  # cells of about 0.4 inch (10.3 inches at 18 classes)
     fig, ax = plt.subplots(figsize=(side + 0.8, side), constrained_layout=True)
     totals = c.sum(axis=1)
     norm = c / np.maximum(totals[:, None], 1)

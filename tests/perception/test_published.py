@@ -70,7 +70,7 @@ def test_an_altered_published_file_is_reported_not_used(tmp_path, monkeypatch) -
 
 
 def test_a_suite_on_some_classes_is_answered_by_the_published_network(no_training) -> None:
-    """``pose-3dof-percat`` holds three of the eleven classes: the published network answers
+    """``pose-3dof-percat`` holds three of the 18 classes: the published network answers
     it (nothing trains), its class scores read at those three classes."""
     from beo_bench.backend import sample_views
     from beo_bench.perception.hbeo import HBEOBackend
@@ -86,3 +86,29 @@ def test_a_suite_on_some_classes_is_answered_by_the_published_network(no_trainin
     est = b.predict(replace(view, categories=cats))
     assert est.class_probs.shape == (3,) and abs(est.class_probs.sum() - 1) < 1e-9
     assert int(est.class_probs.argmax()) == 1  # car
+
+
+def test_an_array_too_large_for_one_file_is_published_in_chunks(tmp_path, monkeypatch) -> None:
+    """A split array that would pass the file limit goes into as few row-block files as keep
+    each under it; read() joins them, losslessly. Publishing it again small writes one file
+    and removes the chunks (and only them) from the directory and the manifest."""
+    import numpy as np
+
+    rng = np.random.default_rng(0)
+    basis = rng.normal(size=(4000, 30)).astype(np.float32)  # about 0.45 MB packed
+    arrays = {"basis": basis, "mu": rng.normal(size=4000).astype(np.float32)}
+    (tmp_path / "mine.txt").write_text("not ours")
+    monkeypatch.setattr(published, "FILE_LIMIT", 200_000)
+    published.write("beo", {"k": 30}, arrays, tmp_path)
+    chunks = sorted(p.name for p in tmp_path.glob("beo-basis-*.npz"))
+    assert len(chunks) >= 3 and not (tmp_path / "beo-basis.npz").exists()
+    assert all((tmp_path / c).stat().st_size <= 200_000 for c in chunks)
+    _, got = published.read("beo", tmp_path)
+    np.testing.assert_array_equal(got["basis"], basis)
+    np.testing.assert_array_equal(got["mu"], arrays["mu"])
+    monkeypatch.setattr(published, "FILE_LIMIT", 10_000_000)
+    published.write("beo", {"k": 30}, arrays, tmp_path)
+    assert not list(tmp_path.glob("beo-basis-*.npz")) and (tmp_path / "beo-basis.npz").exists()
+    assert not any(n.startswith("beo-basis-") for n in published.manifest(tmp_path))
+    np.testing.assert_array_equal(published.read("beo", tmp_path)[1]["basis"], basis)
+    assert (tmp_path / "mine.txt").read_text() == "not ours"

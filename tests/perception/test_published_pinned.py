@@ -17,8 +17,9 @@ Suites per backend, chosen for time (14 s in all on 2 busy cores, cold cache): `
 on ``known-pose`` (class and completion with the pose given, Table 3.1; its pose search
 takes ~350 ms a view on the pose suites, ~20 ms here), the three networks on ``pose-3dof``
 class-free (Tables 4.1, 5.1: rotation, class and completion from nothing but the view).
-``N_ITEMS`` = 66 items are six of each of the 11 classes (the suites balance classes over
-item indices, ``index % 11``).
+``N_ITEMS`` = 72 items are four of each of the 18 classes (the suites balance classes over
+item indices, ``index % 18``). A suite whose leaderboard page is not regenerated yet (a
+campaign made suite by suite, ``all --update``) skips its backends, saying so.
 
 **Tolerances** come from the leaderboard's 95% bootstrap interval [lo, hi] over its
 n_lb items. Its half-width hw = (hi - lo) / 2 is about 1.96 sigma / sqrt(n_lb), sigma the
@@ -57,8 +58,8 @@ from beo_bench.objects import instance_from_key
 pytestmark = pytest.mark.slow
 
 LEADERBOARDS = Path(__file__).resolve().parents[2] / "leaderboards"
-N_ITEMS = 66
-"""Items per backend: six of each of the 11 classes, the leaderboard's first 66."""
+N_ITEMS = 72
+"""Items per backend: four of each of the 18 classes, the leaderboard's first 72."""
 SAFETY = 2.0
 """Tolerance = SAFETY x the leaderboard's 95% half-width x sqrt(n_lb / n_test) (docstring)."""
 PROPORTIONS = ("class_acc",)
@@ -77,7 +78,10 @@ PINNED: dict[str, tuple[str, str | None, tuple[str, ...]]] = {
 def leaderboard_row(suite: str, backend: str, track: str | None) -> dict[str, Any]:
     """The committed summary of ``backend`` with its default options (the published model)
     in ``track`` of ``suite``."""
-    rows = json.loads((LEADERBOARDS / f"{suite}.json").read_text())
+    path = LEADERBOARDS / f"{suite}.json"
+    if not path.is_file():
+        pytest.skip(f"leaderboards/{suite}.json is not regenerated at this suite version yet")
+    rows = json.loads(path.read_text())
     found = [
         r
         for r in rows
