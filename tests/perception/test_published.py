@@ -112,3 +112,19 @@ def test_an_array_too_large_for_one_file_is_published_in_chunks(tmp_path, monkey
     assert not any(n.startswith("beo-basis-") for n in published.manifest(tmp_path))
     np.testing.assert_array_equal(published.read("beo", tmp_path)[1]["basis"], basis)
     assert (tmp_path / "mine.txt").read_text() == "not ours"
+
+
+def test_the_published_beo_basis_is_rounded_to_16_significant_bits() -> None:
+    """Publishing rounds the basis to nearest (relative error at most 2^-16) and keeps the
+    class covariances at float32's precision; the published model is that rounded one."""
+    import numpy as np
+
+    a = np.random.default_rng(1).normal(size=50_000).astype(np.float32)
+    r = published.round_mantissa(a, published.BASIS_DROPPED_BITS)
+    assert np.all(r.view(np.uint32) & 0xFF == 0)
+    rel = np.abs(r - a) / np.abs(a)
+    assert rel.max() <= 2.0**-16 and rel.mean() > 2.0**-19  # nearest, not truncated away
+    _, arrays = published.read("beo")
+    assert np.all(arrays["basis"].view(np.uint32) & 0xFF == 0)
+    cov = arrays["class_cov"]
+    assert np.array_equal(cov, cov.astype(np.float32).astype(np.float64))
