@@ -45,6 +45,27 @@ def main() -> None:
         train_s < 180,
         f"k={model.k}; voxels loaded in {model.info['data_s']} s",
     )
+    # what publishing's rounding costs (perception/published.py, storable_beo): the class
+    # means' reconstructions and the class densities of the codes, lossless against rounded
+    import numpy as np
+
+    from beo_bench.perception.published import storable_beo
+
+    rounded = storable_beo(model)
+    codes = model.class_mean.astype(np.float64)
+    rec = codes @ model.basis.T.astype(np.float64) + model.mean
+    rec_r = codes @ rounded.basis.T.astype(np.float64) + rounded.mean
+    lp, lp_r = model.log_density(codes), rounded.log_density(codes)
+    dens = float((np.abs(lp - lp_r) / np.maximum(np.abs(lp), 1.0)).max())
+    worst = float(np.abs(rec - rec_r).max())
+    report(
+        "published BEO rounding: largest change of a class mean's voxel value",
+        worst,
+        "",
+        "< 1e-3",
+        worst < 1e-3,
+        f"largest relative change of a class log-density: {dens:.1e}",
+    )
     backend = get_backend("beo")
     backend.prepare(cats)
     for name, n, target_ms, theirs in CASES:
