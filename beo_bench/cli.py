@@ -378,7 +378,7 @@ def cmd_leaderboard(args: argparse.Namespace) -> int:
     from beo_bench.bench.leaderboard import regenerate
 
     written = regenerate(args.runs, args.out, update=args.update)
-    if not written:
+    if not written and not args.update:  # --update alone prunes pages of older versions
         raise BeoBenchError(f"no summary.json under {args.runs}: run `beo-bench run` first")
     for p in written:
         print(p.read_text())

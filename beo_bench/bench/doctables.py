@@ -46,6 +46,8 @@ class Boards:
         return json.loads(path.read_text())
 
     def paired(self, suite: str) -> list[dict[str, Any]]:
+        if not (self.root / f"{suite}.json").is_file():
+            raise PendingSuiteError(f"leaderboards/{suite}.json is not there")
         path = self.root / f"{suite}_paired.json"
         return json.loads(path.read_text()) if path.exists() else []
 
@@ -505,7 +507,7 @@ def render(text: str, boards: Boards) -> str:
 
 PENDING = (
     "*Not in this suite version's leaderboards yet ({reason}); `beo-bench all --update "
-    "--suites SUITE` makes its runs and this table.*"
+    "--suites SUITE` makes its runs and this table.*\n"
 )
 """What a generated table says while the leaderboards lack a row it needs."""
 

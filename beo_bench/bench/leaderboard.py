@@ -981,10 +981,19 @@ def regenerate(
         index_parts[suite] = [*part, *([partial, ""] if partial else []), *page.index]
     for suite in sorted(index_parts):
         index += index_parts[suite]
-    atomic_write_bytes(out / "README.md", "\n".join(index))
-    from beo_bench.bench.suites import list_suites
+    from beo_bench.bench.suites import get_suite, list_suites
 
     ours = tuple(list_suites())
+    pending = [s for s in ours if s not in index_parts]
+    if pending:
+        index += [
+            "## Not yet run at their current suite version",
+            "",
+            ", ".join(f"`{s}` (v{get_suite(s).version})" for s in pending)
+            + ": `beo-bench all --update --suites SUITE` makes their pages.",
+            "",
+        ]
+    atomic_write_bytes(out / "README.md", "\n".join(index))
     for stale in out.iterdir():  # our files of suites or backends no longer in the runs
         if stale.is_file() and stale.name.startswith(ours) and stale.name not in keep:
             stale.unlink()
