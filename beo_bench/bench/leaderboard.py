@@ -864,6 +864,8 @@ def _index_parts(readme: Path) -> dict[str, list[str]]:
     for line in readme.read_text().splitlines():
         if line.startswith(_INDEX_HEAD) and "](" in line:
             current = parts.setdefault(line[len(_INDEX_HEAD) : line.index("](")], [])
+        elif line.startswith("## "):  # another part of the index (the suites not yet run)
+            current = None
         if current is not None:
             current.append(line)
     return parts

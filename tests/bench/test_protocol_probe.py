@@ -31,6 +31,9 @@ HIDES: dict[str, tuple[str, ...]] = {
     "pose-3dof": ("class", "rotation", "translation"),
     "pose-3dof-ood": ("class", "rotation", "translation"),
     "pose-3dof-percat": ("class", "rotation", "translation"),
+    "modelnet10-known-pose": ("class",),
+    "modelnet10-1dof": ("class", "yaw", "translation"),
+    "modelnet10-3dof": ("class", "rotation", "translation"),
     "tabletop": ("class",),
     "pick": ("class",),
 }
