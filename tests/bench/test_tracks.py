@@ -54,7 +54,10 @@ def _run(out: Path, suite: str, backend: str, n: int, track: str | None = None, 
 
 def test_pose_suites_have_two_tracks_and_default_to_class_free() -> None:
     tracked = [s for s in list_suites() if get_suite(s).class_hint]
-    assert sorted(tracked) == ["pose-1dof", "pose-3dof", "pose-3dof-ood", "pose-3dof-percat"]
+    assert sorted(tracked) == [
+        "modelnet10-1dof", "modelnet10-3dof", "pose-1dof", "pose-3dof", "pose-3dof-ood",
+        "pose-3dof-percat",
+    ]  # fmt: skip
     for name in list_suites():
         s = get_suite(name)
         if s.class_hint:
