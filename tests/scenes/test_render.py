@@ -42,9 +42,10 @@ def test_depth_matches_ray_cast(env, seed: int) -> None:
     rng = np.random.default_rng(seed)
     depth = obs["depth"]
     H, W = depth.shape
-    # every object pixel plus random others, checked against MuJoCo's own ray caster
+    # every object pixel plus random others, checked against MuJoCo's own ray caster (all of
+    # them: thin parts, slats and drawer grooves put many on silhouette edges, skipped below)
     obj = np.argwhere(obs["segmentation"] > 0)
-    pix = np.concatenate([obj[rng.choice(len(obj), 60)], rng.integers(0, [H, W], (60, 2))])
+    pix = np.concatenate([obj, rng.integers(0, [H, W], (60, 2))])
     errs = []
     for v, u in pix:
         ray = _ray_depth(u_env.model, u_env.data, T, K, u, v)
