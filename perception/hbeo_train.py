@@ -363,16 +363,16 @@ RECIPES: dict[str, dict[str, Any]] = {
     "reference": {"images": 100_000, "val_images": 10_000, "epochs": 20, "select": "best-val"},
     "per-category": {"images": 30_000, "val_images": 6_000, "epochs": 20, "select": "best-val"},
 }
-"""Training recipes. ``default``: 16,000 crops, 15 epochs, the last epoch's weights (a
-couple of minutes on 2 CPU cores; what tests and quick checks shrink further).
-``reference``: 100,000 crops, 20 epochs, the best validation epoch's weights: the published
-models (``beo-bench train hbeo|hbeo-mdn --recipe reference`` reproduces them; their epochs
-took 31.1 and 31.5 minutes on 2 CPU cores at 18 classes, plus rendering the crops once). Why: the small
-network on 16,000 crops gives 23.9 deg mean on ``pose-3dof``, the reference one 13.0 deg;
-the method needs the data. ``per-category``: one class's network (chapter 5 trained one per
-category; ``--categories car``), 30,000 crops of it (nearly three times the class's share of
-the reference set), 20 epochs, the best validation epoch: 5 (``hbeo``) to 7 (``hbeo-mdn``)
-minutes a class on 2 CPU cores, plus 2 minutes of rendering."""
+"""Training recipes. ``default``: 16,000 crops, 15 epochs, the last epoch's weights (a couple of
+minutes on 2 CPU cores; what tests and quick checks shrink further). ``reference``: 100,000
+crops, 20 epochs, the best validation epoch's weights: the published models (``beo-bench train
+hbeo|hbeo-mdn --recipe reference`` reproduces them; their epochs took 31.1 and 31.5 minutes on 2
+CPU cores at 18 classes, plus rendering the crops once). Why: the small network on 16,000 crops
+gives 23.9 deg mean on ``pose-3dof``, the reference one 13.0 deg; the method needs the data.
+``per-category``: one class's network (chapter 5 trained one per category; ``--categories
+car``), 30,000 crops of it (nearly three times the class's share of the reference set), 20
+epochs, the best validation epoch: 5 (``hbeo``) to 7 (``hbeo-mdn``) minutes a class on 2 CPU
+cores, plus 2 minutes of rendering."""
 
 
 def default_config(

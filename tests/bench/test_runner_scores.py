@@ -59,7 +59,8 @@ def test_oracle_picks_exactly_like_the_ground_truth_planner(tmp_path) -> None:
 
 
 def test_icp_beats_random_on_pose_1dof(tmp_path) -> None:
-    icp = short_run(tmp_path, "pose-1dof", "icp", 22, opts=FAST_RANDOM, track="class-given")
+    # icp at its defaults: its template is the mean of more instances than FAST_RANDOM keeps
+    icp = short_run(tmp_path, "pose-1dof", "icp", 22, track="class-given")
     rnd = short_run(tmp_path, "pose-1dof", "random", 22, opts=FAST_RANDOM)
     assert icp["failures"] == 0 and icp["metrics"]["class_given"] is True
     assert "class_acc" not in icp["metrics"]  # told the class: not scored on it

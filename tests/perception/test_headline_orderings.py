@@ -54,18 +54,29 @@ def views() -> list[View]:
     return sample_views(categories=BEO_CATS, split="test", seed=5, picks=picks)
 
 
+@pytest.fixture(scope="module")
+def completion_views() -> list[View]:
+    """Eight test-split instances per class: completion varies more from object to object
+    than pose does (a misread class completes as the wrong class), so its mean needs more
+    views than three per class to stand out from the class mean's."""
+    picks = [(c, i) for i in range(8) for c in BEO_CATS]
+    return sample_views(categories=BEO_CATS, split="test", seed=5, picks=picks)
+
+
 def _rot_err(est_R: np.ndarray, view: View) -> float:
     gt = view.ground_truth
     assert gt is not None
     return rotation_error(est_R, gt.R_cam, gt.symmetry)
 
 
-def test_beo_completes_better_than_the_class_mean_at_a_known_pose(beo_model, views) -> None:
+def test_beo_completes_better_than_the_class_mean_at_a_known_pose(
+    beo_model, completion_views
+) -> None:
     beo = BEOBackend(model=beo_model)
     mean_shape = get_backend("icp", mean_instances=BEO_INSTANCES)  # the nearest class mean
     means = class_means(BEO_CATS, 32, BEO_INSTANCES)
     ious: dict[str, list[float]] = {"beo": [], "class mean": [], "true class mean": []}
-    for v in views:
+    for v in completion_views:
         gt = v.ground_truth
         assert gt is not None
         known = replace(v, class_hint=None, pose_hint=(gt.R_cam, gt.t_cam, gt.size))
@@ -74,7 +85,8 @@ def test_beo_completes_better_than_the_class_mean_at_a_known_pose(beo_model, vie
         ious["class mean"].append(voxel_iou(mean_shape.predict(known).shape > 0.5, truth))
         ious["true class mean"].append(voxel_iou(means.shape[gt.class_index] > 0.5, truth))
     m = {k: float(np.mean(x)) for k, x in ious.items()}
-    # seen: 0.533 against 0.443 (and 0.427 for the true class's mean)
+    # seen: 0.473 against 0.387 (and 0.389 for the true class's mean) over the 32 views;
+    # the first 12 alone give 0.444 against 0.402
     assert m["beo"] > m["class mean"] + 0.05, m
     assert m["beo"] > m["true class mean"] + 0.05, m
 
