@@ -121,7 +121,7 @@ def _split_files(stem: str, array: str, files: dict[str, str]) -> list[str]:
     ``<stem>-<array>-0.npz``, ``-1``... as the manifest lists them (the unsplit name when it
     lists neither, so that the error names the file)."""
     whole = f"{stem}-{array}.npz"
-    chunks = []
+    chunks: list[str] = []
     while f"{stem}-{array}-{len(chunks)}.npz" in files:
         chunks.append(f"{stem}-{array}-{len(chunks)}.npz")
     return chunks if chunks and whole not in files else [whole]

@@ -68,10 +68,14 @@ MIRROR_GAP = 0.003  # between the top and the mirror frame
 @register_category(
     "dresser",
     params={
-        "size": Uniform(0.092, 0.155),  # largest extent: the width or the height
+        # largest extent: the width or the height; its lower third is a large night stand's
+        # (night_stand.py reaches 0.115 m)
+        "size": Uniform(0.08, 0.155),
         "form": Choice(("low", "chest", "tall"), p=(0.45, 0.3, 0.25)),
         "proportion": Uniform(0.0, 1.0),  # height / width within the form's range
-        "depth": Uniform(0.35, 0.65),  # / width (the carcass is 3-6 cm deep)
+        # / width (the carcass is 3-6 cm deep); with its top and fronts a small chest is as
+        # deep for its width (up to about 0.75) as a shallow night stand
+        "depth": Uniform(0.35, 0.65),
         "columns": Integer(1, 3),  # at most MAX_COLUMNS of the form
         "rows": Integer(2, 6),  # as many as fit at MIN_DRAWER, at most 12 drawers
         "top_split": Flag(0.4),  # one column: the top row split into 2-3 small drawers

@@ -78,8 +78,8 @@ scale: scale the largest extent to the category's size, :func:`default_size`).""
 CATEGORY_SIZES: dict[str, float] = {
     # the library's classes
     "airplane": 0.129, "bathtub": 0.150, "bed": 0.149, "bottle": 0.234, "bowl": 0.171,
-    "box": 0.113, "can": 0.101, "car": 0.132, "chair": 0.102, "desk": 0.141, "dresser": 0.122,
-    "lamp": 0.308, "monitor": 0.123, "mug": 0.096, "night_stand": 0.068, "sofa": 0.133,
+    "box": 0.113, "can": 0.101, "car": 0.132, "chair": 0.102, "desk": 0.141, "dresser": 0.116,
+    "lamp": 0.308, "monitor": 0.123, "mug": 0.096, "night_stand": 0.071, "sofa": 0.133,
     "table": 0.115, "toilet": 0.077,
     # food (YCB)
     "apple": 0.075, "banana": 0.19, "lemon": 0.068, "orange": 0.073, "peach": 0.059,

@@ -67,9 +67,13 @@ SUPPORT_HEIGHT = {"plinth": (0.05, 0.12), "legs": (0.1, 0.3), "bracket": (0.07, 
     "night_stand",
     params={
         "style": Choice(("drawers", "table", "cabinet"), p=(0.45, 0.3, 0.25)),
-        "size": Uniform(0.062, 0.098),  # largest extent: the height or the width
+        # largest extent: the height or the width; its upper third is a small dresser's
+        # (dresser.py starts at 0.08 m), as real two- and three-drawer chests are
+        "size": Uniform(0.062, 0.115),
         "proportion": Uniform(0.0, 1.0),  # height / width, along PROPORTIONS
-        "depth": Uniform(0.62, 0.85),  # overall (top and fronts) / width
+        # overall (top and fronts) / width; a deep night stand is 0.85, a shallow one 0.55,
+        # as deep for its width as a small dresser (dresser.py: up to about 0.75)
+        "depth": Uniform(0.55, 0.85),
         "drawers": Integer(1, 3),  # drawers style: the count; cabinet: >1 puts one above
         "niche": Choice(("none", "top", "bottom"), p=(0.55, 0.3, 0.15)),
         "graduation": Uniform(0.0, 0.5),  # how much deeper the bottom drawer is

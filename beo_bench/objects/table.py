@@ -1,7 +1,11 @@
 """Table: a flat top (rectangular, square, round or oval) on legs or on a pedestal.
 
 Legs are square, round or splayed posts under the top, inset from its edge; a rectangular
-or square table may have an apron (a skirt under the top's edges) and a lower shelf. A
+or square table may have an apron (a skirt under the top's edges) and a lower shelf, and a
+rectangular one a drawer case under the top, with one to three drawer fronts
+and knobs on both long sides (a through-drawer table, as farmhouse and library tables have):
+a writing desk (desk.py) with its drawers on one side only is its nearest neighbour, as
+ModelNet's desks are its tables'. A
 pedestal is a central column on a disc or on feet. The top is a thin slab, so the table is
 picked by the top's edge (or the pedestal). Close to a box when the legs are short and to a
 stool with a round top (classes overlap in parts, as in ShapeNet).
@@ -16,6 +20,7 @@ feet under a round top are kept thick enough to break its continuous symmetry vi
 from __future__ import annotations
 
 import numpy as np
+import trimesh
 
 from beo_bench.geometry import axis_angle, continuous_symmetry, cyclic_z
 from beo_bench.objects.params import Choice, Flag, Integer, Params, Uniform
@@ -48,14 +53,19 @@ _MIN_LEG_SHARE = 0.09
         "pedestal_radius": Uniform(0.005, 0.012),
         "base_style": Choice(("disc", "feet")),
         "base_radius": Uniform(0.3, 0.45),  # / top size
+        # a rectangular table on legs may have a drawer case under its top (a farmhouse or
+        # writing table; its long sides are the apron there): close to desk.py's writing desk
+        "drawer_case": Flag(0.6),
+        "drawers": Integer(1, 3),  # drawer fronts along each long side
+        "drawer_height": Uniform(0.16, 0.26),  # the case's height / the table's
     },
     shapenet_synsets=("04379243",),
     modelnet_names=("table",),
 )
 def build(p: Params) -> Assembly:
-    """Table (15 parameters: top shape, size, aspect, thickness; height; legs or pedestal;
+    """Table (18 parameters: top shape, size, aspect, thickness; height; legs or pedestal;
     leg count, style, thickness, inset; apron; shelf; pedestal radius, base style and
-    radius)."""
+    radius; a drawer case, its drawer count and height)."""
     shape = str(p["top_shape"])
     size, h = float(p["top_size"]), float(p["height"])
     tt = float(np.clip(float(p["top_thickness"]), 0.002, 0.25 * h))
@@ -164,6 +174,8 @@ def build(p: Params) -> Assembly:
             for s in (-1, 1):
                 parts.append(box((2 * lx, at, ah), center=(0.0, s * (ly + lt / 2 - at / 2), za)))
                 parts.append(box((at, 2 * ly, ah), center=(s * (lx + lt / 2 - at / 2), 0.0, za)))
+        if shape == "rect" and p["drawer_case"]:
+            parts += _drawer_case(p, lx, ly, lt, h, tt, z_in)
         if p["shelf"]:
             # a thin board low between the legs, reaching to the legs' centre lines
             zs = 0.25 * h
@@ -173,3 +185,41 @@ def build(p: Params) -> Assembly:
 
     sym = cyclic_z(n) if round_top else cyclic_z(4 if shape == "square" else 2)
     return Assembly(parts, sym)
+
+
+_FRONT = 0.002  # drawer fronts stand this far out of the apron (a depth camera sees it)
+_GAP = 0.0018  # groove between neighbouring fronts
+_E = 0.0006  # overlap of parts that meet, so that their union is one solid
+
+
+def _drawer_case(
+    p: Params, lx: float, ly: float, lt: float, h: float, tt: float, z_in: float
+) -> list[trimesh.Trimesh]:
+    """A drawer case between the legs, under the top, with ``drawers`` fronts and knobs on
+    each long side (+y and -y). The fronts of the two sides are each other's images under
+    the half turn about z, so the table keeps its declared 2-fold group."""
+    dh = float(np.clip(float(p["drawer_height"]) * h, 0.008, 0.35 * h))
+    yf = ly + lt / 2  # the legs' outer faces: the case's, and the apron's, long sides
+    z0 = z_in - dh
+    parts = [box((2 * lx, 2 * yf - _E, dh), center=(0.0, 0.0, z0 + dh / 2))]
+    n = int(p["drawers"])
+    span = 2 * lx - lt  # between the legs' inner faces
+    w = (span - (n - 1) * _GAP) / n
+    fz0, fz1 = z0 + 0.0012, z_in - 0.5 * tt - 0.0012  # the fronts end under the top
+    knob = float(np.clip(0.25 * (fz1 - fz0), 0.0022, 0.004))
+    for s in (-1, 1):
+        for k in range(n):
+            xc = -span / 2 + w / 2 + k * (w + _GAP)
+            parts.append(
+                box(
+                    (w, _FRONT + _E, fz1 - fz0),
+                    center=(xc, s * (yf + (_FRONT - _E) / 2), (fz0 + fz1) / 2),
+                )
+            )
+            parts.append(
+                box(
+                    (knob, knob + _E, knob),
+                    center=(xc, s * (yf + _FRONT + (knob - _E) / 2), (fz0 + fz1) / 2),
+                )
+            )
+    return parts

@@ -15,7 +15,7 @@ from beo_bench.objects.processing import rotation_iou
 from beo_bench.objects.registry import generate, instance_params
 
 CATEGORY = "dresser"
-SIZE_RANGE = (0.09, 0.16)  # largest extent, metres
+SIZE_RANGE = (0.078, 0.16)  # largest extent, metres
 
 
 @pytest.fixture(scope="module")

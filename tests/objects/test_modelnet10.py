@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from beo_bench.objects import ObjectSet, categories, get_category
+from beo_bench.objects.registry import generate, instance_params
 from beo_bench.objects.sets import MODELNET10
 from beo_bench.objects.symmetry import analyse_symmetry, symmetry_name
 
@@ -34,6 +35,27 @@ def test_the_estimator_finds_the_declared_group(name: str) -> None:
         assert analyse_symmetry(inst.mesh).name == symmetry_name(inst.symmetry), inst.key
 
 
+def test_drawer_tables_occur_and_keep_their_half_turn() -> None:
+    """Some rectangular tables have a drawer case (fronts on both long sides), the nearest
+    thing to a writing desk: the estimator still finds their declared 2-fold group, and
+    the case is there (at least 5 % more volume than the same table without it)."""
+    drawer = [
+        i
+        for i in range(50)
+        if (q := instance_params("table", "test", i))["top_shape"] == "rect"
+        and q["support"] == "legs"
+        and q["drawer_case"]
+    ]
+    assert len(drawer) >= 4, drawer
+    objs = ObjectSet("test", ["table"])
+    for i in drawer[:4]:
+        inst = objs.get("table", i)
+        assert symmetry_name(inst.symmetry) == "2-fold", inst.key
+        assert analyse_symmetry(inst.mesh).name == "2-fold", inst.key
+        plain = generate("table", {**instance_params("table", "test", i), "drawer_case": False})
+        assert inst.mesh.volume > 1.05 * plain.mesh.volume, inst.key
+
+
 def _extents(name: str) -> np.ndarray:
     objs = ObjectSet("test", [name])
     return np.array([objs.get(name, i).mesh.extents.max() for i in range(objs.count(name))])
@@ -44,9 +66,11 @@ def _extents(name: str) -> np.ndarray:
 )
 def test_classes_modelnet10_confuses_overlap_in_size(small: str, large: str) -> None:
     """A night stand is a small dresser, a desk a table with drawers, a daybed a sofa: the
-    size alone (which known-pose gives) does not separate them."""
+    size alone (which known-pose gives) does not separate them: at least a fifth of each
+    class's test instances lie within the other's range of sizes."""
     a, b = _extents(small), _extents(large)
-    assert a.max() > b.min(), (small, a.max(), large, b.min())
+    assert np.mean(a >= b.min()) >= 0.2, (small, np.sort(a), large, b.min())
+    assert np.mean(b <= a.max()) >= 0.2, (large, np.sort(b), small, a.max())
 
 
 def test_docs_show_every_class() -> None:
