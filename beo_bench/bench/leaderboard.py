@@ -19,8 +19,9 @@ Only runs scored under the same rules share a table:
 - a row is a backend with its options (``icp (starts=48)``) and its model's digest (8 hex
   digits; ``-`` for none); one row per backend and options in a section.
 
-The first section of each track also gets the per-category tables, the plots, and the
-paired verdicts: each method against the baselines (:data:`BASELINES`), B - A on mean
+The first section of each track also gets the per-category tables (on the ModelNet10
+suites also Tables 3.1/4.1's form, the most frequent confusions and each backend's
+confusion matrix in counts), the plots, and the paired verdicts: each method against the baselines (:data:`BASELINES`), B - A on mean
 rotation error and the > 15 deg rate over the items both runs scored, with a bootstrap
 interval over items and a verdict (:mod:`beo_bench.bench.compare`).
 """
@@ -328,6 +329,34 @@ def confused_pairs_table(rows: list[Row]) -> str:
         "|---|---|",
     ]
     return "\n".join(head + lines)
+
+
+def confusion_counts(suite: str, rows: list[Row]) -> str:
+    """Each backend's confusion matrix in counts (rows: the true class, columns: the
+    predicted one, abbreviated as the rows), on the suites with a dissertation row (its
+    Tables 3.1 and 4.1 are per-class accuracies; chapter 4 reads the confusions behind
+    them). Folded, one block per backend; empty elsewhere."""
+    if suite not in DISSERTATION_MODELNET10:
+        return ""
+    blocks = []
+    for r in _ordered(rows):
+        conf, cats = r.summary["metrics"].get("confusion"), r.summary.get("categories")
+        if is_bound(r.summary) or not conf or not cats:
+            continue
+        M = np.asarray(conf, dtype=int)
+        short = [c.replace("_", " ")[:5] for c in cats]
+        lines = [
+            f"<details><summary>Confusion matrix of {label(r.summary)} (counts)</summary>",
+            "",
+            "| true / predicted | " + " | ".join(short) + " |",
+            "|---|" + "---:|" * len(cats),
+        ]
+        for i, (c, row) in enumerate(zip(cats, M, strict=True)):
+            # the diagonal (views read right) in bold, the confusions plain
+            cells = [f"**{k}**" if j == i else str(k) for j, k in enumerate(row)]
+            lines.append(f"| {c.replace('_', ' ')} | " + " | ".join(cells) + " |")
+        blocks.append("\n".join([*lines, "", "</details>"]))
+    return "\n\n".join(blocks)
 
 
 def _category_table(rows: list[dict[str, Any]], m: MetricSpec) -> str:
@@ -796,7 +825,11 @@ def _track_part(
         page.md += [category_table(suite, sec.rows), ""]
         t51 = table_5_1(sec.rows) if suite in TABLE_5_1_SUITES else ""
         page.md += [t51, ""] if t51 else []
-        for extra_table in (modelnet10_table(suite, sec.rows), confused_pairs_table(sec.rows)):
+        for extra_table in (
+            modelnet10_table(suite, sec.rows),
+            confused_pairs_table(sec.rows),
+            confusion_counts(suite, sec.rows),
+        ):
             page.md += [extra_table, ""] if extra_table else []
         plots = _plots(out, _prefix(suite, track), _heading(suite, track), sec.rows)
         page.plots += plots

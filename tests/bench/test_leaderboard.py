@@ -356,6 +356,12 @@ def test_modelnet10_suites_have_tables_3_1_and_4_1_and_the_confused_pairs(tmp_pa
     assert table[1].rstrip().endswith("| 81.8% |")
     pairs = _table(md, "Most frequent confusions")
     assert pairs == ["| hbeo | desk -> table 2/4; night_stand -> dresser 2/4 |"]
+    # the counts behind them: a row per true class, the diagonal in bold
+    matrix = _table(md, "Confusion matrix of hbeo (counts)")
+    assert len(matrix) == 10
+    desk = [c.strip() for c in matrix[3].split("|")[1:-1]]
+    assert desk == ["desk", "0", "0", "0", "**2**", "0", "0", "0", "0", "2", "0"]
+    assert [c.strip() for c in matrix[0].split("|")[1:-1]][1] == "**4**"
 
 
 def test_a_suite_not_in_the_leaderboards_yet_makes_a_pending_table(tmp_path) -> None:
