@@ -46,8 +46,10 @@ ABLATIONS: tuple[Ablation, ...] = (
     ),
 )
 
-KEYS: tuple[str, ...] = (*VERDICT_KEYS, "class_acc")
-"""What an ablation is paired on: the verdict metrics and, where both have it, the class."""
+KEYS: tuple[str, ...] = (*VERDICT_KEYS, "class_acc", "sample_best_rank_mean")
+"""What an ablation is paired on: the verdict metrics and, where both have them, the class
+and the rank of the best rotation sample (the posterior and the likelihood rank the same
+samples: whether the silhouette prior moves the best one up)."""
 
 
 @dataclass(frozen=True)

@@ -75,6 +75,11 @@ METRICS: tuple[MetricSpec, ...] = (
     MetricSpec("pick_success", "pick success", "pick", 100, "{:.1f}%", True, brief=True),
     MetricSpec("target_found_rate", "target found", "found", 100, "{:.1f}%", True),
     MetricSpec("failure_rate", "failed", "failed", 100, "{:.1f}%", False, board=False),
+    # a sampling backend's samples (scoring.score_samples): the ablations pair them
+    MetricSpec("sample_best_err_deg_mean", "best sample's rot. error (deg)", "best smp", 1,
+               "{:.1f}", False, board=False),
+    MetricSpec("sample_best_rank_mean", "rank of the best sample", "best rank", 1, "{:.2f}",
+               False, board=False),
     MetricSpec("ms_per_view_median", "ms/view", "ms/view", 1, "{:.1f}", False, brief=True,
                paired=False),
 )  # fmt: skip

@@ -21,9 +21,10 @@ Only runs scored under the same rules share a table:
 
 The first section of each track also gets the per-category tables (on the ModelNet10
 suites also Tables 3.1/4.1's form, the most frequent confusions and each backend's
-confusion matrix in counts), the plots, and the paired verdicts: each method against the baselines (:data:`BASELINES`), B - A on mean
-rotation error and the > 15 deg rate over the items both runs scored, with a bootstrap
-interval over items and a verdict (:mod:`beo_bench.bench.compare`).
+confusion matrix in counts), the plots, and the paired verdicts: each method against the
+baselines (:data:`BASELINES`), B - A on mean rotation error and the > 15 deg rate over the
+items both runs scored, with a bootstrap interval over items and a verdict
+(:mod:`beo_bench.bench.compare`).
 """
 
 from __future__ import annotations

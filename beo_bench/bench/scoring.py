@@ -164,7 +164,30 @@ def score_pose(
     if K is not None:
         px = metrics.mspd(*args, np.asarray(K, dtype=np.float64), truth.model_points, sym)
         out["mspd_px"] = px if np.isfinite(px) else None
+    if est.pose_samples is not None and len(est.pose_samples):
+        out.update(score_samples(est, gt))
     return out
+
+
+def score_samples(est: Estimate, gt: GroundTruth) -> dict[str, float]:
+    """What a sampling backend's samples offer and how it ranked them: the error of the
+    best sample (deg, under the symmetry group: no ranking of these samples can do better),
+    that sample's rank under ``pose_weights`` (0: the sample the weights put first; ties
+    broken by the sample order, as ``argmax`` does) and the samples' spread (the median
+    angle between a sample and the estimate, deg). Paired over the same samples (HBEO-MDN
+    seeds them by the crop), the likelihood and posterior modes differ only in the rank:
+    this is what says whether the silhouette prior (eq. 5.6) moves the best sample up."""
+    S = np.asarray(est.pose_samples, dtype=np.float64)
+    errs = np.array([metrics.rotation_error(R, gt.R_cam, gt.symmetry) for R in S])
+    best = int(np.argmin(errs))
+    w = np.asarray(est.pose_weights) if est.pose_weights is not None else np.ones(len(S))
+    order = np.argsort(-w, kind="stable")
+    cos = (np.einsum("nij,ij->n", S, np.asarray(est.rotation)) - 1.0) / 2.0
+    return {
+        "sample_best_err_deg": float(errs[best]),
+        "sample_best_rank": int(np.flatnonzero(order == best)[0]),
+        "sample_spread_deg": float(np.degrees(np.median(np.arccos(np.clip(cos, -1, 1))))),
+    }
 
 
 def resample(grid: np.ndarray, D: int) -> np.ndarray:

@@ -17,6 +17,10 @@ import numpy as np
 from beo_bench import metrics
 from beo_bench.bench.suites import Suite
 
+SAMPLE_FIELDS = ("sample_best_err_deg", "sample_best_rank", "sample_spread_deg")
+"""Row fields of a backend that returns rotation samples (:func:`beo_bench.bench.scoring.
+score_samples`)."""
+
 WORST_ROTATION_DEG = 180.0
 """What a failed view's rotation error counts as (the largest possible)."""
 TRANSLATION_CAP_CM = 50.0
@@ -117,6 +121,14 @@ def estimate_values(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, np.nd
         out["mspd_px_mean"] = col("mspd_px")
     for key in ("iou", "iou_cam", "edt_err", "fscore", "chamfer_l1"):
         out[f"{key}_mean"] = col(key)
+    if any(SAMPLE_FIELDS[0] in r for r in rows):
+        # a sampling backend's samples (scoring.score_samples): measured on the views it
+        # answered, NaN on failures (a failure has no samples to rank; it counts in the
+        # rotation error at its worst case already)
+        for key in SAMPLE_FIELDS:
+            out[f"{key}_mean"] = np.array(
+                [float(r[key]) if r.get(key) is not None else np.nan for r in rows]
+            )
     return out
 
 

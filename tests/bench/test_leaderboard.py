@@ -378,3 +378,30 @@ def test_a_suite_not_in_the_leaderboards_yet_makes_a_pending_table(tmp_path) -> 
     regenerate(runs, tmp_path / "board")
     with pytest.raises(MissingFigureError, match="has no row"):
         render(text, Boards(tmp_path / "board"))
+
+
+def test_the_silhouette_prior_table_pairs_the_rank_of_the_best_sample(tmp_path) -> None:
+    """docs/results.md's prior table per 3-DOF suite: posterior against likelihood on the
+    error and on where each ranks the best of the (shared) samples, from the ablations the
+    leaderboard pairs; a suite without the runs waits for them."""
+    from beo_bench.bench.doctables import PENDING, TABLES, Boards, render
+
+    runs = tmp_path / "runs"
+    for name, rank in (("hbeo-mdn-likelihood", 6), ("hbeo-mdn-posterior", 2)):
+        rows = [
+            pose_row(i, rot_err_deg=20.0 - rank, sample_best_err_deg=3.0,
+                     sample_best_rank=rank + i % 2, sample_spread_deg=30.0)
+            for i in range(20)
+        ]  # fmt: skip
+        write_run(runs / name, name, rows, suite="modelnet10-3dof", track="class-free",
+                  uses_hint=False)  # fmt: skip
+    regenerate(runs, tmp_path / "board")
+    boards = Boards(tmp_path / "board")
+    lines = TABLES["mdn-prior-modelnet10"](boards).splitlines()
+    assert lines[2].startswith("| N = 25, mean error | 14.0 deg | 18.0 deg | +4.0 deg")
+    assert lines[4].startswith("| N = 25, rank of the best sample (0: first) | 6.5 | 2.5 | -4.0")
+    assert lines[4].endswith("**better** |")
+    assert lines[5] == "| N = 25, best sample's error | 3.0 deg | 3.0 deg | - |"
+    assert len(lines) == 6  # no N = 100 runs: no rows for them
+    text = "<!-- table: mdn-prior -->\nold\n<!-- /table -->\n"
+    assert PENDING.split("(")[0] in render(text, boards)  # pose-3dof is not there

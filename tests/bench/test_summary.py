@@ -177,3 +177,36 @@ def test_a_pick_episode_that_chose_nothing_did_not_find_the_target() -> None:
     assert m["failure_rate"] == pytest.approx(1 / 3)
     assert m["pick_failure_reasons"] == {"no_estimate": 1, "timeout": 1}
     assert m["ms_per_decision_median"] == pytest.approx(5.5)
+
+
+def test_a_sampling_backend_is_scored_on_its_best_sample_and_that_samples_rank() -> None:
+    """The samples' figures (scoring.score_samples): the best sample's error under the
+    symmetry group, its rank under the weights (0: put first), the samples' spread; in the
+    summary as means over the views answered (a failure has no samples: not counted)."""
+    from beo_bench.bench.scoring import score_samples
+    from beo_bench.geometry import axis_angle, cyclic_z
+    from beo_bench.types import Estimate, GroundTruth
+
+    z = np.array([0.0, 0.0, 1.0])
+    S_ = np.stack([axis_angle(z, np.radians(a)) for a in (30.0, 2.0, 181.0, 10.0)])
+    gt = GroundTruth(
+        key="k", category="mug", class_index=0, R_cam=np.eye(3), t_cam=np.zeros(3),
+        size=np.ones(3), symmetry=cyclic_z(2),
+    )  # fmt: skip
+    est = Estimate(
+        class_probs=np.array([1.0]), rotation=S_[0], translation=np.zeros(3),
+        size=np.ones(3), shape=np.zeros((2, 2, 2)), pose_samples=S_,
+        pose_weights=np.array([0.4, 0.1, 0.3, 0.2]),
+    )  # fmt: skip
+    out = score_samples(est, gt)
+    # 181 deg is 1 deg from the half turn that the 2-fold group makes the truth
+    assert out["sample_best_err_deg"] == pytest.approx(1.0)
+    assert out["sample_best_rank"] == 1  # weights order: 30, 181, 10, 2 deg
+    assert out["sample_spread_deg"] == pytest.approx(np.median([0.0, 28.0, 151.0, 20.0]))
+    rows = [_row(0, sample_best_err_deg=1.0, sample_best_rank=1, sample_spread_deg=20.0),
+            _row(1, sample_best_err_deg=3.0, sample_best_rank=5, sample_spread_deg=30.0),
+            _failed(2)]  # fmt: skip
+    m = S.summarise(POSE, "x", rows)["metrics"]
+    assert m["sample_best_err_deg_mean"] == 2.0 and m["sample_best_rank_mean"] == 3.0
+    assert m["sample_spread_deg_mean"] == 25.0
+    assert "sample_best_rank_mean" not in S.summarise(POSE, "x", [_row(0)])["metrics"]
