@@ -5,27 +5,21 @@ drawn."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 import beo_bench.objects.bathtub  # noqa: F401  (registers the category)
-from beo_bench.geometry import axis_angle, symmetry_transformations
-from beo_bench.objects import DEFAULT_SPLIT_SIZES, SPLITS, ObjectSet, instance_from_key
-from beo_bench.objects.cache import mesh_hash
-from beo_bench.objects.processing import rotation_iou
-from beo_bench.objects.registry import generate, instance_params
+from beo_bench.geometry import symmetry_transformations
+from beo_bench.objects.registry import instance_params
+from tests.objects.category_checks import (
+    declared_group_fits,
+    deterministic_per_key,
+    module_test_set,
+    solid_and_sized,
+    splits_disjoint,
+)
 
 CATEGORY = "bathtub"
 SIZE_RANGE = (0.095, 0.17)  # largest extent, metres
-QUARTER, HALF = axis_angle([0.0, 0.0, 1.0], np.pi / 2), axis_angle([0.0, 0.0, 1.0], np.pi)
-
-
-@pytest.fixture(scope="module")
-def test_set() -> list:
-    return list(ObjectSet("test", [CATEGORY], per_category=50))
-
-
-def _in_group(R: np.ndarray, group: list[np.ndarray]) -> bool:
-    return any(np.allclose(T[:3, :3], R, atol=1e-6) for T in group)
+test_set = module_test_set(CATEGORY)  # module-scoped: the first 50 test instances
 
 
 def _two_fold(p: dict) -> bool:
@@ -34,11 +28,9 @@ def _two_fold(p: dict) -> bool:
 
 
 def test_watertight_one_body_sized_and_long_along_y(test_set: list) -> None:
+    solid_and_sized(test_set, SIZE_RANGE)
     for inst in test_set:
         m = inst.mesh
-        assert m.is_watertight, inst.key
-        assert m.body_count == 1, (inst.key, "one connected solid, no closed cavities")
-        assert SIZE_RANGE[0] <= m.extents.max() <= SIZE_RANGE[1], (inst.key, m.extents)
         p = instance_params(CATEGORY, "test", inst.index)
         # long along y (a corner tub a little less so), and low
         ratio = 1.05 if p["style"] == "corner" else 1.6
@@ -72,12 +64,7 @@ def test_taps_at_plus_y(test_set: list) -> None:
 
 
 def test_deterministic_per_key(test_set: list) -> None:
-    for inst in test_set[:3]:
-        again = instance_from_key(inst.key)
-        assert again.content_hash == inst.content_hash
-        rebuilt = generate(CATEGORY, instance_params(CATEGORY, "test", inst.index))
-        assert mesh_hash(rebuilt.mesh) == inst.content_hash
-    assert test_set[0].content_hash != test_set[1].content_hash
+    deterministic_per_key(CATEGORY, test_set)
 
 
 def test_symmetry_as_declared(test_set: list) -> None:
@@ -89,11 +76,7 @@ def test_symmetry_as_declared(test_set: list) -> None:
         group = symmetry_transformations(inst.symmetry)
         assert not inst.symmetry["continuous"], inst.key
         assert len(group) == (2 if _two_fold(p) else 1), inst.key
-        for T in group[1:]:
-            assert rotation_iou(inst.mesh, T) > 0.95, (inst.key, T.round(3))
-        for R in (QUARTER, HALF):
-            if not _in_group(R, group):
-                assert rotation_iou(inst.mesh, R) < 0.95, (inst.key, R.round(3))
+    declared_group_fits(test_set)
 
 
 def test_every_sub_style_occurs() -> None:
@@ -111,9 +94,4 @@ def test_every_sub_style_occurs() -> None:
 
 
 def test_splits_disjoint() -> None:
-    seen: dict[str, str] = {}
-    for split in SPLITS:
-        for i in range(DEFAULT_SPLIT_SIZES[split]):
-            sig = repr(sorted(instance_params(CATEGORY, split, i).items()))
-            assert sig not in seen, f"{split}/{i} repeats {seen.get(sig)}"
-            seen[sig] = f"{split}/{i}"
+    splits_disjoint(CATEGORY)

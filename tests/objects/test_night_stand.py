@@ -5,55 +5,40 @@ drawn."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 import beo_bench.objects.night_stand  # noqa: F401  (registers the category)
 from beo_bench.geometry import axis_angle
-from beo_bench.objects import DEFAULT_SPLIT_SIZES, SPLITS, ObjectSet, instance_from_key
-from beo_bench.objects.cache import mesh_hash
 from beo_bench.objects.processing import rotation_iou
-from beo_bench.objects.registry import generate, instance_params
+from beo_bench.objects.registry import instance_params
+from tests.objects.category_checks import (
+    deterministic_per_key,
+    module_test_set,
+    no_turn_about_z_keeps,
+    solid_and_sized,
+    splits_disjoint,
+)
 
 CATEGORY = "night_stand"
 SIZE_RANGE = (0.06, 0.117)  # largest extent, metres
-
-
-@pytest.fixture(scope="module")
-def test_set() -> list:
-    return list(ObjectSet("test", [CATEGORY], per_category=50))
+test_set = module_test_set(CATEGORY)  # module-scoped: the first 50 test instances
 
 
 def test_watertight_one_body_and_sized(test_set: list) -> None:
+    solid_and_sized(test_set, SIZE_RANGE)
     for inst in test_set:
         m = inst.mesh
-        assert m.is_watertight, inst.key
-        assert m.body_count == 1, (inst.key, "one connected solid, no closed cavities")
-        assert SIZE_RANGE[0] <= m.extents.max() <= SIZE_RANGE[1], (inst.key, m.extents)
         # wider than deep: a quarter turn about z is no symmetry of the plan
         assert m.extents[1] > 1.15 * m.extents[0], (inst.key, m.extents)
 
 
 def test_deterministic_per_key(test_set: list) -> None:
-    for inst in test_set[:3]:
-        again = instance_from_key(inst.key)
-        assert again.content_hash == inst.content_hash
-        rebuilt = generate(CATEGORY, instance_params(CATEGORY, "test", inst.index))
-        assert mesh_hash(rebuilt.mesh) == inst.content_hash
-    assert test_set[0].content_hash != test_set[1].content_hash
+    deterministic_per_key(CATEGORY, test_set)
 
 
 def test_no_rotational_symmetry(test_set: list) -> None:
     """Declared without symmetry, and indeed no half or quarter turn about z (nor the
     other probes of tests/objects/test_categories.py) keeps the solid: IoU < 0.95."""
-    probes = [axis_angle([0.0, 0.0, 1.0], a) for a in (np.pi, np.pi / 2)]
-    for inst in test_set:
-        assert not inst.symmetry["continuous"] and not inst.symmetry["discrete"], inst.key
-        for R in probes:
-            assert rotation_iou(inst.mesh, R) < 0.95, (inst.key, R.round(3))
-    others = [axis_angle([1.0, 0.0, 0.0], np.pi / 2), axis_angle([0.0, 1.0, 0.0], np.pi / 2)]
-    for inst in test_set[:10]:
-        for R in others:
-            assert rotation_iou(inst.mesh, R) < 0.95, (inst.key, R.round(3))
+    no_turn_about_z_keeps(test_set, quarter_xy_on=10)
 
 
 def test_table_style_front_differs_about_its_centre_of_mass(test_set: list) -> None:
@@ -92,9 +77,4 @@ def test_every_sub_style_occurs() -> None:
 
 
 def test_splits_disjoint() -> None:
-    seen: dict[str, str] = {}
-    for split in SPLITS:
-        for i in range(DEFAULT_SPLIT_SIZES[split]):
-            sig = repr(sorted(instance_params(CATEGORY, split, i).items()))
-            assert sig not in seen, f"{split}/{i} repeats {seen.get(sig)}"
-            seen[sig] = f"{split}/{i}"
+    splits_disjoint(CATEGORY)
