@@ -366,7 +366,7 @@ RECIPES: dict[str, dict[str, Any]] = {
 """Training recipes. ``default``: 16,000 crops, 15 epochs, the last epoch's weights (a couple of
 minutes on 2 CPU cores; what tests and quick checks shrink further). ``reference``: 100,000
 crops, 20 epochs, the best validation epoch's weights: the published models (``beo-bench train
-hbeo|hbeo-mdn --recipe reference`` reproduces them; their epochs took 31.1 and 31.5 minutes on 2
+hbeo|hbeo-mdn --recipe reference`` reproduces them; their epochs took 39.5 and 22.8 minutes on 2
 CPU cores at 18 classes, plus rendering the crops once). Why: the small network on 16,000 crops
 gives 23.9 deg mean on ``pose-3dof``, the reference one 13.0 deg; the method needs the data.
 ``per-category``: one class's network (chapter 5 trained one per category; ``--categories
