@@ -247,12 +247,12 @@ def mdn_prior_table(suite: str) -> Callable[[Boards], str]:
         head = [f"`{suite}`, class-free", "likelihood", "posterior",
                 "posterior - likelihood [95%]"]  # fmt: skip
         rows = []
+        rank: Callable[[float], str] = functools.partial(num, digits=1)
         for n in (25, 100):
             opt = "" if n == 25 else " (samples=100)"
             method, base = f"hbeo-mdn-posterior{opt}", f"hbeo-mdn-likelihood{opt}"
             if n != 25 and not b.has(suite, method):
                 continue  # N = 100 where the campaign runs it (pose-3dof)
-            rank: Callable[[float], str] = functools.partial(num, digits=1)
             for label, key, fmt, unit in (
                 ("mean error", "rot_err_deg_mean", deg, " deg"),
                 ("> 15 deg", "gross_err_rate", pct, " pts"),

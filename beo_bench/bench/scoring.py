@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from beo_bench import metrics
+from beo_bench.bench.tally import SAMPLE_FIELDS
 from beo_bench.objects import instance_from_key
 from beo_bench.types import Estimate, GroundTruth, View
 
@@ -183,11 +184,12 @@ def score_samples(est: Estimate, gt: GroundTruth) -> dict[str, float]:
     w = np.asarray(est.pose_weights) if est.pose_weights is not None else np.ones(len(S))
     order = np.argsort(-w, kind="stable")
     cos = (np.einsum("nij,ij->n", S, np.asarray(est.rotation)) - 1.0) / 2.0
-    return {
-        "sample_best_err_deg": float(errs[best]),
-        "sample_best_rank": int(np.flatnonzero(order == best)[0]),
-        "sample_spread_deg": float(np.degrees(np.median(np.arccos(np.clip(cos, -1, 1))))),
-    }
+    values = (
+        float(errs[best]),
+        int(np.flatnonzero(order == best)[0]),
+        float(np.degrees(np.median(np.arccos(np.clip(cos, -1, 1))))),
+    )
+    return dict(zip(SAMPLE_FIELDS, values, strict=True))
 
 
 def resample(grid: np.ndarray, D: int) -> np.ndarray:

@@ -18,8 +18,9 @@ from beo_bench import metrics
 from beo_bench.bench.suites import Suite
 
 SAMPLE_FIELDS = ("sample_best_err_deg", "sample_best_rank", "sample_spread_deg")
-"""Row fields of a backend that returns rotation samples (:func:`beo_bench.bench.scoring.
-score_samples`)."""
+"""Row fields of a backend that returns rotation samples, in the order
+:func:`beo_bench.bench.scoring.score_samples` computes them: the best sample's error (deg),
+its rank under the weights, the samples' spread (deg)."""
 
 WORST_ROTATION_DEG = 180.0
 """What a failed view's rotation error counts as (the largest possible)."""
