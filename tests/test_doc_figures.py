@@ -103,3 +103,20 @@ def test_every_row_was_scored_on_a_clean_checkout_of_a_commit_in_the_history() -
         assert known.returncode == 0, f"a row cites commit {commit}, which is not in the history"
         ancestor = subprocess.run([*git, "merge-base", "--is-ancestor", commit, "HEAD"])
         assert ancestor.returncode == 0, f"commit {commit} is not an ancestor of HEAD"
+
+
+def test_the_committed_modelnet10_3dof_leaves_headroom() -> None:
+    """Issue 28's gate on the committed leaderboard: no in-tree method reads the class of
+    more than 97% of ``modelnet10-3dof``'s views, HBEO (3-DOF) is not below BEO (1-DOF) on
+    class, and no MDN mode is worse than HBEO on rotation (docs/results.md's headroom table
+    shows the figures). Waits while the suite is not in the leaderboards."""
+    from beo_bench.bench.doctables import PendingSuiteError, modelnet10_headroom
+
+    try:
+        table = modelnet10_headroom(Boards(BOARDS))
+    except PendingSuiteError as e:
+        pytest.skip(f"not in the leaderboards yet: {e}")
+    verdicts = [ln.rsplit("|", 2)[1].strip() for ln in table.splitlines()[2:]]
+    failed = [ln for ln, v in zip(table.splitlines()[2:], verdicts, strict=True)
+              if v != "holds" and not v.startswith("waits")]  # fmt: skip
+    assert failed == [], failed

@@ -44,6 +44,10 @@ ABLATIONS: tuple[Ablation, ...] = (
     Ablation(
         "beo (pose_prior=false)", "beo", "BEO's viewpoint prior P(r) of eq. 3.22, made uniform"
     ),
+    # chapter 5's ordering (Tables 5.1, 5.2): the mixture head at or below HBEO's single
+    # rotation; issue 28's headroom check reads these pairs on modelnet10-3dof
+    Ablation("hbeo-mdn-likelihood", "hbeo", "the MDN's mixture head (chapter 5), likelihood mode"),
+    Ablation("hbeo-mdn-posterior", "hbeo", "the MDN's mixture head with eq. 5.6's prior"),
 )
 
 KEYS: tuple[str, ...] = (*VERDICT_KEYS, "class_acc", "sample_best_rank_mean")
