@@ -201,6 +201,7 @@ def cmd_objects(args: argparse.Namespace) -> int:
         resolution=args.resolution,
         workers=args.workers,
         sheet=args.sheet,
+        sheet_per_category=args.per_category or 6,  # the sheet shows what --per-category asks
         split_counts=counts,
     )
     print()

@@ -128,18 +128,21 @@ def summarise_objects(
     resolution: int = 32,
     workers: int = 2,
     sheet: Path | None = None,
+    sheet_per_category: int = 6,
     split_counts: dict[str, str] | None = None,
 ) -> ObjectsReport:
     """Process every instance of ``objects`` (meshes, ``resolution``^3 voxels, surface
     samples, collision parts; cached) with ``workers`` processes, and draw a contact sheet
-    to ``sheet`` when given."""
+    of ``sheet_per_category`` instances a category to ``sheet`` when given."""
     from beo_bench.objects.prepare import prepare
     from beo_bench.objects.sheet import contact_sheet
 
     t0 = time.perf_counter()
     stats = prepare(objects, D=resolution, workers=workers)
     wall = time.perf_counter() - t0
-    written = contact_sheet(sheet, objects, per_category=6) if sheet is not None else None
+    written = None
+    if sheet is not None:
+        written = contact_sheet(sheet, objects, per_category=sheet_per_category)
     return ObjectsReport(tuple(stats), split, split_counts, wall, workers, resolution, written)
 
 

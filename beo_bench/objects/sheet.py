@@ -22,8 +22,11 @@ def contact_sheet(
     objects: ObjectSet,
     per_category: int = 6,
     categories: Sequence[str] | None = None,
+    columns: int = 8,
 ) -> Path:
-    """Draw ``per_category`` instances of each category (rows) into ``path``."""
+    """Draw ``per_category`` instances of each category into ``path``: a category per row,
+    wrapped onto further rows after ``columns`` instances (a one-class sheet of 16 is two
+    rows of 8)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -31,15 +34,18 @@ def contact_sheet(
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     cats = list(categories or objects.categories)
-    cols = per_category
-    fig = plt.figure(figsize=(1.9 * cols + 1.2, 1.9 * len(cats)), dpi=90)
+    cols = min(per_category, columns)
+    wraps = -(-per_category // cols)  # rows a category takes
+    nrows = wraps * len(cats)
+    fig = plt.figure(figsize=(1.9 * cols + 1.2, 1.9 * nrows), dpi=90)
     cmap = matplotlib.colormaps["tab10"]
     for r, cat in enumerate(cats):
-        n = min(cols, objects.count(cat))
+        n = min(per_category, objects.count(cat))
         for c in range(n):
             inst = objects.get(cat, c)
             m = inst.mesh
-            ax = fig.add_subplot(len(cats), cols, r * cols + c + 1, projection="3d")
+            cell = (r * wraps + c // cols) * cols + c % cols + 1
+            ax = fig.add_subplot(nrows, cols, cell, projection="3d")
             tri = m.vertices[m.faces]
             shade = 0.35 + 0.65 * np.clip(m.face_normals @ _LIGHT, 0, 1)
             base = np.array(cmap(r % 10)[:3])
@@ -65,10 +71,13 @@ def contact_sheet(
                     weight="bold",
                 )
     fig.suptitle(
-        f"beo-bench object library: split {objects.split!r}, first {cols} instances per category",
+        f"beo-bench object library: split {objects.split!r}, first {per_category} instances "
+        "per category",
         fontsize=12,
     )
-    fig.subplots_adjust(left=0.04, right=0.99, top=0.95, bottom=0.01, wspace=0.02, hspace=0.15)
+    fig.subplots_adjust(
+        left=0.04, right=0.99, top=1 - 0.8 / (1.9 * nrows), bottom=0.01, wspace=0.02, hspace=0.15
+    )
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)

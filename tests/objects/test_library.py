@@ -197,3 +197,17 @@ def test_inside_tests_release_their_embree_scene() -> None:
     assert inside.tolist() == [True, False]
     voxelize(box, 8)
     assert len(box.ray._cache.cache) == 0
+
+
+def test_a_contact_sheet_wraps_a_category_onto_rows_of_its_columns(tmp_path) -> None:
+    """docs/objects.md's one-class sheets: 4 instances at 2 columns take two rows (about
+    twice the height of one row of 4, half the width)."""
+    from PIL import Image
+
+    from beo_bench.objects.sheet import contact_sheet
+
+    objects = ObjectSet("test", categories=["bowl"], per_category=4)
+    wide = Image.open(contact_sheet(tmp_path / "wide.png", objects, per_category=4)).size
+    tall = Image.open(contact_sheet(tmp_path / "tall.png", objects, per_category=4, columns=2)).size
+    assert tall[1] == pytest.approx(2 * wide[1], rel=0.01)
+    assert tall[0] < 0.6 * wide[0]
