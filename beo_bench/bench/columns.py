@@ -80,6 +80,13 @@ METRICS: tuple[MetricSpec, ...] = (
                "{:.1f}", False, board=False),
     MetricSpec("sample_best_rank_mean", "rank of the best sample", "best rank", 1, "{:.2f}",
                False, board=False),
+    # the same on the views with a gross error (> 15 deg) alone
+    MetricSpec("sample_best_rank_gross_mean", "rank of the best sample, gross errors",
+               "rank >15", 1, "{:.2f}", False, board=False),
+    MetricSpec("sample_near_true_gross_rate", "gross errors with a sample within 15 deg",
+               "near >15", 100, "{:.1f}%", True, board=False),
+    MetricSpec("half_turn_gross_rate", "gross errors that are half turns (>= 150 deg)",
+               "halfturns", 100, "{:.1f}%", False, board=False),
     MetricSpec("ms_per_view_median", "ms/view", "ms/view", 1, "{:.1f}", False, brief=True,
                paired=False),
 )  # fmt: skip

@@ -267,6 +267,15 @@ def mdn_prior_table(suite: str) -> Callable[[Boards], str]:
             # the samples themselves are the same in both modes: what the best one errs
             best = b.metric(suite, method, "sample_best_err_deg_mean")
             rows.append([f"N = {n}, best sample's error", deg(best), deg(best), "-"])
+            # the views the pick got wrong (> 15 deg) alone: what the samples held there
+            ms = [b.row(suite, x)["metrics"] for x in (base, method)]
+            for label, key, fmt in (
+                ("gross errors: rank of the best sample", "sample_best_rank_gross_mean", rank),
+                ("gross errors with a sample within 15 deg", "sample_near_true_gross_rate", pct),
+                ("gross errors that are half turns", "half_turn_gross_rate", pct),
+            ):
+                if all(m.get(key) is not None for m in ms):
+                    rows.append([f"N = {n}, {label}", fmt(ms[0][key]), fmt(ms[1][key]), "-"])
         return _table(head, rows)
 
     return table

@@ -35,6 +35,9 @@ CHAMFER_CAP = math.sqrt(3.0)
 TIMING_KEYS = ("ms_per_view_median", "ms_per_view_p95", "views_per_s", "ms_per_decision_median")
 """Metrics that measure time (they vary from run to run; everything else is deterministic)."""
 GROSS_ERROR_DEG = metrics.GROSS_ERROR_DEG
+HALF_TURN_DEG = 150.0
+"""A rotation error at least this large counts as a half turn (a flip of a near-symmetric
+object) in ``half_turn_gross_rate``."""
 """The gross-error threshold of [Burchfiel] Table 5.2 (defined in :mod:`beo_bench.metrics`)."""
 
 
@@ -130,6 +133,16 @@ def estimate_values(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, np.nd
             out[f"{key}_mean"] = np.array(
                 [float(r[key]) if r.get(key) is not None else np.nan for r in rows]
             )
+        # the same on the gross errors alone (> 15 deg, NaN on the other views): whether
+        # the samples of a view the pick got wrong hold a right one, and where the weights
+        # rank it; and how many of those errors are half turns (a front told from a back:
+        # what a silhouette prior, eq. 5.6, cannot see on a near-symmetric object)
+        if suite.protocol.scores_pose:
+            best = out["sample_best_err_deg_mean"]  # NaN on failures: they have no samples
+            gross = np.where(metrics.is_gross_error(rot) & ~np.isnan(best), 1.0, np.nan)
+            out["sample_best_rank_gross_mean"] = gross * out["sample_best_rank_mean"]
+            out["sample_near_true_gross_rate"] = gross * (best <= GROSS_ERROR_DEG)
+            out["half_turn_gross_rate"] = gross * (rot >= HALF_TURN_DEG)
     return out
 
 

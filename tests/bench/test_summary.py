@@ -210,3 +210,23 @@ def test_a_sampling_backend_is_scored_on_its_best_sample_and_that_samples_rank()
     assert m["sample_best_err_deg_mean"] == 2.0 and m["sample_best_rank_mean"] == 3.0
     assert m["sample_spread_deg_mean"] == 25.0
     assert "sample_best_rank_mean" not in S.summarise(POSE, "x", [_row(0)])["metrics"]
+
+
+def test_the_gross_errors_of_a_sampling_backend_are_scored_apart() -> None:
+    """On the views whose pick errs by more than 15 deg alone: the best sample's rank,
+    whether a sample lies within 15 deg of the truth, whether the error is a half turn
+    (docs/results.md's account of the silhouette prior); a failure has no samples and
+    counts in none of them, a view within 15 deg in none either."""
+    rows = [
+        _row(0, rot_err_deg=5.0, sample_best_err_deg=1.0, sample_best_rank=0,
+             sample_spread_deg=2.0),
+        _row(1, rot_err_deg=176.0, sample_best_err_deg=4.0, sample_best_rank=14,
+             sample_spread_deg=5.0),
+        _row(2, rot_err_deg=40.0, sample_best_err_deg=30.0, sample_best_rank=6,
+             sample_spread_deg=9.0),
+        _failed(3),
+    ]  # fmt: skip
+    m = S.summarise(POSE, "x", rows)["metrics"]
+    assert m["sample_best_rank_gross_mean"] == 10.0  # views 1 and 2
+    assert m["sample_near_true_gross_rate"] == 0.5  # view 1's best sample is 4 deg off
+    assert m["half_turn_gross_rate"] == 0.5  # 176 deg is, 40 deg is not
