@@ -477,13 +477,13 @@ def modelnet10_headroom(b: Boards) -> str:
         rows.append([check, "-", f"waits ({e})"])
     else:
         verdict = "holds" if lo > 0 else ("**fails**" if hi < 0 else "not shown (interval spans 0)")
-        acc = [
+        accs = [
             b.metric(s, n, "class_acc") for s, n in ((suite, "hbeo"), ("modelnet10-1dof", "beo"))
         ]
         rows.append(
             [
                 check,
-                f"{pct(acc[0])} vs {pct(acc[1])}: {100 * d:+.1f} pts "
+                f"{pct(accs[0])} vs {pct(accs[1])}: {100 * d:+.1f} pts "
                 f"[{100 * lo:+.1f}, {100 * hi:+.1f}] (unpaired)",
                 verdict,
             ]
