@@ -429,14 +429,19 @@ def _acc_ci(b: Boards, suite: str, name: str) -> str:
     return f"{pct(row['metrics']['class_acc'])} [{100 * lo:.1f}, {100 * hi:.1f}]"
 
 
-def _unpaired(b: Boards, a: tuple[str, str], c: tuple[str, str]) -> tuple[float, float, float]:
-    """Class accuracy of run ``a`` minus run ``c`` ((suite, backend), other items: not
-    paired), with a 95% interval from the two bootstrap intervals as if normal (their
-    half-widths add in quadrature)."""
+def _unpaired(b: Boards, a: tuple[str, str], c: tuple[str, str]) -> tuple[str, str]:
+    """Class accuracy of run ``a`` against run ``c`` ((suite, backend), other items: not
+    paired): both, their difference and a 95% interval from the two bootstrap intervals as
+    if normal (their half-widths add in quadrature), and the verdict on ``a`` above ``c``."""
     ra, rc = b.row(*a), b.row(*c)
-    d = ra["metrics"]["class_acc"] - rc["metrics"]["class_acc"]
+    va, vc = ra["metrics"]["class_acc"], rc["metrics"]["class_acc"]
     half = float(np.hypot(*(np.diff(r["ci95"]["class_acc"])[0] / 2 for r in (ra, rc))))
-    return d, d - half, d + half
+    d, lo, hi = va - vc, va - vc - half, va - vc + half
+    verdict = "holds" if lo > 0 else ("**fails**" if hi < 0 else "not shown (interval spans 0)")
+    figures = (
+        f"{pct(va)} vs {pct(vc)}: {100 * d:+.1f} pts [{100 * lo:+.1f}, {100 * hi:+.1f}] (unpaired)"
+    )
+    return figures, verdict
 
 
 def modelnet10(b: Boards) -> str:
@@ -472,22 +477,10 @@ def modelnet10_headroom(b: Boards) -> str:
         rows.append([f"`{name}` class accuracy <= 97%", _acc_ci(b, suite, name), ok])
     check = "`hbeo` (3-DOF) above `beo` (1-DOF) on class (Tables 3.1, 4.1)"
     try:
-        d, lo, hi = _unpaired(b, (suite, "hbeo"), ("modelnet10-1dof", "beo"))
+        figures, verdict = _unpaired(b, (suite, "hbeo"), ("modelnet10-1dof", "beo"))
     except PendingSuiteError as e:  # a campaign suite by suite: 1-DOF may come later
-        rows.append([check, "-", f"waits ({e})"])
-    else:
-        verdict = "holds" if lo > 0 else ("**fails**" if hi < 0 else "not shown (interval spans 0)")
-        accs = [
-            b.metric(s, n, "class_acc") for s, n in ((suite, "hbeo"), ("modelnet10-1dof", "beo"))
-        ]
-        rows.append(
-            [
-                check,
-                f"{pct(accs[0])} vs {pct(accs[1])}: {100 * d:+.1f} pts "
-                f"[{100 * lo:+.1f}, {100 * hi:+.1f}] (unpaired)",
-                verdict,
-            ]
-        )
+        figures, verdict = "-", f"waits ({e})"
+    rows.append([check, figures, verdict])
     for mode in ("likelihood", "posterior"):
         p = b.pair(suite, f"hbeo-mdn-{mode}", "hbeo", "rot_err_deg_mean", "class-free")
         rows.append(

@@ -35,10 +35,10 @@ CHAMFER_CAP = math.sqrt(3.0)
 TIMING_KEYS = ("ms_per_view_median", "ms_per_view_p95", "views_per_s", "ms_per_decision_median")
 """Metrics that measure time (they vary from run to run; everything else is deterministic)."""
 GROSS_ERROR_DEG = metrics.GROSS_ERROR_DEG
+"""The gross-error threshold of [Burchfiel] Table 5.2 (defined in :mod:`beo_bench.metrics`)."""
 HALF_TURN_DEG = 150.0
 """A rotation error at least this large counts as a half turn (a flip of a near-symmetric
 object) in ``half_turn_gross_rate``."""
-"""The gross-error threshold of [Burchfiel] Table 5.2 (defined in :mod:`beo_bench.metrics`)."""
 
 
 def edt_cap(resolution: int) -> float:
