@@ -28,6 +28,9 @@ class Ablation:
     method: str
     baseline: str
     what: str
+    keys: tuple[str, ...] | None = None
+    """The metrics it is paired on (those both runs have); ``None``: :data:`KEYS`, on
+    suites with a pose metric only (a variant of the pose step changes nothing else)."""
 
 
 ABLATIONS: tuple[Ablation, ...] = (
@@ -48,6 +51,14 @@ ABLATIONS: tuple[Ablation, ...] = (
     # rotation; issue 28's headroom check reads these pairs on modelnet10-3dof
     Ablation("hbeo-mdn-likelihood", "hbeo", "the MDN's mixture head (chapter 5), likelihood mode"),
     Ablation("hbeo-mdn-posterior", "hbeo", "the MDN's mixture head with eq. 5.6's prior"),
+    # chapter 4's comparison at a known pose (Table 3.1 against HBEO's figures): the learned
+    # encoder against BEO's projection onto the class subspaces, on class and completion
+    Ablation(
+        "hbeo",
+        "beo",
+        "HBEO's learned encoder against BEO's projection (chapter 4)",
+        keys=("class_acc", "iou_mean"),
+    ),
 )
 
 KEYS: tuple[str, ...] = (*VERDICT_KEYS, "class_acc", "sample_best_rank_mean")
@@ -83,9 +94,14 @@ def ablation_results(
                 a_run = compare.run_from(Path(b.path), b.summary)
                 b_run = compare.run_from(Path(m.path), m.summary)
                 both = {p.key for p in compare.pairable(a_run.summary, b_run.summary)}
-                if not both & set(VERDICT_KEYS):
+                if ab.keys is not None:
+                    keys = [k for k in ab.keys if k in both]
+                elif both & set(VERDICT_KEYS):
+                    keys = [k for k in KEYS if k in both]
+                else:
                     continue  # no pose metric (known-pose): nothing these variants change
-                keys = [k for k in KEYS if k in both]
+                if not keys:
+                    continue
                 results = compare.paired_runs(a_run, b_run, keys)
         except UsageError:  # not pairable (other items or scoring): no result
             continue

@@ -465,6 +465,15 @@ def modelnet10(b: Boards) -> str:
         )
     if len(rows) == 1:  # a campaign suite by suite: partial once one of them is there
         raise PendingSuiteError(f"none of {', '.join(suites)} is in leaderboards/")
+    # chapter 4's comparison, paired on the same views (the leaderboard's hbeo - beo pair)
+    cells = []
+    for s in suites:
+        track = "class-free" if get_suite(s).class_hint else None
+        try:
+            cells.append(_diff(b.pair(s, "hbeo", "beo", "class_acc", track), " pts"))
+        except MissingFigureError:  # the suite or one of the two runs is not there yet
+            cells.append("-")
+    rows.append(["`hbeo` - `beo`, paired", *cells])
     return _table(head, rows)
 
 

@@ -456,3 +456,24 @@ def test_the_modelnet10_headroom_checks_read_the_cap_and_both_orderings(tmp_path
     assert "| chair | - | 50.0% -> 100.0% |" in chapter4
     assert "| `hbeo` | 40 | desk -> table 2/4; night stand -> dresser 2/4 |" in chapter4
     assert "| `hbeo-mdn-likelihood` | 40 | none |" in chapter4
+
+
+def test_hbeo_is_paired_with_beo_on_class_at_a_known_pose(tmp_path) -> None:
+    """Chapter 4's comparison at a known pose: the leaderboard pairs ``hbeo`` with ``beo``
+    on class (same views; a known-pose suite has no pose metric, the other ablations skip
+    it), and docs/results.md's ModelNet10 table shows the paired difference per suite."""
+    from beo_bench.bench.doctables import TABLES, Boards
+
+    runs = tmp_path / "runs"
+    for name, wrong in (("beo", {"desk": "table", "dresser": "night_stand"}), ("hbeo", {})):
+        write_run(runs / name, name, _modelnet10_rows(wrong), suite="modelnet10-known-pose",
+                  track=None, uses_hint=False)  # fmt: skip
+    regenerate(runs, tmp_path / "board")
+    paired = json.loads((tmp_path / "board" / "modelnet10-known-pose_paired.json").read_text())
+    cls = [v for v in paired if v["pairing"] == "ablation" and v["metric"] == "class_acc"]
+    assert [(v["method"], v["baseline"]) for v in cls] == [("hbeo", "beo")]
+    assert cls[0]["diff"] == pytest.approx(0.1)  # 4 of 40 views right that beo got wrong
+    assert cls[0]["verdict"] == "better"
+    last = TABLES["modelnet10"](Boards(tmp_path / "board")).splitlines()[-1]
+    assert last.startswith("| `hbeo` - `beo`, paired | +10.0 pts [")
+    assert last.endswith("**better** | - | - |")
