@@ -465,16 +465,27 @@ def modelnet10(b: Boards) -> str:
         )
     if len(rows) == 1:  # a campaign suite by suite: partial once one of them is there
         raise PendingSuiteError(f"none of {', '.join(suites)} is in leaderboards/")
-    # chapter 4's comparison, paired on the same views (the leaderboard's hbeo - beo pair)
-    cells = []
-    for s in suites:
-        track = "class-free" if get_suite(s).class_hint else None
-        try:
-            cells.append(_diff(b.pair(s, "hbeo", "beo", "class_acc", track), " pts"))
-        except MissingFigureError:  # the suite or one of the two runs is not there yet
-            cells.append("-")
-    rows.append(["`hbeo` - `beo`, paired", *cells])
+    # chapter 4's comparison, paired on the same views (the leaderboard's hbeo - beo pair):
+    # on class, and on completion (IoU in the object's frame)
+    for key, label, unit in (("class_acc", "", " pts"), ("iou_mean", ", IoU", "")):
+        cells = []
+        for s in suites:
+            track = "class-free" if get_suite(s).class_hint else None
+            try:
+                p = b.pair(s, "hbeo", "beo", key, track)
+            except MissingFigureError:  # the suite or one of the two runs is not there yet
+                cells.append("-")
+                continue
+            cells.append(_diff3(p) if unit == "" else _diff(p, unit))
+        rows.append([f"`hbeo` - `beo`{label}, paired", *cells])
     return _table(head, rows)
+
+
+def _diff3(p: dict[str, Any]) -> str:
+    """A paired difference of a value shown with three decimals (IoU), like :func:`_diff`."""
+    lo, hi = p["ci95"]
+    verdict = f"**{p['verdict']}**" if p["verdict"] != "no difference" else p["verdict"]
+    return f"{p['diff']:+.3f} [{lo:+.3f}, {hi:+.3f}] {verdict}"
 
 
 def modelnet10_headroom(b: Boards) -> str:

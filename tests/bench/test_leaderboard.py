@@ -465,15 +465,18 @@ def test_hbeo_is_paired_with_beo_on_class_at_a_known_pose(tmp_path) -> None:
     from beo_bench.bench.doctables import TABLES, Boards
 
     runs = tmp_path / "runs"
-    for name, wrong in (("beo", {"desk": "table", "dresser": "night_stand"}), ("hbeo", {})):
-        write_run(runs / name, name, _modelnet10_rows(wrong), suite="modelnet10-known-pose",
-                  track=None, uses_hint=False)  # fmt: skip
+    for name, wrong, iou in (("beo", {"desk": "table", "dresser": "night_stand"}, 0.5),
+                             ("hbeo", {}, 0.6)):  # fmt: skip
+        rows = [{**r, "iou": iou} for r in _modelnet10_rows(wrong)]
+        write_run(runs / name, name, rows, suite="modelnet10-known-pose", track=None,
+                  uses_hint=False)  # fmt: skip
     regenerate(runs, tmp_path / "board")
     paired = json.loads((tmp_path / "board" / "modelnet10-known-pose_paired.json").read_text())
     cls = [v for v in paired if v["pairing"] == "ablation" and v["metric"] == "class_acc"]
     assert [(v["method"], v["baseline"]) for v in cls] == [("hbeo", "beo")]
     assert cls[0]["diff"] == pytest.approx(0.1)  # 4 of 40 views right that beo got wrong
     assert cls[0]["verdict"] == "better"
-    last = TABLES["modelnet10"](Boards(tmp_path / "board")).splitlines()[-1]
-    assert last.startswith("| `hbeo` - `beo`, paired | +10.0 pts [")
-    assert last.endswith("**better** | - | - |")
+    cls_row, iou_row = TABLES["modelnet10"](Boards(tmp_path / "board")).splitlines()[-2:]
+    assert cls_row.startswith("| `hbeo` - `beo`, paired | +10.0 pts [")
+    assert cls_row.endswith("**better** | - | - |")
+    assert iou_row.startswith("| `hbeo` - `beo`, IoU, paired | +0.100 [+0.100, +0.100] **better**")
