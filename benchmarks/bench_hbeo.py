@@ -20,6 +20,7 @@ from harness import median_ms_per_item, report
 
 from beo_bench.backend import get_backend
 from beo_bench.bench.evaluate import Evaluator
+from beo_bench.bench.runs import RunConfig, RunContext
 from beo_bench.bench.suites import get_suite
 from beo_bench.envs.pick import default_categories
 
@@ -75,8 +76,9 @@ def main() -> None:
     views = [ev.items.isolated_view(i)[0] for i in range(VIEWS)]
     ev.close()
     for name, n, target, theirs in CASES:
-        backend = get_backend(name, **({} if n is None else {"samples": n}))
-        backend.prepare(cats)
+        opts = {} if n is None else {"samples": n}
+        backend = get_backend(name, **opts)
+        backend.prepare(RunContext.of(RunConfig(get_suite("pose-3dof"), name, opts)))
         ms = median_ms_per_item(backend.predict, views)
         label = name if n is None else f"{name} N={n}"
         report(

@@ -28,7 +28,7 @@ def test_oracle_scores_perfectly_on_isolated_suites(tmp_path, suite) -> None:
 def test_random_scores_at_chance(tmp_path) -> None:
     s = short_run(tmp_path, "pose-3dof", "random", 44, opts=FAST_RANDOM)
     m = s["metrics"]
-    assert m["class_acc"] < 0.35  # chance is 1/11
+    assert m["class_acc"] < 0.35  # chance is 1/18
     assert m["rot_err_deg_mean"] > 45 and m["gross_err_rate"] > 0.6
     assert m["iou_mean"] < 0.9
 
@@ -59,8 +59,11 @@ def test_oracle_picks_exactly_like_the_ground_truth_planner(tmp_path) -> None:
 
 
 def test_icp_beats_random_on_pose_1dof(tmp_path) -> None:
-    # icp at its defaults: its template is the mean of more instances than FAST_RANDOM keeps
-    icp = short_run(tmp_path, "pose-1dof", "icp", 22, track="class-given")
+    # icp's template is the class mean: 40 training instances per class make one close to
+    # the default's 200 and keep the test from building all 3,600 training instances
+    icp = short_run(
+        tmp_path, "pose-1dof", "icp", 22, track="class-given", opts={"mean_instances": 40}
+    )
     rnd = short_run(tmp_path, "pose-1dof", "random", 22, opts=FAST_RANDOM)
     assert icp["failures"] == 0 and icp["metrics"]["class_given"] is True
     assert "class_acc" not in icp["metrics"]  # told the class: not scored on it
