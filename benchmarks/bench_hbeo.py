@@ -77,8 +77,9 @@ def main() -> None:
     ev.close()
     for name, n, target, theirs in CASES:
         opts = {} if n is None else {"samples": n}
-        backend = get_backend(name, **opts)
-        backend.prepare(RunContext.of(RunConfig(get_suite("pose-3dof"), name, opts)))
+        ctx = RunContext.of(RunConfig(get_suite("pose-3dof"), name, opts))
+        backend = ctx.backend.build()  # as the runner builds and prepares it
+        backend.prepare(ctx)
         ms = median_ms_per_item(backend.predict, views)
         label = name if n is None else f"{name} N={n}"
         report(

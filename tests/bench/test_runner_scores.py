@@ -59,8 +59,8 @@ def test_oracle_picks_exactly_like_the_ground_truth_planner(tmp_path) -> None:
 
 
 def test_icp_beats_random_on_pose_1dof(tmp_path) -> None:
-    # icp's template is the class mean: 40 training instances per class make one close to
-    # the default's 200 and keep the test from building all 3,600 training instances
+    # icp's template is the class mean: 40 training instances a class keep the test from
+    # building all 3,600 of the default's 200 a class
     icp = short_run(
         tmp_path, "pose-1dof", "icp", 22, track="class-given", opts={"mean_instances": 40}
     )
