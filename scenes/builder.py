@@ -350,3 +350,24 @@ def build_isolated(instance: ObjectInstance, intrinsics: Intrinsics) -> tuple[An
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     return model, data
+
+
+def build_boxes(
+    boxes: list[tuple[np.ndarray, np.ndarray]], intrinsics: Intrinsics
+) -> tuple[Any, Any]:
+    """A static model of boxes, each ``(centre (3,), half-sizes (3,))`` in the world frame
+    (axis-aligned), and its data after kinematics: the planes and steps that the sensors'
+    validation measures on (:mod:`beo_bench.scenes.sensors.validation`)."""
+    spec = _base_spec(intrinsics, 0.002, extent=1.0)
+    for i, (centre, half) in enumerate(boxes):
+        spec.worldbody.add_geom(
+            name=f"box{i}",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            pos=[float(c) for c in centre],
+            size=[float(s) for s in half],
+            rgba=[0.7, 0.7, 0.7, 1.0],
+        )
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    return model, data

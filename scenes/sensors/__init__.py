@@ -1,0 +1,60 @@
+"""Depth sensors: what a real device returns of a rendered scene (docs/sensors.md).
+
+One module per sensor, each citing the published source of every parameter:
+
+- :mod:`.ideal`: the render as it is (the isolated suites' default, as the dissertation's);
+- :mod:`.kinect_v1`: structured light (Microsoft Kinect v1): Nguyen, Izadi and Lovell 2012's
+  axial and lateral noise, 1/8-pixel disparity, projector shadows, grazing-angle dropout;
+- :mod:`.d435`: active stereo (Intel RealSense D435): infrared images lit by a dot pattern,
+  matched by OpenCV's StereoSGBM, at the device's 50 mm baseline.
+
+:func:`make_sensor` builds one by name for an image size and field of view.
+"""
+
+from __future__ import annotations
+
+import difflib
+
+from beo_bench.scenes.camera import Intrinsics
+from beo_bench.scenes.sensors.base import Sensor, SensorError
+
+SENSORS: tuple[str, ...] = ("ideal", "kinect-v1", "d435")
+"""The registered sensor names, in the order the robustness tables show them."""
+
+DEFAULT_SENSOR = "ideal"
+
+
+def check_sensor_name(name: str) -> str:
+    """``name`` if it is a registered sensor, else :class:`SensorError` with the close
+    matches (case-insensitively)."""
+    if name in SENSORS:
+        return name
+    lowered = {s.lower(): s for s in SENSORS}
+    if name.lower() in lowered:
+        hint = f"did you mean {lowered[name.lower()]!r}? "
+    else:
+        close = difflib.get_close_matches(name.lower(), list(lowered), n=1, cutoff=0.5)
+        hint = f"did you mean {lowered[close[0]]!r}? " if close else ""
+    raise SensorError(
+        f"unknown sensor {name!r}: {hint}use one of {', '.join(SENSORS)} (--sensor NAME)"
+    )
+
+
+def make_sensor(name: str, intrinsics: Intrinsics) -> Sensor:
+    """The sensor ``name`` for depth images of ``intrinsics``' size and field of view.
+    Raises :class:`SensorError` for an unknown name or a size the sensor cannot support."""
+    check_sensor_name(name)
+    if name == "ideal":
+        from beo_bench.scenes.sensors.ideal import IdealSensor
+
+        return IdealSensor(intrinsics)
+    if name == "kinect-v1":
+        from beo_bench.scenes.sensors.kinect_v1 import KinectV1
+
+        return KinectV1(intrinsics)
+    from beo_bench.scenes.sensors.d435 import D435
+
+    return D435(intrinsics)
+
+
+__all__ = ["DEFAULT_SENSOR", "SENSORS", "Sensor", "SensorError", "check_sensor_name", "make_sensor"]
