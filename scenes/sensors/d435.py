@@ -1,0 +1,220 @@
+"""``d435``: Intel RealSense D435 (active infrared stereo), simulated from first principles.
+
+A capture renders what the device's hardware sees and matches it as a stereo camera does:
+
+1. **Two infrared images.** The left imager is the depth camera (the D435's depth is in the
+   left imager's frame); the right imager is ``BASELINE`` = 50 mm to its right (Intel
+   RealSense D400 series datasheet, rev. 7 and later: D435 baseline 50 mm). Each is
+   rendered from its own pose (the right one reuses the model the renderer already holds).
+   A pixel's radiance is that of its surface point lit by the emitter: the point is
+   projected into the emitter, which sits between the imagers, to read its dot pattern;
+   the emitter's visibility (a point it does not light gets only ambient light, found along
+   the epipolar rows: ``Sensor.lit_by``), Lambertian incidence falloff and inverse-square
+   distance scale it; ambient light is added, then sensor noise (shot noise and read
+   noise), and the image is quantised to 8 bits.
+2. **Matching.** OpenCV's StereoSGBM (semi-global matching, Hirschmueller 2008) matches the
+   pair, with its left-right check and speckle filter: occlusions, low texture and the
+   left border band (where the right imager sees nothing of the left's view) come out
+   invalid, and depth edges fatten by the matching window, as on the device.
+3. **Depth** is f b / d at the device's baseline, d in SGBM's 1/16-pixel steps.
+
+The pattern is a fixed pseudo-random dot field (the D4 series' emitter projects a static
+semi-random pattern: Grunnet-Jepsen, Sweetser and Woodfill 2018, "Projectors for Intel
+RealSense depth cameras D4xx"), generated at the depth image's angular resolution so that
+every image size is textured as the device is at its own. Its contrast and the noise are
+a camera's (a read noise of 1 DN and shot noise, at an auto-exposed mean of 60 DN); the
+matching precision they give on a lit plane is measured against the D4 series' published
+sub-pixel RMS (about 0.08 px: Grunnet-Jepsen et al. 2018, "Tuning depth cameras for best
+performance", which gives RMS depth error = z^2 sigma_d / (f b)) in docs/sensors.md.
+SGBM's sub-pixel step locks to whole pixels more than the D4's matcher, so the model's
+sigma_d is somewhat larger than the device's. Intrinsics: the depth image's own (focal length from its size and field of view), with
+the physical baseline, so the errors in metres follow f.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from beo_bench.scenes.camera import Intrinsics
+from beo_bench.scenes.renderer import Frame, Renderer
+from beo_bench.scenes.sensors.base import Sensor, SensorError
+from beo_bench.types import Mat4
+
+BASELINE = 0.050
+"""Left to right imager (m): the D435's datasheet."""
+
+EMITTER_X = 0.5 * BASELINE
+"""The emitter between the imagers (m from the left one, along x)."""
+
+MIN_Z = 0.32
+"""The nearest depth the disparity search reaches (m): nearer than any suite's camera
+(isolated views 0.45-0.8 m from their object, tabletop cameras 0.7-1.1 m from the table's
+centre), so the search range never limits a suite; a nearer surface gets no depth."""
+
+PATTERN_SEED = 435
+"""The dot pattern is the device's, the same in every capture (a fixed seed)."""
+
+DOT_DENSITY = 0.1
+"""Dot centres per image pixel (at the image's angular pitch)."""
+
+DOT_SIGMA_PX = 1.2
+
+PATTERN_OVERSAMPLE = 2
+"""A dot's Gaussian radius (depth-image pixels)."""
+
+EXPOSED_DN = 60.0
+"""The mean emitter light the auto-exposure aims at (8-bit digital numbers); a dot's peak
+is then about twice as bright."""
+
+MAX_GAIN = 400.0
+"""The longest exposure, as a gain on a dot's peak at 1 m: a scene so far or dark that it
+needs more stays darker."""
+
+AMBIENT_DN = 20.0
+"""Ambient infrared on a surface (digital numbers, at the exposure)."""
+
+READ_NOISE_DN = 1.0
+SHOT_NOISE_GAIN = 0.05
+"""Shot-noise variance per digital number of signal (DN^2 / DN)."""
+
+MIN_SIDE = 32
+
+
+def _ceil16(x: float) -> int:
+    return 16 * max(1, math.ceil(x / 16.0))
+
+
+class D435(Sensor):
+    """The D435 model of this module at any image size and field of view (at least
+    ``MIN_SIDE`` pixels a side, and wider than the disparity search)."""
+
+    name = "d435"
+    citation = (
+        "Intel RealSense D400 series datasheet (baseline 50 mm); Grunnet-Jepsen et al. 2018, "
+        "'Tuning depth cameras for best performance' (sub-pixel RMS ~0.08 px, RMS error "
+        "z^2 sigma_d / (f b)) and 'Projectors for Intel RealSense depth cameras D4xx'; "
+        "Hirschmueller 2008 (semi-global matching, OpenCV StereoSGBM)"
+    )
+
+    def __init__(self, intrinsics: Intrinsics) -> None:
+        super().__init__(intrinsics)
+        import cv2
+
+        h, w = self.shape
+        self.num_disparities = _ceil16(self.f * BASELINE / MIN_Z)
+        if min(w, h) < MIN_SIDE or w <= self.num_disparities + 8:
+            raise SensorError(
+                f"sensor 'd435' at {w}x{h}: stereo matching needs at least {MIN_SIDE} pixels "
+                f"a side and an image wider than its disparity search ({self.num_disparities} "
+                "px for this field of view); use a larger image size or a wider field of view"
+            )
+        # The window and the speckle filter scale with the image (SGBM's defaults are for
+        # VGA). Light smoothness penalties (P1, P2 = 1, 4 x window area, against OpenCV's
+        # suggested 8, 32) keep SGBM's sub-pixel parabola from flattening: its error on a
+        # lit plane, averaged over where the disparity falls between whole pixels, drops
+        # from 0.16 px to 0.10 px (measured here; docs/sensors.md).
+        block = 9 if min(w, h) >= 256 else 5
+        area = w * h / (640 * 480)
+        self._matcher = cv2.StereoSGBM_create(
+            minDisparity=0,
+            numDisparities=self.num_disparities,
+            blockSize=block,
+            P1=1 * block * block,
+            P2=4 * block * block,
+            disp12MaxDiff=1,
+            uniquenessRatio=10,
+            speckleWindowSize=max(4, round(100 * area)),
+            speckleRange=2,
+            preFilterCap=31,
+            mode=cv2.STEREO_SGBM_MODE_SGBM_3WAY,
+        )
+        # the pattern in the emitter's image, at the depth image's focal length and wide
+        # enough for both imagers' views (margins of the disparity search)
+        # (PATTERN_OVERSAMPLE pattern pixels to an image pixel: an interpolated read of a
+        # pattern sampled at the image's own pitch shifts its phase by a different amount
+        # at each sub-pixel offset, which biases the two imagers' match towards whole pixels)
+        m = self.num_disparities + 8
+        o = PATTERN_OVERSAMPLE
+        self._pw, self._ph = o * (w + 2 * m), o * (h + 2 * m)
+        self._pcx = np.float32(o * (self.K[0, 2] + m))
+        self._pcy = np.float32(o * (self.K[1, 2] + m))
+        prng = np.random.default_rng(PATTERN_SEED)
+        dots = (prng.random((self._ph, self._pw)) < DOT_DENSITY / (o * o)).astype(np.float32)
+        pattern = cv2.GaussianBlur(dots, (0, 0), DOT_SIGMA_PX * o)
+        self._pattern = (pattern / max(float(pattern.max()), 1e-6)).astype(np.float32)
+        self._fb = np.float32(self.f * BASELINE)
+
+    def capture(
+        self,
+        renderer: Renderer,
+        data: Any,
+        cam_to_world: Mat4,
+        rng: np.random.Generator,
+        frame: Frame | None = None,
+    ) -> Frame:
+        if frame is None:
+            frame = renderer.render(data, cam_to_world)
+        T = np.asarray(cam_to_world, dtype=np.float64)
+        right_pose = T.copy()
+        right_pose[:3, 3] = T[:3, 3] + T[:3, 0] * BASELINE
+        right = renderer.render(data, right_pose).depth
+        left = self.irradiance(frame.depth, 0.0)
+        right_e = self.irradiance(right, BASELINE)
+        gain = self.exposure(left)
+        left_ir = self.expose(left, gain, rng)
+        right_ir = self.expose(right_e, gain, rng)
+        disp = self._matcher.compute(left_ir, right_ir)
+        depth = np.zeros(self.shape, dtype=np.float32)
+        # SGBM's fixed point: 16 steps a pixel; invalid pixels are negative
+        np.divide(self._fb * np.float32(16.0), disp, out=depth, where=disp > 0)
+        return Frame(depth=depth, segmentation=frame.segmentation)
+
+    def irradiance(self, depth: np.ndarray, at_x: float) -> np.ndarray:
+        """The emitter's light (in units of a dot's peak at 1 m, frontal) on each pixel of an
+        imager ``at_x`` metres right of the left one whose depth image is ``depth``: the
+        pattern read where each surface point projects into the emitter, its visibility,
+        Lambertian incidence and inverse-square falloff; -1 where there is no surface."""
+        import cv2
+
+        z = depth
+        valid = z > 0
+        # the surface point in the emitter's frame (same orientation, EMITTER_X - at_x to
+        # the right of this imager): its pattern coordinates
+        ex = np.float32(EMITTER_X - at_x)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xs = self._ray_x - ex / z
+        f = np.float32(self.f * PATTERN_OVERSAMPLE)
+        mapx = np.where(valid, xs * f + self._pcx, np.float32(-1.0)).astype(np.float32)
+        mapy = np.where(valid, self._ray_y * f + self._pcy, np.float32(-1.0)).astype(np.float32)
+        dots = cv2.remap(
+            self._pattern, mapx, mapy, cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_CONSTANT, borderValue=0.0,
+        )  # fmt: skip
+        lit = self.lit_by(z, float(ex))
+        cos = np.sqrt(self.incidence_cos2(z))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            light = np.where(lit, cos / (z * z), np.float32(0.0)) * dots
+        return np.where(valid, light, np.float32(-1.0))
+
+    def exposure(self, irradiance: np.ndarray) -> float:
+        """The auto-exposure gain (the D4 series exposes automatically by default): the mean
+        emitter light on the left image's surfaces is brought to ``EXPOSED_DN``, within
+        the longest exposure ``MAX_GAIN``; both imagers share it."""
+        seen = irradiance[irradiance > 0]
+        mean = float(seen.mean()) if seen.size else 0.0
+        return min(MAX_GAIN, EXPOSED_DN / mean) if mean > 0 else MAX_GAIN
+
+    def expose(self, irradiance: np.ndarray, gain: float, rng: np.random.Generator) -> np.ndarray:
+        """The 8-bit image: emitter light and ambient light on the surfaces, times the
+        exposure, with shot and read noise; nothing (0 plus noise) where there is no
+        surface within the far clip."""
+        g = np.float32(gain)
+        surface = irradiance >= 0
+        signal = np.maximum(irradiance, np.float32(0.0)) * g
+        signal += np.where(surface, np.float32(AMBIENT_DN), np.float32(0.0))
+        sigma = np.sqrt(signal * np.float32(SHOT_NOISE_GAIN) + np.float32(READ_NOISE_DN**2))
+        signal += sigma * rng.standard_normal(self.shape, dtype=np.float32)
+        return np.clip(np.rint(signal), 0, 255).astype(np.uint8)
