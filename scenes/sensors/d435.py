@@ -27,8 +27,9 @@ matching precision they give on a lit plane is measured against the D4 series' p
 sub-pixel RMS (about 0.08 px: Grunnet-Jepsen et al. 2018, "Tuning depth cameras for best
 performance", which gives RMS depth error = z^2 sigma_d / (f b)) in docs/sensors.md.
 SGBM's sub-pixel step locks to whole pixels more than the D4's matcher, so the model's
-sigma_d is somewhat larger than the device's. Intrinsics: the depth image's own (focal length from its size and field of view), with
-the physical baseline, so the errors in metres follow f.
+sigma_d is somewhat larger than the device's. Intrinsics: the depth image's own (focal
+length from its size and field of view), with the physical baseline, so the errors in
+metres follow f.
 """
 
 from __future__ import annotations

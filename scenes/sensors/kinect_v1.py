@@ -156,7 +156,7 @@ class KinectV1(Sensor):
         h, w = self.shape
         # the largest sigma (at the incidence limit) bounds how far an edge can reach
         top = float(lateral_sigma_px(np.radians(MAX_INCIDENCE_DEG))) * self.px_scale
-        reach = int(math.ceil(3.0 * top))
+        reach = math.ceil(3.0 * top)
         if top * top <= 1.0 / 12.0:
             return z, cos2, ok  # sub-pixel at this focal length: no edge moves a pixel
         zo = np.where(ok, z, np.float32(1e3))

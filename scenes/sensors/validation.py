@@ -170,7 +170,7 @@ class Bench:
         )
         data = self._scene(f"step{front}-{back}", [wall, box])
         T = self.camera(back, 0.0)
-        h, w = self.sensor.shape
+        h = self.sensor.shape[0]
         truth = self.renderer.render(data, T).depth
         rows = range(h // 2 - max(1, h // 16), h // 2 + max(1, h // 16))
         lefts, rights = [], []
