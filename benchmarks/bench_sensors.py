@@ -42,8 +42,14 @@ def kinect_figures(rng: np.random.Generator) -> dict[str, object]:
                 curve = float(kin.axial_sigma(np.array(z), np.array(math.radians(a))))
                 axial[a].append(s)
                 worst = max(worst, abs(s / curve - 1))
-        report("kinect-v1 axial sigma vs Nguyen eq. 1, worst deviation", 100 * worst, "%",
-               "<= 10%", worst <= 0.10, f"{len(ANGLES) * len(DISTANCES)} planes, 0.5-3 m, 0-75 deg")  # fmt: skip
+        report(
+            "kinect-v1 axial sigma vs Nguyen eq. 1, worst deviation",
+            100 * worst,
+            "%",
+            "<= 10%",
+            worst <= 0.10,
+            f"{len(ANGLES) * len(DISTANCES)} planes, 0.5-3 m, 0-75 deg",
+        )
         scale = b.sensor.f / kin.NATIVE_FOCAL_PX
         worst = 0.0
         for a in LATERAL_ANGLES:
@@ -51,12 +57,24 @@ def kinect_figures(rng: np.random.Generator) -> dict[str, object]:
             lateral.append(m)
             curve = float(kin.lateral_sigma_px(np.array(math.radians(a)))) * scale
             worst = max(worst, abs(m / curve - 1))
-        report("kinect-v1 lateral sigma vs Nguyen eq. 2, worst deviation", 100 * worst, "%",
-               "<= 10%", worst <= 0.10, f"edges at 1 m, {LATERAL_ANGLES[0]}-{LATERAL_ANGLES[-1]} deg")  # fmt: skip
+        report(
+            "kinect-v1 lateral sigma vs Nguyen eq. 2, worst deviation",
+            100 * worst,
+            "%",
+            "<= 10%",
+            worst <= 0.10,
+            f"edges at 1 m, {LATERAL_ANGLES[0]}-{LATERAL_ANGLES[-1]} deg",
+        )
         left, right = b.step(0.6, 1.0, rng)
         pred = shadow_width_px(b.sensor, kin.BASELINE, 0.6, 1.0)
-        report("kinect-v1 shadow left of a box (0.6 m on 1 m), width error", abs(left - pred),
-               "px", "<= 2 px", abs(left - pred) <= 2.0, f"{left:.1f} px vs {pred:.1f}; right {right:.1f}")  # fmt: skip
+        report(
+            "kinect-v1 shadow left of a box (0.6 m on 1 m), width error",
+            abs(left - pred),
+            "px",
+            "<= 2 px",
+            abs(left - pred) <= 2.0,
+            f"{left:.1f} px vs {pred:.1f}; right {right:.1f}",
+        )
     return {"axial": axial, "lateral": lateral, "scale": scale}
 
 
@@ -69,16 +87,34 @@ def d435_figures(rng: np.random.Generator) -> dict[str, object]:
             rms = b.plane(z, 0, rng, captures=6, spread=0.03).rms
             sigma_d.append(rms * s.f * d435_mod.BASELINE / z**2)
         worst = max(abs(x / D4_SUBPIXEL - 1) for x in sigma_d)
-        report("d435 sigma_d from RMS error z^2 sigma_d/(f b), worst vs 0.08 px", 100 * worst,
-               "%", "<= 25%", worst <= 0.25, "sigma_d " + ", ".join(f"{x:.3f}" for x in sigma_d))  # fmt: skip
+        report(
+            "d435 sigma_d from RMS error z^2 sigma_d/(f b), worst vs 0.08 px",
+            100 * worst,
+            "%",
+            "<= 25%",
+            worst <= 0.25,
+            "sigma_d " + ", ".join(f"{x:.3f}" for x in sigma_d),
+        )
         for a in (0, 45, 60, 75, 82):
             fills[a] = b.plane(1.0, a, rng, captures=2).fill
-        report("d435 fill rate, lit plane at 1 m", 100 * fills[0], "%", ">= 99%",
-               fills[0] >= 0.99, "at 45/60/75/82 deg: " + ", ".join(f"{100 * fills[a]:.1f}%" for a in (45, 60, 75, 82)))  # fmt: skip
+        report(
+            "d435 fill rate, lit plane at 1 m",
+            100 * fills[0],
+            "%",
+            ">= 99%",
+            fills[0] >= 0.99,
+            "at 45/60/75/82 deg: " + ", ".join(f"{100 * fills[a]:.1f}%" for a in (45, 60, 75, 82)),
+        )
         left, right = b.step(0.6, 1.0, rng, captures=2)
         pred = shadow_width_px(s, d435_mod.BASELINE, 0.6, 1.0)
-        report("d435 invalid band left of a box (0.6 m on 1 m), width error", abs(left - pred),
-               "px", "<= 2 px", abs(left - pred) <= 2.0, f"{left:.1f} px vs {pred:.1f}; right {right:.1f}")  # fmt: skip
+        report(
+            "d435 invalid band left of a box (0.6 m on 1 m), width error",
+            abs(left - pred),
+            "px",
+            "<= 2 px",
+            abs(left - pred) <= 2.0,
+            f"{left:.1f} px vs {pred:.1f}; right {right:.1f}",
+        )
     return {"sigma_d": sigma_d, "fills": fills}
 
 
@@ -93,8 +129,14 @@ def speed(rng: np.random.Generator) -> dict[str, np.ndarray]:
         sensor = make_sensor(name, scenes.intrinsics)
         t = median_time(lambda s=sensor: s.capture(r, data, cam, rng), 15)
         images[name] = sensor.capture(r, data, cam, rng).depth
-        report(f"{name} capture / ideal render, 640x480 tabletop", t / ideal, "x",
-               f"<= {target:g}x", t / ideal <= target, f"{1e3 * t:.1f} ms vs {1e3 * ideal:.1f} ms")  # fmt: skip
+        report(
+            f"{name} capture / ideal render, 640x480 tabletop",
+            t / ideal,
+            "x",
+            f"<= {target:g}x",
+            t / ideal <= target,
+            f"{1e3 * t:.1f} ms vs {1e3 * ideal:.1f} ms",
+        )
     scenes.close()
     iso = IsolatedRenderer(Intrinsics(128, 128, 45.0))
     inst = ObjectSet("test").get("chair", 0)
@@ -105,8 +147,14 @@ def speed(rng: np.random.Generator) -> dict[str, np.ndarray]:
     ideal = median_time(lambda: rr.render(d, view), 30)
     sensor = make_sensor("d435", iso.intrinsics)
     t = median_time(lambda: sensor.capture(rr, d, view, rng), 30)
-    report("d435 capture / ideal render, 128x128 isolated view", t / ideal, "x", "<= 5x",
-           t / ideal <= 5.0, f"{1e3 * t:.2f} ms vs {1e3 * ideal:.2f} ms")  # fmt: skip
+    report(
+        "d435 capture / ideal render, 128x128 isolated view",
+        t / ideal,
+        "x",
+        "<= 5x",
+        t / ideal <= 5.0,
+        f"{1e3 * t:.2f} ms vs {1e3 * ideal:.2f} ms",
+    )
     iso.close()
     return images
 
@@ -132,8 +180,11 @@ def plots(k: dict[str, object], d: dict[str, object], images: dict[str, np.ndarr
     scale = float(k["scale"])  # type: ignore[arg-type]
     ax[1].plot(th, scale * kin.lateral_sigma_px(np.radians(th)), "k", lw=1, label="Nguyen eq. 2")
     ax[1].plot(LATERAL_ANGLES, k["lateral"], "o", label="measured (edge at 1 m)")
-    ax[1].set(xlabel="angle (deg)", ylabel="lateral sigma (px at 640x480, 45 deg)",
-              title="kinect-v1 lateral noise")  # fmt: skip
+    ax[1].set(
+        xlabel="angle (deg)",
+        ylabel="lateral sigma (px at 640x480, 45 deg)",
+        title="kinect-v1 lateral noise",
+    )
     ax[1].legend(fontsize=8)
     f, b = VGA.focal, d435_mod.BASELINE
     sd = np.array(d["sigma_d"])  # type: ignore[arg-type]
