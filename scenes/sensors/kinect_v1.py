@@ -174,8 +174,11 @@ class KinectV1(Sensor):
         sigma = np.sqrt(np.maximum(sigma * sigma - 1.0 / 12.0, 0.0))
         # one displacement per block of the band, so neighbours move together
         block = (v // LATERAL_BLOCK) * self._bw + (u // LATERAL_BLOCK)
-        blocks, inverse = np.unique(block, return_inverse=True)
-        d = rng.standard_normal((blocks.size, 2), dtype=np.float32)[inverse]
+        # number the band's blocks in raster order without sorting (a count, not np.unique)
+        present = np.zeros(self._bh * self._bw, dtype=bool)
+        present[block] = True
+        rank = np.cumsum(present) - 1
+        d = rng.standard_normal((int(present.sum()), 2), dtype=np.float32)[rank[block]]
         su = np.clip(np.rint(u + d[:, 0] * sigma), 0, w - 1).astype(np.intp)
         sv = np.clip(np.rint(v + d[:, 1] * sigma), 0, h - 1).astype(np.intp)
         z2, c2, ok2 = z.copy(), cos2.copy(), ok.copy()
