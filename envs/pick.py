@@ -34,8 +34,8 @@ from beo_bench.scenes.builder import Scene, TableConfig
 from beo_bench.scenes.camera import CameraRig, Intrinsics, pixels_to_points
 from beo_bench.scenes.execute import GraspOutcome, execute_grasp, release, settle
 from beo_bench.scenes.gripper import MAX_OPENING
-from beo_bench.scenes.noise import DepthNoise, apply_noise
 from beo_bench.scenes.renderer import UINT8_LABELS, Frame, Renderer, mujoco
+from beo_bench.scenes.sensors import SENSORS, Sensor, SensorError, make_sensor
 
 # the "X as X" names are re-exported: they were this module's before scenes.tabletop held them
 from beo_bench.scenes.tabletop import CAMERA_DRAWS as CAMERA_DRAWS
@@ -168,7 +168,10 @@ class BEOPickEnv(gym.Env):
     - ``image_size``: (width, height) in pixels ((640, 480));
     - ``fovy_deg``: vertical field of view in degrees (45);
     - ``camera``: a ``CameraRig`` or a dict of its fields (where cameras are sampled);
-    - ``noise``: False, True (the default ``DepthNoise``) or a ``DepthNoise``;
+    - ``sensor``: the depth sensor, "ideal" (the render as it is), "kinect-v1" or "d435"
+      ("ideal"; docs/sensors.md); its noise is drawn from ``np_random``, so the seed fixes
+      it too. It replaced ``noise=`` (``gym.make`` refuses ``noise=True`` and says to pass
+      ``sensor="kinect-v1"``);
     - ``max_attempts``: grasps per episode (default: ``max_episode_steps`` through
       ``gym.make``, else 1);
     - ``render_mode``: None, "rgb_array" or "depth_array" (metric depth, metres);
@@ -183,7 +186,8 @@ class BEOPickEnv(gym.Env):
     - v0: initial version (depth + segmentation observation, one grasp per episode by
       default, the visible-target guarantee, ``info["is_success"]``, ``depth_array``
       rendering, ``obs_mode="pointcloud"``, uint8 segmentation, ``max_attempts`` tied to
-      ``max_episode_steps``).
+      ``max_episode_steps``); ``sensor=`` in place of ``noise=`` (the default, ideal
+      depth, observes as before).
     """
 
     # gymnasium annotates Env.metadata as an instance attribute, but it is the class's (read
@@ -203,7 +207,7 @@ class BEOPickEnv(gym.Env):
         image_size: tuple[int, int] = (640, 480),
         fovy_deg: float = 45.0,
         camera: CameraRig | dict[str, Any] | None = None,
-        noise: bool | DepthNoise = False,
+        sensor: str = "ideal",
         max_attempts: int | None = None,
         render_mode: str | None = None,
         table: TableConfig | None = None,
@@ -259,9 +263,14 @@ class BEOPickEnv(gym.Env):
             self.rig = camera if isinstance(camera, CameraRig) else CameraRig(**(camera or {}))
         except (TypeError, ValueError) as e:
             raise EnvConfigError(f"camera={camera}: {e}") from e
-        self.noise = DepthNoise() if noise is True else (noise or None)
-        if self.noise is not None and not isinstance(self.noise, DepthNoise):
-            raise EnvConfigError(f"noise={noise!r}: use False, True or a DepthNoise")
+        if not isinstance(sensor, str):
+            raise EnvConfigError(
+                f"sensor={sensor!r}: give a sensor's name, one of {', '.join(SENSORS)}"
+            )
+        try:
+            self.sensor: Sensor = make_sensor(sensor, self.intrinsics)
+        except SensorError as e:  # an unknown name, or an image size it cannot support
+            raise EnvConfigError(f"BEOPick-v0: {e}") from e
         # None: not chosen here, so gym.make's max_episode_steps may set it (follow_time_limit)
         self.max_attempts_given = max_attempts is not None
         if max_attempts is not None and _whole(max_attempts, "max_attempts") < 1:
@@ -435,11 +444,13 @@ class BEOPickEnv(gym.Env):
         assert self._scene is not None
         if frame is None:
             frame = self._tabletop.render()
+        if not self.sensor.ideal:
+            # the sensor's view of the scene, its noise drawn from the env's generator (the
+            # ideal sensor draws nothing: ideal observations are as they always were)
+            frame = self._tabletop.capture(self.sensor, self.np_random, frame)
         # depth, segmentation (seg_dtype), target_class, intrinsics, cam_to_world
         view = self._tabletop.observation(frame)
         depth, seg = view.pop("depth"), view.pop("segmentation")
-        if self.noise is not None:
-            depth = apply_noise(depth, self.np_random, self.noise)
         self._image = {"depth": depth, "segmentation": seg}
         self._rest = self._scene.object_heights()
         if self.obs_mode == "image":
@@ -605,6 +616,13 @@ def make_pick_env(**kwargs: Any) -> BEOPickEnv:
     is reported here as an :class:`EnvConfigError` naming the valid keywords.
     """
     valid = list(KEYWORDS)
+    if "noise" in kwargs:
+        kwargs = dict(kwargs)
+        if kwargs.pop("noise") not in (False, None):  # False/None: ideal depth, the default
+            raise EnvConfigError(
+                "BEOPick-v0: noise= was replaced by sensor=: pass sensor='kinect-v1' for the "
+                "Kinect v1 model (or 'd435'; docs/sensors.md), or leave it out for ideal depth"
+            )
     unknown = sorted(set(kwargs) - set(valid))
     if unknown:
         hints = [

@@ -8,7 +8,9 @@
 - :mod:`.tabletop`: BEOPick-v0's scenes drawn, settled and rendered (what the env's ``reset``
   runs; for code below the envs, which never imports them);
 - :mod:`.isolated`: views of an isolated instance (training data, perception suites);
-- :mod:`.noise`: the optional depth-sensor noise model;
+- :mod:`.sensors`: depth sensors (``ideal``, ``kinect-v1``, ``d435``): what a suite's and
+  the env's views are captured by (docs/sensors.md);
+- :mod:`.noise`: HBEO's training augmentation (``DepthNoise``; no suite's sensor);
 - :mod:`.gripper`: the gripper's geometry (shared with the grasp planner).
 
 Names are loaded lazily so that importing a light module (``gripper``, ``camera``) does not

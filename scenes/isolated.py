@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -21,6 +21,9 @@ from beo_bench.scenes.camera import OBJECT_RIG, CameraRig, Intrinsics
 from beo_bench.scenes.noise import DepthNoise, apply_noise
 from beo_bench.scenes.renderer import Renderer
 from beo_bench.types import Mat3, Mat4, Vec3, View, ViewpointPrior
+
+if TYPE_CHECKING:
+    from beo_bench.scenes.sensors import Sensor
 
 
 @dataclass
@@ -86,16 +89,26 @@ class IsolatedView:
 
 class IsolatedRenderer:
     """Renders views of isolated instances; reuse one for many views (it owns a GL
-    context). ``noise`` applies the sensor model with the generator given per call."""
+    context).
+
+    ``sensor``: the depth sensor views are captured by (a name of
+    ``beo_bench.scenes.sensors.SENSORS`` or a ``Sensor`` made for ``intrinsics``; default
+    ``ideal``, the render as it is); :meth:`render` draws its noise from the generator
+    given per call, and may name another sensor for one view. ``noise`` (a
+    :class:`~beo_bench.scenes.noise.DepthNoise`) is HBEO's training augmentation, applied
+    to the ideal render; it is no suite's sensor."""
 
     def __init__(
         self,
         intrinsics: Intrinsics | None = None,
         rig: CameraRig = OBJECT_RIG,
         cache_models: int = 8,
+        sensor: str | Sensor | None = None,
     ) -> None:
         self.intrinsics = intrinsics or Intrinsics(128, 128, 45.0)
         self.rig = rig
+        self._sensors: dict[str, Sensor] = {}
+        self.sensor = self._sensor(sensor if sensor is not None else "ideal")
         self._renderer = Renderer(self.intrinsics, max_geom=1000)
         self._models: OrderedDict[str, tuple[Any, Any]] = OrderedDict()
         self._cache_models = cache_models
@@ -119,18 +132,49 @@ class IsolatedRenderer:
             self._bound = key
         return data
 
+    def _sensor(self, sensor: str | Sensor) -> Sensor:
+        """The sensor ``sensor`` names, made once per name for this renderer's image."""
+        from beo_bench.scenes.sensors import Sensor, make_sensor
+
+        if isinstance(sensor, Sensor):
+            if sensor.shape != (self.intrinsics.height, self.intrinsics.width):
+                raise ValueError(
+                    f"sensor {sensor.name!r} was made for {sensor.shape[1]}x{sensor.shape[0]} "
+                    f"images, this renderer's are {self.intrinsics.width}x"
+                    f"{self.intrinsics.height}: make it with the renderer's intrinsics"
+                )
+            return sensor
+        if sensor not in self._sensors:
+            self._sensors[sensor] = make_sensor(sensor, self.intrinsics)
+        return self._sensors[sensor]
+
     def render(
         self,
         instance: ObjectInstance,
         cam_to_world: Mat4,
         noise: DepthNoise | None = None,
         rng: np.random.Generator | None = None,
+        sensor: str | Sensor | None = None,
     ) -> IsolatedView:
         """The view of ``instance`` from ``cam_to_world`` (OpenCV axes; the object is at the
-        origin in its canonical frame)."""
+        origin in its canonical frame), captured by ``sensor`` (default: the renderer's),
+        which draws from ``rng`` (a sensor other than ``ideal`` needs one). ``noise``: HBEO's
+        training augmentation on the ideal render instead (not with a sensor)."""
         data = self._bind(instance)
         T = np.asarray(cam_to_world, dtype=np.float64)
         frame = self._renderer.render(data, T)
+        capture = self.sensor if sensor is None else self._sensor(sensor)
+        if not capture.ideal:
+            if noise is not None:
+                raise ValueError(
+                    "noise= (HBEO's DepthNoise augmentation) applies to the ideal render: "
+                    f"not with sensor {capture.name!r}"
+                )
+            if rng is None:
+                raise ValueError(
+                    f"sensor {capture.name!r} draws its noise from rng: pass a generator"
+                )
+            frame = capture.capture(self._renderer, data, T, rng, frame)
         depth = frame.depth
         if noise is not None:
             depth = apply_noise(depth, rng if rng is not None else np.random.default_rng(0), noise)

@@ -1,4 +1,11 @@
-"""An optional depth-sensor noise model, so results are not only on perfect depth.
+"""HBEO's training augmentation: a simple depth-noise model applied to a share of its
+training crops (``beo_bench.perception.hbeo_data``, ``DatasetConfig.noise_share``), which the
+published models were trained with.
+
+It is no suite's sensor any more: the suites and BEOPick-v0 capture their depth through
+``beo_bench.scenes.sensors`` (``--sensor``, ``sensor=``; the tabletop suite's own is
+``kinect-v1``, a fuller model of the same device; docs/sensors.md). It stays as it is so that
+the published recipe renders the same crops.
 
 Three effects of structured-light / stereo depth sensors, applied in this order:
 1. axial Gaussian noise whose standard deviation grows with depth, sigma(z) = a + b (z - z0)^2
@@ -7,7 +14,7 @@ Three effects of structured-light / stereo depth sensors, applied in this order:
 2. disparity quantisation: depth is rounded in disparity, so the step grows as z^2
    (step = z^2 / (f * baseline) * disparity_step);
 3. dropout at depth discontinuities (missing pixels along object edges, as on real sensors).
-Off by default in the env; seeded through the generator the caller passes.
+Seeded through the generator the caller passes.
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ the same scene, camera, target and image here as in ``BEOPickEnv.reset(seed=...)
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +27,9 @@ from beo_bench.scenes.execute import park, settle
 from beo_bench.scenes.layout import ObjectTooLargeError, PlacementError, place_objects
 from beo_bench.scenes.renderer import UINT8_LABELS, Frame, Renderer
 from beo_bench.types import Mat4, ObjectState
+
+if TYPE_CHECKING:
+    from beo_bench.scenes.sensors import Sensor
 
 SCENE_DRAWS = 20
 """Object draws a reset tries before giving up (placement failures and scenes whose
@@ -229,6 +232,16 @@ class TabletopScenes:
         """Depth and segmentation of the current scene from ``cam``."""
         assert self.scene is not None
         return self._bound_renderer().render(self.scene.data, self.cam)
+
+    def capture(
+        self, sensor: Sensor, rng: np.random.Generator, frame: Frame | None = None
+    ) -> Frame:
+        """What ``sensor`` (made for ``intrinsics``) returns of the current scene from
+        ``cam``, its noise drawn from ``rng``; ``frame``: the scene's ideal rendering from
+        ``cam`` when the caller has it (:meth:`draw` returns it), so it is not rendered
+        again. The segmentation stays the ideal one (docs/sensors.md)."""
+        assert self.scene is not None
+        return sensor.capture(self._bound_renderer(), self.scene.data, self.cam, rng, frame)
 
     def render_rgb(self) -> np.ndarray:
         """(H, W, 3) uint8 colour image of the current scene from ``cam``."""

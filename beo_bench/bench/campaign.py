@@ -1,7 +1,8 @@
 """Many runs at once: every (suite, backend) pair, then the leaderboard (``beo-bench all``,
 and ``make demo`` on short suites).
 
-Each pair runs into ``RUNS/<suite>[@<track>]__<backend>[__<options>]`` and resumes what is
+Each pair runs into ``RUNS/<suite>[@<track>][~<sensor>]__<backend>[__<options>]`` (the
+sensor when it is not the suite's own: ``Campaign.sensors``) and resumes what is
 already there, so a killed campaign continues where it stopped and a finished one costs
 nothing to re-run; the leaderboard is then regenerated from every summary under ``RUNS``.
 On a suite with tracks (``Suite.class_hint``) a backend that can use the class hint is run
@@ -62,6 +63,10 @@ class Campaign:
     update: bool = False
     """``--update``: keep the current pages of suites this campaign does not run
     (:func:`~beo_bench.bench.leaderboard.regenerate`)."""
+    sensors: tuple[str | None, ...] = (None,)
+    """``--sensor``: every suite is run under each of these depth sensors (None: the
+    suite's own); the leaderboard pairs a backend's runs across them (its robustness
+    table)."""
 
 
 def run_campaign(c: Campaign) -> list[Path]:
@@ -76,6 +81,11 @@ def run_campaign(c: Campaign) -> list[Path]:
     suites = [get_suite(s).with_overrides(size=n, seed=c.seed) for s, n in c.suites.items()]
     if c.dataset is not None:
         suites = [s.with_dataset(c.dataset, c.split) for s in suites]
+    # each suite under each sensor (one suite under its own and under the same one named
+    # is one run, not two)
+    suites = list(
+        {s.with_sensor(x).label: s.with_sensor(x) for s in suites for x in c.sensors}.values()
+    )
     for suite in suites:
         item_timeout_s(suite, c.item_timeout)  # a bad value fails here, before any run
     # every run's context, resolved before any run starts: a bad option, a privileged plugin
@@ -89,7 +99,7 @@ def run_campaign(c: Campaign) -> list[Path]:
             for track in backend_tracks(suite, caps.wants_class_hint, caps.needs_class_hint):
                 tracked = suite.with_overrides(track=track)
                 cfg = RunConfig(tracked, name, kwargs, c.allow_privileged)
-                out = c.runs / run_name(suite.name, name, kwargs, c.seed, track)
+                out = c.runs / run_name(suite.name, name, kwargs, c.seed, track, suite.sensor_tag)
                 contexts.append((RunContext.of(cfg, progress=c.progress), out))
     # one set of worker processes for every run (see WorkerPool: start-up once, not per run)
     with WorkerPool(c.workers) as pool:

@@ -114,6 +114,39 @@ def track_of(summary: dict[str, Any]) -> str | None:
     return str(track) if track is not None else None
 
 
+def sensor_of(summary: dict[str, Any]) -> str:
+    """The depth sensor the run's views were captured by: the summary's ``sensor`` or, in
+    a summary written before sensors existed, what its suite record says
+    (:func:`~beo_bench.bench.suites.record_sensor`: ``noise: false`` is the ideal render)."""
+    from beo_bench.bench.suites import record_sensor
+
+    sensor = summary.get("sensor")
+    if isinstance(sensor, str):
+        return sensor
+    return record_sensor(summary.get("provenance", {}).get("suite", {}))
+
+
+def default_sensor_of(suite: str) -> str:
+    """The registered suite's own sensor (``ideal`` for a suite this package does not
+    know)."""
+    from beo_bench.bench.suites import SUITES, base_name
+    from beo_bench.scenes.sensors import DEFAULT_SENSOR
+
+    base = SUITES.get(base_name(suite))
+    return base.sensor if base is not None else DEFAULT_SENSOR
+
+
+def sensor_tag_of(summary: dict[str, Any]) -> str | None:
+    """The run's sensor when it is not its suite's own (what names the run, as
+    ``Suite.sensor_tag``), else None. A run recorded before sensors existed was at its
+    suite version's own sensor (None)."""
+    recorded = summary.get("provenance", {}).get("suite", {})
+    if not isinstance(summary.get("sensor"), str) and "sensor" not in recorded:
+        return None
+    sensor = sensor_of(summary)
+    return None if sensor == default_sensor_of(str(summary.get("suite"))) else sensor
+
+
 def hint_unused(summary: dict[str, Any]) -> bool:
     """A class-free run of a backend that cannot use the class hint: it would score the
     same in the class-given track, so it stands in that track too."""

@@ -449,10 +449,18 @@ def _check_same_run(old: dict[str, Any] | None, meta: dict[str, Any], out: Path)
             f"{out} has results but no {RECORD_NAME}, so they cannot be checked against this "
             "run: choose another --out (or move this directory away)"
         )
-    if {k: old[k] for k in meta} != meta:
+    from beo_bench.bench.suites import upgrade_record
+
+    held = {k: old.get(k) for k in meta}
+    recorded = held.get("suite")
+    if isinstance(recorded, dict):
+        # a run recorded before sensors existed says noise: false where it now says
+        # sensor: ideal (the same views), so it resumes
+        held["suite"] = upgrade_record(recorded)
+    if held != meta:
         raise RunUsageError(
-            f"{out} holds a different run ({ {k: old[k] for k in meta} }); resuming needs the "
-            "same suite (version, seed, protocol), backend and options: choose another --out"
+            f"{out} holds a different run ({held}); resuming needs the same suite (version, "
+            "seed, protocol, sensor), backend and options: choose another --out"
         )
     from beo_bench.objects import LIBRARY_VERSION
 

@@ -75,17 +75,23 @@ def run_name(
     kwargs: dict[str, Any],
     seed: int | None = None,
     track: str | None = None,
+    sensor: str | None = None,
 ) -> str:
     """The run directory's name: ``known-pose__icp``, ``pose-3dof@class-given__icp``,
     ``pose-3dof@class-free__icp__starts=48``, or with a replaced base seed
     ``pose-3dof@class-free__icp__suite_seed=7`` (the track is part of what identifies a
-    run, so two tracks never share a directory)."""
+    run, so two tracks never share a directory). ``sensor``: a sensor other than the
+    suite's own (``Suite.sensor_tag``), which follows the suite and track as in
+    ``Suite.label``: ``pose-3dof@class-free~d435__icp``, ``tabletop~ideal__icp``; None
+    (the suite's own sensor) keeps the name as it always was."""
     opts = dict(sorted(kwargs.items()))
     if seed is not None:
         opts["suite_seed"] = seed
     slug = "_".join(f"{k}={v}" for k, v in opts.items())
     safe = "".join(ch if ch.isalnum() or ch in "=.-_" else "-" for ch in slug)
     where = f"{suite}@{track}" if track else suite
+    if sensor:
+        where += f"~{sensor}"
     return f"{where}__{backend}" + (f"__{safe}" if safe else "")
 
 
@@ -153,7 +159,7 @@ class BackendRef:
 class RunContext:
     """One run, resolved once by the driver (:meth:`of`) and handed to workers, the
     evaluator and ``Backend.prepare``. The track, seed and sensor settings are the suite's
-    (:attr:`track`, :attr:`seed`, ``suite.noise``, ``suite.image_size``, ``suite.fovy_deg``)."""
+    (:attr:`track`, :attr:`seed`, ``suite.sensor``, ``suite.image_size``, ``suite.fovy_deg``)."""
 
     suite: Suite
     backend: BackendRef
@@ -179,6 +185,11 @@ class RunContext:
     @property
     def seed(self) -> int:
         return self.suite.seed
+
+    @property
+    def sensor(self) -> str:
+        """The depth sensor the views are captured by (``Suite.sensor``)."""
+        return self.suite.sensor
 
     @property
     def config(self) -> RunConfig:
@@ -244,6 +255,10 @@ class Summary:
     model_digest: str | None = None
     privileged: bool = False
     provenance: dict[str, Any] = field(default_factory=dict)
+    sensor: str | None = None
+    """The depth sensor the views were captured by (``Suite.sensor``); None in a summary
+    written before sensors existed (its ``provenance["suite"]`` says ``noise``:
+    :func:`~beo_bench.bench.compare.sensor_of` reads either)."""
 
     def to_json(self) -> dict[str, Any]:
         """The summary as the JSON object ``summary.json`` holds."""

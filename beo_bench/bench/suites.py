@@ -184,7 +184,11 @@ class Suite:
     split: str = "test"
     image_size: tuple[int, int] = (128, 128)
     fovy_deg: float = 45.0
-    noise: bool = False
+    sensor: str = "ideal"
+    """The depth sensor the views are captured by (``beo_bench.scenes.sensors``: ``ideal``,
+    ``kinect-v1``, ``d435``; docs/sensors.md). Part of what identifies a run: a run under
+    another sensor than the registered suite's own (:attr:`default_sensor`) is named by it
+    (:attr:`label`, ``runs.run_name``) and has its own sections of the suite's page."""
     resolution: int = 32
     class_hint: bool = False
     min_pixels: int = 50
@@ -208,6 +212,7 @@ class Suite:
         # given as their names ("isolated", "3dof"): kept as the enums, which are strings
         object.__setattr__(self, "kind", Kind(self.kind))
         object.__setattr__(self, "protocol", Protocol.of(self.protocol))
+        object.__setattr__(self, "sensor", suite_sensor(self.sensor, self.name))
         if self.split == "all" and self.dataset is None:
             raise UsageError(
                 "split 'all' exists for a user dataset only (--objects ROOT); the procedural "
@@ -247,8 +252,32 @@ class Suite:
 
     @property
     def label(self) -> str:
-        """The suite and its track: ``pose-1dof@class-given``, or ``known-pose``."""
-        return f"{self.name}@{self.track}" if self.track else self.name
+        """The suite, its track and, when it is not the suite's own, its sensor:
+        ``pose-1dof@class-given``, ``known-pose``, ``pose-3dof@class-free~d435``,
+        ``tabletop~ideal``."""
+        where = f"{self.name}@{self.track}" if self.track else self.name
+        return where + (f"~{self.sensor_tag}" if self.sensor_tag else "")
+
+    @property
+    def default_sensor(self) -> str:
+        """The registered suite's own sensor (``ideal`` for a suite this package does not
+        register)."""
+        from beo_bench.scenes.sensors import DEFAULT_SENSOR
+
+        base = SUITES.get(base_name(self.name))
+        return base.sensor if base is not None else DEFAULT_SENSOR
+
+    @property
+    def sensor_tag(self) -> str | None:
+        """The sensor when it is not the suite's own (what names the run), else None: runs
+        at the suite's own sensor keep the names they always had."""
+        return None if self.sensor == self.default_sensor else self.sensor
+
+    def with_sensor(self, name: str | None) -> Suite:
+        """The same items captured by the sensor ``name`` (``--sensor``; None keeps the
+        suite's own). An unknown name is a :class:`~beo_bench.scenes.sensors.SensorError`
+        (a usage error, exit status 2) with the closest names."""
+        return self if name is None else replace(self, sensor=name)
 
     @property
     def gives_class(self) -> bool:
@@ -315,6 +344,43 @@ class Suite:
         if self.dataset is not None:
             out["dataset"] = self.dataset.identity()
         return out
+
+
+def suite_sensor(name: Any, suite: str = "") -> str:
+    """``name`` if it is a registered sensor (:data:`beo_bench.scenes.sensors.SENSORS`),
+    else a :class:`~beo_bench.scenes.sensors.SensorError` naming the closest ones."""
+    from beo_bench.scenes.sensors import SensorError, check_sensor_name
+
+    if not isinstance(name, str):
+        where = f"suite {suite!r}: " if suite else ""
+        raise SensorError(f"{where}sensor={name!r}: give a sensor's name (--sensor NAME)")
+    return check_sensor_name(name)
+
+
+LEGACY_NOISE = "legacy-noise"
+"""What :func:`record_sensor` reads from a record of the old ``noise: true`` suites (the
+``DepthNoise`` model, no longer a suite's sensor): it matches no sensor."""
+
+
+def record_sensor(record: dict[str, Any]) -> str:
+    """The sensor a suite record (``Suite.record()``, a summary's ``provenance["suite"]``)
+    names; a record made before sensors existed says ``noise``: ``false`` was the ideal
+    render, ``true`` the old noise model (:data:`LEGACY_NOISE`)."""
+    sensor = record.get("sensor")
+    if isinstance(sensor, str):
+        return sensor
+    return LEGACY_NOISE if record.get("noise") else "ideal"
+
+
+def upgrade_record(record: dict[str, Any]) -> dict[str, Any]:
+    """A suite record as this version writes it: one made before sensors existed has
+    ``noise`` where it now has ``sensor`` (:func:`record_sensor`), so a run started then
+    resumes under the same identity."""
+    if "sensor" in record or "noise" not in record:
+        return record
+    out = {k: v for k, v in record.items() if k != "noise"}
+    out["sensor"] = record_sensor(record)
+    return out
 
 
 def base_name(name: str) -> str:
@@ -440,16 +506,17 @@ SUITES: dict[str, Suite] = {
         ),
         Suite(
             "tabletop",
-            4,
+            5,
             Kind.TABLETOP,
             Protocol.FREE,
             size=200,
             seed=4000,
             image_size=(640, 480),
-            noise=True,
+            sensor="kinect-v1",
             item_timeout_s=180.0,
-            description="BEOPick-v0 scenes with 1-4 objects, clutter, occlusion and sensor "
-            "noise; every visible object is scored",
+            description="BEOPick-v0 scenes with 1-4 objects, clutter, occlusion, seen by a "
+            "Kinect v1 (structured-light noise, shadows, dropout); every visible object is "
+            "scored",
         ),
         Suite(
             "pick",

@@ -169,4 +169,5 @@ def summarise(
         model_digest=model_digest,
         privileged=privileged,
         provenance=provenance or {},
+        sensor=suite.sensor,
     )

@@ -98,7 +98,12 @@ def test_copies_continue_the_episode_exactly(obs_mode) -> None:
     same next step (physics, observation, reward) and the same next unseeded reset (RNG)."""
     kw = {"num_points": 512} if obs_mode == "pointcloud" else {}
     e = gym.make(
-        "BEOPick-v0", image_size=(96, 72), max_attempts=3, noise=True, obs_mode=obs_mode, **kw
+        "BEOPick-v0",
+        image_size=(96, 72),
+        max_attempts=3,
+        sensor="kinect-v1",
+        obs_mode=obs_mode,
+        **kw,
     )
     e.reset(seed=3)
     grasps = e.unwrapped.ground_truth_grasps()

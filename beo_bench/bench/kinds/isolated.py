@@ -52,7 +52,6 @@ class IsolatedItems(Items):
         super().__init__(suite, class_given)
         self._renderer: Any = None
         self._objects_: ObjectSet | None = None
-        self._noise: Any = None
 
     @property
     def renderer(self) -> Any:
@@ -61,13 +60,13 @@ class IsolatedItems(Items):
         if self._renderer is None:
             from beo_bench.scenes.camera import Intrinsics
             from beo_bench.scenes.isolated import IsolatedRenderer
-            from beo_bench.scenes.noise import DepthNoise
 
             w, h = self.suite.image_size
             self._renderer = IsolatedRenderer(
-                Intrinsics(w, h, self.suite.fovy_deg), rig=rig(self.suite)
+                Intrinsics(w, h, self.suite.fovy_deg),
+                rig=rig(self.suite),
+                sensor=self.suite.sensor,
             )
-            self._noise = DepthNoise() if self.suite.noise else None
         return self._renderer
 
     @property
@@ -95,11 +94,14 @@ class IsolatedItems(Items):
         """The view of item ``index``: exactly what its protocol reveals."""
         protocol = self.suite.protocol
         rng, inst, T = self._draw(index)
-        iv = self.renderer.render(inst, T, self._noise, rng)
-        # The world frame is a random rigid frame drawn after the image, so cam_to_world
-        # tells a backend no more than the protocol does: up (1-DOF) or nothing (3-DOF,
-        # known-pose), and never where the object is (the renderer puts it at the origin).
-        cam_to_world = world_frame(rng, protocol) @ iv.cam_to_world
+        # The world frame is a random rigid frame, so cam_to_world tells a backend no more
+        # than the protocol does: up (1-DOF) or nothing (3-DOF, known-pose), and never where
+        # the object is (the renderer puts it at the origin). It is drawn before the sensor
+        # draws its noise, so an item's instance, camera and world frame are the same
+        # under every sensor (the ideal sensor draws nothing: its items are as they were).
+        frame = world_frame(rng, protocol)
+        iv = self.renderer.render(inst, T, rng=rng)
+        cam_to_world = frame @ iv.cam_to_world
         return View(
             # the rig's viewpoint distribution is part of the protocol (a pose prior any
             # backend may use); it reveals nothing about this view's pose

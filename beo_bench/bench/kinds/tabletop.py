@@ -46,7 +46,11 @@ class SceneItems(Items):
                 objects = s.dataset.objects(s.split, s.categories)
                 kw = {"objects": objects, "num_objects": (1, min(4, len(objects.categories)))}
             self._env = BEOPickEnv(
-                split=s.split, image_size=s.image_size, fovy_deg=s.fovy_deg, noise=s.noise, **kw
+                split=s.split,
+                image_size=s.image_size,
+                fovy_deg=s.fovy_deg,
+                sensor=s.sensor,  # the scenes' depth as the suite's sensor captures it
+                **kw,
             )
         return self._env
 
