@@ -44,6 +44,9 @@ class TrainRequest:
     rotation: str | None = None
     batch_size: int | None = None
     projection_weighting: str | None = None
+    sensor: str | None = None
+    """``--sensor``: the depth sensor HBEO's noisy crops are captured by (None: the
+    published recipe's ``DepthNoise`` augmentation; ``DatasetConfig.sensor``)."""
 
     @property
     def train_split(self) -> str:
@@ -129,5 +132,6 @@ def hbeo_config(req: TrainRequest, kind: Kind) -> HBEOConfig:
         rotation=req.rotation,
         batch_size=req.batch_size,
         projection_weighting=req.projection_weighting,
+        sensor=req.sensor,
         **splits,
     )

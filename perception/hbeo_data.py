@@ -11,7 +11,10 @@ Two kinds of shard (docs/design.md "Perception backends"; dissertation section 4
   other and the table edge; ``beo_bench.scenes.tabletop``, which the env runs too), 640x480;
   every object with at least ``min_pixels`` visible pixels is one crop.
 
-A share ``noise_share`` of the images get the depth-sensor noise model. Shard ``i`` is
+A share ``noise_share`` of the images get the depth-noise augmentation
+(``beo_bench.scenes.noise.DepthNoise``: HBEO's training recipe, not a suite's sensor), or,
+with ``DatasetConfig.sensor`` set, are captured by that depth sensor instead
+(``beo_bench.scenes.sensors``: ``kinect-v1``, ``d435``). Shard ``i`` is
 generated from ``SeedSequence([seed, i])`` alone, by whichever worker renders it, so a
 dataset is the same however it is split over processes and a killed run resumes at the
 first missing shard. Shards are ``np.savez_compressed`` files written through a temporary
@@ -88,6 +91,13 @@ class DatasetConfig:
     objects: Dataset | None = None
     """A user's dataset the crops are rendered from (``--objects``; None: the procedural
     library). Its identity, not its path, names the shards."""
+    sensor: str | None = None
+    """None: the published recipe, the share ``noise_share`` of the crops with the
+    ``DepthNoise`` augmentation (what the published models were trained on, byte for
+    byte). A sensor's name (``beo_bench.scenes.sensors.SENSORS``; ``--sensor``): that share
+    is captured by the sensor instead (its noise drawn from the shard's generator), the
+    rest rendered ideal; ``noise_share=1`` captures every crop by it. Part of the shards'
+    digest (and so of the model's default name) only when set."""
 
     def object_set(self, split: str) -> ObjectSet:
         """The instances of ``split`` the crops of that split are rendered from."""
@@ -106,6 +116,10 @@ class DatasetConfig:
             raise ValueError(
                 "tabletop_share, noise_share and top_down_share are fractions in [0, 1]"
             )
+        if self.sensor is not None:
+            from beo_bench.scenes.sensors import check_sensor_name
+
+            check_sensor_name(self.sensor)  # a SensorError with the closest names
 
     def shards(self) -> list[tuple[str, int, str, int]]:
         """(split, shard index, kind, crops) of every shard; the kinds interleave, starting
@@ -139,8 +153,10 @@ class DatasetConfig:
         from beo_bench.objects import LIBRARY_VERSION
 
         fields = {k: v for k, v in asdict(self).items() if k not in ("images", "val_images")}
-        # without a dataset the library's shard names stay as they were
+        # without a dataset or a sensor the library's shard names stay as they were
         del fields["objects"]
+        if fields["sensor"] is None:
+            del fields["sensor"]
         if self.objects is not None:
             fields["objects"] = self.objects.identity()
         key = json.dumps([fields, DATA_VERSION, LIBRARY_VERSION], sort_keys=True)
@@ -345,6 +361,8 @@ def _isolated_shard(config: DatasetConfig, split: str, rng: np.random.Generator,
     objects = config.object_set(split)
     col = _Collector(config.categories, config.crop)
     noisy: list[bool] = []
+    if config.sensor is not None:
+        return _isolated_sensor_shard(config, r, objects, col, rng, n)
     noise = DepthNoise()
     while len(col.rows) < n:
         cat = config.categories[int(rng.integers(len(config.categories)))]
@@ -364,8 +382,39 @@ def _isolated_shard(config: DatasetConfig, split: str, rng: np.random.Generator,
     return col.shard(noisy)
 
 
+def _isolated_sensor_shard(
+    config: DatasetConfig,
+    r: Any,
+    objects: ObjectSet,
+    col: _Collector,
+    rng: np.random.Generator,
+    n: int,
+) -> Shard:
+    """An isolated shard whose ``noise_share`` is captured by ``config.sensor``: the draws
+    of the published recipe (class, instance, rig), then whether the crop is the sensor's,
+    then the render (the sensor's noise drawn from ``rng`` after it)."""
+    from beo_bench.scenes.camera import TOP_DOWN_RIG
+
+    noisy: list[bool] = []
+    assert config.sensor is not None
+    while len(col.rows) < n:
+        cat = config.categories[int(rng.integers(len(config.categories)))]
+        inst = objects.get(cat, int(rng.integers(objects.count(cat))))
+        for _ in range(min(config.views_per_instance, n - len(col.rows))):
+            rig = TOP_DOWN_RIG if rng.random() < config.top_down_share else r.rig
+            T = rig.sample(rng, np.zeros(3))
+            is_noisy = bool(rng.random() < config.noise_share)
+            v = r.render(inst, T, rng=rng, sensor=config.sensor if is_noisy else "ideal")
+            if v.mask.sum() < 8:  # a sensor can drop a tiny far object entirely
+                continue
+            col.add(v.depth, v.mask, v.K, inst, v.R_cam, v.t_cam)
+            noisy.append(is_noisy)
+    return col.shard(noisy)
+
+
 def _tabletop_shard(config: DatasetConfig, split: str, rng: np.random.Generator, n: int) -> Shard:
     from beo_bench.scenes.noise import DepthNoise, apply_noise
+    from beo_bench.scenes.renderer import Frame
     from beo_bench.scenes.tabletop import TabletopScenes
 
     # the dataset's content and loading options (the same files loaded another way are
@@ -383,11 +432,20 @@ def _tabletop_shard(config: DatasetConfig, split: str, rng: np.random.Generator,
     col = _Collector(config.categories, config.crop)
     noisy: list[bool] = []
     noise = DepthNoise()
+    sensor = None
+    if config.sensor is not None:
+        from beo_bench.scenes.sensors import make_sensor
+
+        sensor = make_sensor(config.sensor, scenes.intrinsics)
     while len(col.rows) < n:
         obs, truths = scenes.reset(seed=int(rng.integers(2**31)))
         depth = obs["depth"]
         is_noisy = bool(rng.random() < config.noise_share)
-        if is_noisy:
+        if is_noisy and sensor is not None:
+            # the scene as the sensor captures it (the ideal frame reused, not rendered again)
+            ideal = Frame(depth=depth, segmentation=obs["segmentation"])
+            depth = scenes.capture(sensor, rng, ideal).depth
+        elif is_noisy:
             depth = apply_noise(depth, rng, noise)
         for g in truths:
             mask = (obs["segmentation"] == g.label) & (depth > 0)
@@ -433,7 +491,10 @@ def render_dataset(
     root.mkdir(parents=True, exist_ok=True)
     meta = root / "config.json"
     if not meta.exists():
-        atomic_write_bytes(meta, json.dumps(asdict(config), indent=2) + "\n")
+        described = asdict(config)
+        if config.sensor is None:  # the published recipe's description, as it always was
+            del described["sensor"]
+        atomic_write_bytes(meta, json.dumps(described, indent=2) + "\n")
     todo, repaired = [], 0
     for s in config.shards():
         path = shard_path(root, *_where(s))

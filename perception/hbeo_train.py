@@ -129,6 +129,8 @@ class HBEOConfig:
         out = asdict(self)
         if self.dataset.objects is None:  # library models keep the config they had
             del out["dataset"]["objects"]
+        if self.dataset.sensor is None:  # so do models of the published recipe
+            del out["dataset"]["sensor"]
         return out
 
     @classmethod
