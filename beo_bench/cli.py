@@ -99,6 +99,24 @@ def backend_spec(text: str) -> str:
     return text
 
 
+SENSOR_NAMES = "ideal, kinect-v1 or d435"
+"""How ``--sensor``'s help names the sensors (``beo_bench.scenes.sensors.SENSORS``; spelt
+out so that building the parser imports no renderer: tests/bench/test_sensor_axis.py checks
+that it names every one)."""
+
+
+def sensor_name(text: str) -> str:
+    """An argparse ``type`` for ``--sensor``: a registered sensor's name, in any case
+    (``D435``); another name is a usage error (exit 2) naming the closest ones."""
+    from beo_bench.scenes.sensors import SENSORS, SensorError, check_sensor_name
+
+    by_lower = {s.lower(): s for s in SENSORS}
+    try:
+        return check_sensor_name(by_lower.get(text.strip().lower(), text))
+    except SensorError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 def model_name(text: str) -> str:
     """An argparse ``type`` for ``train --name``: a plain name, never a path (the model is
     stored under the cache's models directory, and training may replace a checkpoint
@@ -261,12 +279,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     _split_needs_dataset(args, dataset)
     if dataset is not None:
         suite = suite.with_dataset(dataset, args.split)
+    suite = suite.with_sensor(args.sensor)  # None: the suite's own
     kwargs = parse_option_pairs(args.opt)
     cfg = RunConfig(suite, args.backend, kwargs, args.allow_privileged)
     # resolved once: a bad option, a privileged plugin without leave or a track the backend
     # cannot run in fails here, before any directory is made
     ctx = RunContext.of(cfg, progress=True)
-    name = run_name(suite.name, args.backend, kwargs, args.seed, suite.track)
+    name = run_name(suite.name, args.backend, kwargs, args.seed, suite.track, suite.sensor_tag)
     out = Path(args.out) if args.out else Path("runs") / name
     summary = run(
         ctx,
@@ -326,14 +345,16 @@ COLUMNS = brief_columns()
 def format_runs(runs: Sequence[Summary | dict[str, Any]]) -> str:
     """A plain table of runs: one row per run (its suite and track, backend and options),
     the columns that any of them measured."""
-    from beo_bench.bench.compare import track_of
+    from beo_bench.bench.compare import sensor_tag_of, track_of
     from beo_bench.bench.runs import Summary, backend_label
 
     summaries = [s.to_json() if isinstance(s, Summary) else s for s in runs]
 
     def where(s: dict) -> str:
         track = track_of(s)
-        return f"{s['suite']}@{track}" if track else str(s["suite"])
+        text = f"{s['suite']}@{track}" if track else str(s["suite"])
+        tag = sensor_tag_of(s)
+        return text + (f"~{tag}" if tag else "")
 
     def who(s: dict) -> str:
         return backend_label(s["backend"], s.get("provenance", {}).get("backend_kwargs") or {})
@@ -423,6 +444,7 @@ def cmd_all(args: argparse.Namespace) -> int:
         allow_privileged=args.allow_privileged,
         item_timeout=args.item_timeout,
         update=args.update,
+        sensors=tuple(dict.fromkeys(args.sensor)) if args.sensor else (None,),
     )
     print(leaderboard_text(run_campaign(c), c.leaderboards))
     return 0
@@ -451,6 +473,7 @@ def _train_request(args: argparse.Namespace) -> Any:
         rotation=getattr(args, "rotation", None),
         batch_size=getattr(args, "batch_size", None),
         projection_weighting=getattr(args, "projection_weighting", None),
+        sensor=getattr(args, "sensor", None),
     )
 
 
@@ -459,6 +482,11 @@ def cmd_train(args: argparse.Namespace) -> int:
     looks for, so training it ahead of time only saves the first run the wait)."""
     if args.model != "beo":
         return _train_hbeo(args)
+    if args.sensor is not None:
+        raise UsageError(
+            "--sensor applies to hbeo and hbeo-mdn (the depth sensor their training crops "
+            "are captured by); beo trains on voxels, nothing is rendered"
+        )
     from beo_bench.perception.beo_model import default_name, model_path, train_beo
     from beo_bench.training import beo_config
 
@@ -671,6 +699,22 @@ def item_timeout_parent() -> argparse.ArgumentParser:
     )
 
 
+def sensor_parent(
+    help: str, many: bool = False, title: str | None = None
+) -> argparse.ArgumentParser:
+    """``--sensor NAME`` (``many``: one or more names): the depth sensor, checked
+    case-insensitively with the closest names on a typo."""
+    return _option_parent(
+        "--sensor",
+        type=sensor_name,
+        nargs="+" if many else None,
+        default=None,
+        metavar="NAME",
+        help=help,
+        title=title,
+    )
+
+
 def model_parent() -> argparse.ArgumentParser:
     """The positional ``model``: which kind of perception model."""
     return _option_parent("model", choices=MODELS)
@@ -697,6 +741,12 @@ def render_parents(title: str) -> list[argparse.ArgumentParser]:
         ),
         seed_parent(help="seeds rendering and training", title=title),
         workers_parent(help="render processes (default: cores)", title=title),
+        sensor_parent(
+            f"capture the noisy share of the crops by this depth sensor ({SENSOR_NAMES}; "
+            "docs/sensors.md) instead of the DepthNoise augmentation (default: the published "
+            "recipe's augmentation)",
+            title=title,
+        ),
     ]
 
 
@@ -847,10 +897,15 @@ def _add_run(sub: Any, data: argparse.ArgumentParser) -> None:
                 "library); the run is then suite SUITE+SET"
             ),
             workers_parent(None, "worker processes (default: one per core)"),
-            out_parent(None, "default: runs/SUITE[@TRACK]__BACKEND"),
+            out_parent(None, "default: runs/SUITE[@TRACK][~SENSOR]__BACKEND"),
             ray_parent(),
             item_timeout_parent(),
             privileged_parent(),
+            sensor_parent(
+                f"the depth sensor the views are captured by ({SENSOR_NAMES}; "
+                "docs/sensors.md; default: the suite's own, kinect-v1 for tabletop, ideal "
+                "for the others); another than the suite's own names the run SUITE~SENSOR"
+            ),
         ],
     )
     r.add_argument("--suite", required=True)
@@ -896,6 +951,12 @@ def _add_all(sub: Any, data: argparse.ArgumentParser) -> None:
             out_parent("leaderboards"),
             privileged_parent(),
             update_parent(),
+            sensor_parent(
+                f"run every suite under each of these depth sensors ({SENSOR_NAMES}; "
+                "docs/sensors.md; default: each suite's own); the leaderboard pairs them in "
+                "a robustness table",
+                many=True,
+            ),
         ],
     )
     al.add_argument(
