@@ -124,6 +124,11 @@ DEGRADATION_KEYS: tuple[str, ...] = _keys(
     "rot_err_deg_mean", "gross_err_rate", "class_acc", "iou_mean"
 )
 """The metrics of an ``-ood`` suite's in -> out of distribution table."""
+ROBUSTNESS_KEYS: tuple[str, ...] = _keys(
+    "rot_err_deg_mean", "gross_err_rate", "class_acc", "iou_mean", "pick_success"
+)
+"""The metrics of a suite page's robustness table (a backend under each depth sensor), those
+its runs have."""
 
 
 def spec(key: str) -> MetricSpec:

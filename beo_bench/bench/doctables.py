@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from beo_bench.bench.compare import sensor_tag_of
 from beo_bench.bench.leaderboard import confused_pairs
 from beo_bench.bench.runs import backend_label
 from beo_bench.bench.suites import get_suite
@@ -68,6 +69,7 @@ class Boards:
             if backend_label(r["backend"], r["provenance"].get("backend_kwargs") or {}) == name
             and r.get("track") == track
             and r.get("seed") == s.seed
+            and sensor_tag_of(r) is None  # the suite's own sensor: its robustness is apart
         ]
         if not found:
             raise MissingFigureError(f"leaderboards/{suite}.json has no row {name!r} ({track})")
@@ -92,6 +94,8 @@ class Boards:
         self, suite: str, method: str, baseline: str, metric: str, track: str | None
     ) -> dict[str, Any]:
         for p in self.paired(suite):
+            if "sensor" in p:  # of another sensor than the suite's own, or across sensors
+                continue
             if (p["method"], p["baseline"], p["metric"], p["track"]) == (
                 method,
                 baseline,

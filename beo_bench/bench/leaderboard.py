@@ -25,6 +25,16 @@ confusion matrix in counts), the plots, and the paired verdicts: each method aga
 baselines (:data:`BASELINES`), B - A on mean rotation error and the > 15 deg rate over the
 items both runs scored, with a bootstrap interval over items and a verdict
 (:mod:`beo_bench.bench.compare`).
+
+Runs under a depth sensor other than the suite's own (``--sensor``; the tabletop suite's
+own is ``kinect-v1``, the others' ``ideal``) are tabulated the same way in the page's part
+for that sensor (``## sensor d435``), after the suite's own; a page with runs under more
+than one sensor gets a robustness table (:func:`robustness`): per backend and headline
+metric (:data:`~beo_bench.bench.columns.ROBUSTNESS_KEYS`) its value under each sensor,
+``ideal -> kinect-v1 -> d435``, each paired with the first on the same items (item ``i``
+is the same scene under every sensor), written into ``<suite>_paired.json`` with
+``"pairing": "sensor"``. A page whose runs are all at the suite's own sensor is as it was
+before sensors existed.
 """
 
 from __future__ import annotations
@@ -43,6 +53,7 @@ from beo_bench.bench.columns import (
     BOARD_PER_CATEGORY,
     BOARD_PER_CATEGORY_DEFAULT,
     DEGRADATION_KEYS,
+    ROBUSTNESS_KEYS,
     VERDICT_KEYS,
     MetricSpec,
     board_columns,
@@ -597,13 +608,15 @@ class Verdict:
     method: str
     baseline: str
     result: compare.PairedResult
+    sensor: str | None = None
+    """The sensor of both runs when it is not the suite's own (None: the suite's own)."""
 
 
 def _is_method(s: dict[str, Any]) -> bool:
     return not is_bound(s) and s["backend"] not in (*BASELINES, *DIAGNOSTIC)
 
 
-def paired_verdicts(section: Section) -> list[Verdict]:
+def paired_verdicts(section: Section, sensor: str | None = None) -> list[Verdict]:
     """Each method of the section against each baseline run with default options, on
     :data:`VERDICT_KEYS`, when both runs' results are at hand with the same items."""
     baselines = [
@@ -623,7 +636,10 @@ def paired_verdicts(section: Section) -> list[Verdict]:
                 results = compare.paired_runs(a_run, b_run, keys)
             except UsageError:  # not the same items scored the same way: no verdict
                 continue
-            out += [Verdict(section.track, label(m.summary), label(b.summary), r) for r in results]
+            out += [
+                Verdict(section.track, label(m.summary), label(b.summary), r, sensor)
+                for r in results
+            ]
     return out
 
 
@@ -676,7 +692,10 @@ def verdict_table(verdicts: list[Verdict]) -> str:
 
 
 def _verdict_json(v: Verdict) -> dict[str, Any]:
-    return compare.paired_json(v.result, "baseline", v.track, v.method, v.baseline)
+    out = compare.paired_json(v.result, "baseline", v.track, v.method, v.baseline)
+    if v.sensor is not None:  # the suite's own sensor's entries are as they always were
+        out["sensor"] = v.sensor
+    return out
 
 
 # -- the other tables ----------------------------------------------------------------------------
@@ -742,6 +761,214 @@ def gap_table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+# -- sensors -------------------------------------------------------------------------------------
+SENSOR_NOTE = (
+    "The same items as the suite's own sections, the depth captured by the `{sensor}` sensor "
+    "(docs/sensors.md) instead of the suite's own `{own}`."
+)
+
+
+def _order_of(sensor: str) -> tuple[int, str]:
+    """Sensors in the order of ``SENSORS`` (ideal, kinect-v1, d435), others after them."""
+    from beo_bench.scenes.sensors import SENSORS
+
+    return (SENSORS.index(sensor) if sensor in SENSORS else len(SENSORS), sensor)
+
+
+def _sensor_key(tag: str | None) -> tuple[int, str]:
+    """Sensor parts: the suite's own (None) first, then the others in ``SENSORS`` order."""
+    return (-1, "") if tag is None else _order_of(tag)
+
+
+def sensor_rows(rows: list[Row]) -> dict[str | None, list[Row]]:
+    """The rows by the sensor they were captured by: None for the suite's own
+    (:func:`~beo_bench.bench.compare.sensor_tag_of`), then each other sensor, in the order
+    of ``SENSORS``."""
+    groups: dict[str | None, list[Row]] = {}
+    for r in rows:
+        groups.setdefault(compare.sensor_tag_of(r.summary), []).append(r)
+    return {k: groups[k] for k in sorted(groups, key=_sensor_key)}
+
+
+@dataclass(frozen=True)
+class SensorPair:
+    """One backend's run under ``sensor`` against its run under ``baseline_sensor`` (the
+    first sensor with a run of it, in the order of ``SENSORS``), on one metric."""
+
+    track: str | None
+    backend: str
+    sensor: str
+    baseline_sensor: str
+    result: compare.PairedResult
+
+
+def _sensor_json(p: SensorPair) -> dict[str, Any]:
+    out = compare.paired_json(p.result, "sensor", p.track, p.backend, p.backend)
+    return {**out, "sensor": p.sensor, "baseline_sensor": p.baseline_sensor}
+
+
+def _robustness_cell(s: dict[str, Any], key: str) -> str:
+    if key == "class_acc" and s["metrics"].get("class_given"):
+        return "given"
+    return spec(key).format(s["metrics"].get(key))
+
+
+ROBUSTNESS_NOTE = (
+    "Each backend under each depth sensor (docs/sensors.md) it was run with, from each "
+    "sensor's first section: item i is the same scene under every sensor, so the runs pair "
+    "item by item."
+)
+
+
+@dataclass(frozen=True)
+class Robustness:
+    """A suite's robustness table: per track (None on a suite without tracks) its tables,
+    and the pairings behind them."""
+
+    tracks: list[tuple[str | None, str]]
+    pairs: list[SensorPair]
+
+    def markdown(self, level: str = "###") -> str:
+        """The tables, each track's under a heading of ``level``; "" without tables."""
+        if not self.tracks:
+            return ""
+        parts = [f"{level} {t} track\n\n{text}" if t else text for t, text in self.tracks]
+        return "\n\n".join([ROBUSTNESS_NOTE, *parts])
+
+
+def robustness(suite: str, parts: dict[str | None, dict[str | None, list[Section]]]) -> Robustness:
+    """The robustness table of a suite with runs under more than one sensor, and its
+    pairings (empty otherwise). Per track, from each sensor's first section: per
+    backend, the headline metrics (:data:`ROBUSTNESS_KEYS`) under each sensor, ``ideal ->
+    kinect-v1 -> d435``; then each sensor's run paired with the backend's run under the
+    first of them (B - A over the items both scored, a bootstrap interval that resamples
+    items, a verdict: :func:`beo_bench.bench.compare.paired_runs`)."""
+    from beo_bench.bench.compare import default_sensor_of
+
+    own = default_sensor_of(suite)
+    names = {tag: own if tag is None else tag for tag in parts}
+    if len(set(names.values())) < 2:
+        return Robustness([], [])
+    order = sorted(parts, key=lambda t: _order_of(names[t]))  # ideal -> kinect-v1 -> d435
+    tracks = sorted({t for p in parts.values() for t in p}, key=_track_key)
+    blocks: list[tuple[str | None, str]] = []
+    pairs: list[SensorPair] = []
+    loaded: dict[Path, compare.Run | None] = {}
+    for track in tracks:
+        # each sensor's first section of the track: its own runs (not borrowed ones)
+        firsts = {names[t]: parts[t][track][0] for t in order if parts[t].get(track)}
+        if len(firsts) < 2:
+            continue
+        sensors = list(firsts)
+        runs: dict[str, dict[str, Row]] = {}
+        for sensor, sec in firsts.items():
+            for r in sec.rows:
+                if not r.borrowed and r.summary["backend"] not in DIAGNOSTIC:
+                    runs.setdefault(label(r.summary), {})[sensor] = r
+        ordered = sorted(runs, key=lambda b: _order_key(runs[b]))
+        backends = [b for b in ordered if len(runs[b]) > 1]  # under two sensors at least
+        if not backends:
+            continue
+        keys = [
+            k
+            for k in ROBUSTNESS_KEYS
+            if any(k in r.summary["metrics"] for b in backends for r in runs[b].values())
+        ]
+        head = " -> ".join(f"`{x}`" for x in sensors)
+        lines = [
+            "| backend | " + " | ".join(f"{spec(k).label}: {head}" for k in keys) + " |",
+            "|---|" + "---:|" * len(keys),
+        ]
+        track_pairs: list[SensorPair] = []
+        for b in backends:
+            got = runs[b]
+            cells = [
+                " -> ".join(
+                    _robustness_cell(got[x].summary, k) if x in got else "-" for x in sensors
+                )
+                for k in keys
+            ]
+            first = next(r for r in got.values())
+            lines.append(f"| {_name(first)} | " + " | ".join(cells) + " |")
+            ref = next(x for x in sensors if x in got)
+            for x in sensors:
+                if x == ref or x not in got:
+                    continue
+                track_pairs += _sensor_pairs(track, b, ref, got[ref], x, got[x], keys, loaded)
+        pairs += track_pairs
+        table = sensor_verdict_table(track_pairs)
+        blocks.append((track, "\n".join(lines) + ("\n\n" + table if table else "")))
+    return Robustness(blocks, pairs)
+
+
+def _order_key(runs: dict[str, Row]) -> tuple[bool, str]:
+    r = next(iter(runs.values()))
+    return (is_bound(r.summary), label(r.summary))
+
+
+def _sensor_pairs(
+    track: str | None,
+    backend: str,
+    ref: str,
+    a: Row,
+    sensor: str,
+    b: Row,
+    keys: list[str],
+    loaded: dict[Path, compare.Run | None],
+) -> list[SensorPair]:
+    """``b`` (under ``sensor``) against ``a`` (under ``ref``) on ``keys``, over the items
+    both scored; none when either run's results are not at hand or they are not the same
+    items (another seed)."""
+    if a.path is None or b.path is None:
+        return []
+    a_run, b_run = _run(a, loaded), _run(b, loaded)
+    if a_run is None or b_run is None or not a_run.items & b_run.items:
+        return []
+    both = {m.key for m in compare.pairable(a_run.summary, b_run.summary)}
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", compare.ComparisonWarning)  # a shorter run: its items
+            results = compare.paired_runs(a_run, b_run, [k for k in keys if k in both])
+    except UsageError:  # another seed or version: not the same items
+        return []
+    return [SensorPair(track, backend, sensor, ref, r) for r in results]
+
+
+def sensor_verdict_table(pairs: list[SensorPair]) -> str:
+    """The paired verdicts of the robustness table: a row per (backend, sensor), per metric
+    sensor - baseline sensor with its 95% interval and the verdict; "" without pairs."""
+    if not pairs:
+        return ""
+    keys = [k for k in ROBUSTNESS_KEYS if any(p.result.key == k for p in pairs)]
+    rows: dict[tuple[str, str, str], dict[str, compare.PairedResult]] = {}
+    for p in pairs:
+        rows.setdefault((p.backend, p.sensor, p.baseline_sensor), {})[p.result.key] = p.result
+    head = "".join(f" {spec(k).label}: sensor - baseline [95%] | verdict |" for k in keys)
+    lines = [
+        "Paired (each sensor's run against the same backend's under the first sensor, on the "
+        "items both scored; 95% bootstrap intervals that resample items; *better* / *worse* "
+        "when the interval excludes 0):",
+        "",
+        "| backend | sensor | baseline | items |" + head,
+        "|---|---|---|---:|" + "---:|---|" * len(keys),
+    ]
+    for (backend, sensor, base), res in rows.items():
+        n = max(r.n_items for r in res.values())
+        cells = []
+        for k in keys:
+            r = res.get(k)
+            if r is None:
+                cells += ["-", "-"]
+                continue
+            m = r.spec
+            cells += [
+                f"{m.format_diff(r.diff)} [{m.format_diff(r.lo)}, {m.format_diff(r.hi)}]",
+                f"**{r.verdict}**" if r.verdict != "no difference" else r.verdict,
+            ]
+        lines.append(f"| {backend} | `{sensor}` | `{base}` | {n} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 # -- the pages -----------------------------------------------------------------------------------
 def _newest(rows: list[Row]) -> tuple[int, list[Row], dict[int, int]]:
     """The newest suite version, its runs, and how many runs each older version has."""
@@ -754,12 +981,14 @@ def _newest(rows: list[Row]) -> tuple[int, list[Row], dict[int, int]]:
     return newest, [r for r in rows if r.summary["suite_version"] == newest], older
 
 
-def _prefix(suite: str, track: str | None) -> str:
-    return f"{suite}_{track}" if track else suite
+def _prefix(suite: str, track: str | None, sensor: str | None = None) -> str:
+    where = f"{suite}_{sensor}" if sensor else suite
+    return f"{where}_{track}" if track else where
 
 
-def _heading(suite: str, track: str | None) -> str:
-    return f"{suite}, {track} track" if track else suite
+def _heading(suite: str, track: str | None, sensor: str | None = None) -> str:
+    where = f"{suite}, {track} track" if track else suite
+    return f"{where}, sensor {sensor}" if sensor else where
 
 
 def _partial_note(suite: str, tracks: dict[str | None, list[Section]]) -> str:
@@ -784,6 +1013,9 @@ class _Page:
     plots: list[str]
     verdicts: list[Verdict]
     shown: dict[int, dict[str, Any]]
+    sensor_ablations: list[tuple[str, ablations.AblationResult]] = field(default_factory=list)
+    """The ablations of the parts of sensors other than the suite's own (with the sensor)."""
+    robustness: list[SensorPair] = field(default_factory=list)
     ablations: list[ablations.AblationResult] = field(default_factory=list)
 
 
@@ -793,12 +1025,16 @@ def _track_part(
     suite: str,
     track: str | None,
     secs: list[Section],
-    firsts: dict[tuple[str, str | None], Section],
+    firsts: dict[tuple[str, str | None, str | None], Section],
+    sensor: str | None = None,
 ) -> None:
-    """A track's part of the suite page: its sections, the first with the extra tables."""
-    level = "###" if track else "##"
+    """A track's part of the suite page: its sections, the first with the extra tables.
+    ``sensor``: the part of a sensor other than the suite's own (its headings one level
+    down, under the sensor's)."""
+    top = "###" if sensor else "##"
+    level = top + "#" if track else top
     if track:
-        page.md += [f"## {track} track", "", TRACK_NOTES.get(track, ""), ""]
+        page.md += [f"{top} {track} track", "", TRACK_NOTES.get(track, ""), ""]
     for i, sec in enumerate(secs):
         table = suite_table(sec.rows)
         page.md += [f"{level} {sec.title}", "", table, ""]
@@ -806,21 +1042,25 @@ def _track_part(
             page.shown.setdefault(id(r.summary), r.summary)
         if i:
             continue
-        verdicts = paired_verdicts(sec)
+        verdicts = paired_verdicts(sec, sensor)
         page.verdicts += verdicts
         vt = verdict_table(verdicts)
         # ablations pair runs across this seed's sections (a variant may cover a prefix)
         same_seed = [r for s in secs if s.seed == sec.seed for r in s.rows]
         abl = ablations.ablation_results(track, same_seed, label)
-        page.ablations += abl
+        if sensor is None:
+            page.ablations += abl
+        else:
+            page.sensor_ablations += [(sensor, a) for a in abl]
         at = ablations.ablation_table(abl)
         vt = "\n\n".join(t for t in (vt, at) if t)
-        page.index += [f"### {_heading(suite, track)}: {sec.title}", "", table, ""]
-        page.index += [vt, ""] if vt else []
+        if sensor is None:  # the index shows the suite's own sensor (and the robustness)
+            page.index += [f"### {_heading(suite, track)}: {sec.title}", "", table, ""]
+            page.index += [vt, ""] if vt else []
         summaries = [r.summary for r in sec.rows]
         gap = gap_table(summaries)
         base = suite.removesuffix(OOD_SUFFIX)
-        twin = firsts.get((base, track)) if base != suite else None
+        twin = firsts.get((base, track, sensor)) if base != suite else None
         extra = [vt, gap] + ([degradation_table(base, twin.rows, suite, sec.rows)] if twin else [])
         page.md += [t + "\n" for t in extra if t]
         page.md += [category_table(suite, sec.rows), ""]
@@ -832,7 +1072,7 @@ def _track_part(
             confusion_counts(suite, sec.rows),
         ):
             page.md += [extra_table, ""] if extra_table else []
-        plots = _plots(out, _prefix(suite, track), _heading(suite, track), sec.rows)
+        plots = _plots(out, _prefix(suite, track, sensor), _heading(suite, track, sensor), sec.rows)
         page.plots += plots
         page.md += [*[f"![{p}]({p})" for p in plots], ""]
 
@@ -953,17 +1193,20 @@ def regenerate(
         by_suite.setdefault(r.summary["suite"], []).append(r)
     kept = _kept_pages(out, set(by_suite)) if update else {}
     # every suite's sections first: an -ood suite's page compares with its base's first one
-    plan: dict[str, tuple[int, dict[int, int], dict[str | None, list[Section]]]] = {}
-    firsts: dict[tuple[str, str | None], Section] = {}
+    # (under the same sensor)
+    plan: dict[str, tuple[int, dict[int, int], dict[str | None, dict[str | None, list[Section]]]]]
+    plan = {}
+    firsts: dict[tuple[str, str | None, str | None], Section] = {}
     for suite, (_, kept_rows) in kept.items():
         version, newest, _older = _newest(kept_rows)
-        for t, trs in track_rows(newest).items():
-            firsts[(suite, t)] = sections(suite, version, t, trs)[0]
+        for tag, kept_tracks in _parts(suite, version, newest).items():
+            firsts.update({(suite, t, tag): secs[0] for t, secs in kept_tracks.items()})
     for suite, rows in sorted(by_suite.items()):
         version, newest, older = _newest(rows)
-        tracks = {t: sections(suite, version, t, trs) for t, trs in track_rows(newest).items()}
-        plan[suite] = (version, older, tracks)
-        firsts.update({(suite, t): secs[0] for t, secs in tracks.items()})
+        parts = _parts(suite, version, newest)
+        plan[suite] = (version, older, parts)
+        for tag, tracks in parts.items():
+            firsts.update({(suite, t, tag): secs[0] for t, secs in tracks.items()})
     keep: set[str] = {"README.md"}
     index_parts: dict[str, list[str]] = {}
     for suite, (k, _) in kept.items():
@@ -990,9 +1233,10 @@ def regenerate(
         "backend was told the class. F-score@1%: tau = 1% of the canonical cube's side.",
         "",
     ]
-    for suite, (version, older, tracks) in plan.items():
+    for suite, (version, older, parts) in plan.items():
         page = _Page([], [], [], [], {})
-        desc = _description(tracks)
+        tracks = parts.get(None, {})  # the suite's own sensor
+        desc = _description([t for p in parts.values() for t in p.values()])
         page.md = [f"# {suite} (suite version {version})", "", desc, ""]
         partial = _partial_note(suite, tracks)
         page.md += [partial, ""] if partial else []
@@ -1001,6 +1245,23 @@ def regenerate(
             page.md += [f"Runs of older suite versions are left out ({left}): not comparable.", ""]
         for track, secs in tracks.items():
             _track_part(page, out, suite, track, secs, firsts)
+        robust = robustness(suite, parts)
+        page.robustness = robust.pairs
+        if robust.tracks:
+            page.md += ["## Robustness across sensors", "", robust.markdown("###"), ""]
+            page.index += [
+                f"### {suite}: robustness across sensors",
+                "",
+                robust.markdown("####"),
+                "",
+            ]
+        own = compare.default_sensor_of(suite)
+        for tag, sensor_tracks in parts.items():
+            if tag is None:
+                continue
+            page.md += [f"## sensor {tag}", "", SENSOR_NOTE.format(sensor=tag, own=own), ""]
+            for track, secs in sensor_tracks.items():
+                _track_part(page, out, suite, track, secs, firsts, sensor=tag)
         path = out / f"{suite}.md"
         atomic_write_bytes(path, "\n".join(page.md))
         shown = list(page.shown.values())
@@ -1009,6 +1270,10 @@ def regenerate(
         )
         paired_json = [_verdict_json(v) for v in page.verdicts]
         paired_json += [ablations.ablation_json(x) for x in page.ablations]
+        paired_json += [
+            {**ablations.ablation_json(x), "sensor": t} for t, x in page.sensor_ablations
+        ]
+        paired_json += [_sensor_json(p) for p in page.robustness]
         atomic_write_bytes(
             out / f"{suite}_paired.json", json.dumps(paired_json, indent=2, sort_keys=True) + "\n"
         )
@@ -1038,8 +1303,18 @@ def regenerate(
     return written
 
 
-def _description(tracks: dict[str | None, list[Section]]) -> str:
-    for secs in tracks.values():
+def _parts(
+    suite: str, version: int, rows: list[Row]
+) -> dict[str | None, dict[str | None, list[Section]]]:
+    """The page's parts: per sensor (None: the suite's own, first), its tracks' sections."""
+    return {
+        tag: {t: sections(suite, version, t, trs) for t, trs in track_rows(srows).items()}
+        for tag, srows in sensor_rows(rows).items()
+    }
+
+
+def _description(all_sections: list[list[Section]]) -> str:
+    for secs in all_sections:
         for sec in secs:
             for r in sec.rows:
                 d = r.summary.get("provenance", {}).get("suite", {}).get("description")
