@@ -63,12 +63,14 @@ def write_run(
     digest: str | None = None,
     uses_hint: bool = True,
     privileged: bool = False,
+    sensor: str | None = None,
 ) -> dict[str, Any]:
     """Write ``out/results.jsonl`` and ``out/summary.json`` of a finished run; returns the
-    summary. ``size`` defaults to the number of items in ``rows``."""
+    summary. ``size`` defaults to the number of items in ``rows``; ``sensor``: the depth
+    sensor (None: the suite's own)."""
     base = get_suite(suite)
     size = size if size is not None else len({r["item"] for r in rows})
-    s: Suite = base.with_overrides(size=size, seed=seed)
+    s: Suite = base.with_overrides(size=size, seed=seed).with_sensor(sensor)
     if track is not None and s.class_hint:
         s = s.with_overrides(track=track)
     if version is not None:
