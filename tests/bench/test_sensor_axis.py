@@ -229,3 +229,22 @@ def test_a_tiny_campaign_under_two_sensors_pairs_its_runs(tmp_path) -> None:
     before = {n: (tmp_path / "runs" / n / "results.jsonl").read_bytes() for n in names}
     run_campaign(c)
     assert before == {n: (tmp_path / "runs" / n / "results.jsonl").read_bytes() for n in names}
+
+
+def test_the_doc_tables_read_the_suite_own_sensor(tmp_path) -> None:
+    """docs/results.md's tables quote a suite's own sensor: a run under another one, even
+    of more items, is not the row they read, nor are its pairings."""
+    from beo_bench.bench.doctables import Boards, MissingFigureError
+
+    runs = tmp_path / "runs"
+    write_run(runs / "icp", "icp", _rows(1.0)[:8], size=16)
+    write_run(runs / "icp-d435", "icp", _rows(2.0), sensor="d435")
+    write_run(runs / "beo", "beo", _rows(0.5)[:8], size=16)
+    write_run(runs / "beo-d435", "beo", _rows(0.1), sensor="d435")
+    write_run(runs / "hbeo-d435", "hbeo", _rows(0.1), sensor="d435")  # under d435 alone
+    regenerate(runs, tmp_path / "board")
+    b = Boards(tmp_path / "board")
+    assert b.row("pose-1dof", "icp", "class-given")["n"] == 8
+    assert "sensor" not in b.pair("pose-1dof", "beo", "icp", "rot_err_deg_mean", "class-given")
+    with pytest.raises(MissingFigureError):
+        b.pair("pose-1dof", "hbeo", "icp", "rot_err_deg_mean", "class-given")

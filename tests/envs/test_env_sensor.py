@@ -45,6 +45,28 @@ def test_kinect_depth_differs_from_ideal_and_the_seed_fixes_it() -> None:
     np.testing.assert_array_equal(_reset(3, sensor="ideal")["depth"], ideal["depth"])
 
 
+AIR = [0.4, 0.3, 0.9, 0.0, 1.0, 0.0, 0.0, 0.08]  # above a table corner: lifts nothing
+
+
+def test_each_observation_draws_new_noise_from_the_env_generator() -> None:
+    """After a miss the scene is observed again: where its ideal depth is as it was, the
+    capture is a new one (the noise comes from ``np_random``, which has moved on)."""
+    depths = {}
+    for sensor in ("ideal", "kinect-v1"):
+        env = gym.make("BEOPick-v0", image_size=SIZE, sensor=sensor, max_attempts=2)
+        try:
+            first, _ = env.reset(seed=3)
+            second, *_ = env.step(AIR)
+            depths[sensor] = (first["depth"], second["depth"])
+        finally:
+            env.close()
+    a, b = depths["ideal"]
+    still = (a == b) & (a > 0)  # what the gripper's visit left as it was
+    assert still.mean() > 0.5
+    a, b = depths["kinect-v1"]
+    assert np.mean(a[still] != b[still]) > 0.5
+
+
 def test_the_scene_capture_draws_from_the_generator_it_is_given() -> None:
     """``TabletopScenes.capture`` (what the env calls): another generator, other noise on
     the same scene; the ideal frame it is given is not rendered again."""

@@ -45,13 +45,22 @@ def test_no_sensor_is_the_published_recipe_and_a_sensor_names_its_own_shards() -
 
 @pytest.mark.parametrize(("kind", "index"), [("isolated", 1), ("tabletop", 0)])
 def test_a_sensor_captures_the_noisy_share_of_the_crops(tmp_path, kind, index) -> None:
-    every = {"noise_share": 1.0}
-    paths = {}
-    for name, sensor in (("plain", None), ("kinect", "kinect-v1"), ("again", "kinect-v1")):
-        cfg = DatasetConfig(categories=CATS, sensor=sensor, **every)
-        paths[name] = tmp_path / f"{name}.npz"
-        render_shard(cfg, "train", index, kind, 4, paths[name])
-    plain, kinect, again = (Shard.load(paths[k]) for k in ("plain", "kinect", "again"))
-    assert kinect.noisy.all() and len(kinect) == 4
-    np.testing.assert_array_equal(kinect.depth, again.depth)  # shard i: SeedSequence(seed, i)
-    assert not np.array_equal(kinect.depth, plain.depth, equal_nan=True)
+    shards = {}
+    for name, sensor, share in (
+        ("plain", None, 1.0),
+        ("kinect", "kinect-v1", 1.0),
+        ("again", "kinect-v1", 1.0),
+        ("ideal", "kinect-v1", 0.0),
+    ):
+        cfg = DatasetConfig(categories=CATS, sensor=sensor, noise_share=share)
+        render_shard(cfg, "train", index, kind, 4, tmp_path / f"{name}.npz")
+        shards[name] = Shard.load(tmp_path / f"{name}.npz")
+    kinect, ideal = shards["kinect"], shards["ideal"]
+    assert kinect.noisy.all() and len(kinect) == 4 and not ideal.noisy.any()
+    # shard i is SeedSequence(seed, i)'s: the same crops again
+    np.testing.assert_array_equal(kinect.depth, shards["again"].depth)
+    # the first crop is the same object from the same camera, captured by the sensor or not
+    assert kinect.keys[0] == ideal.keys[0] and kinect.label[0] == ideal.label[0]
+    assert not np.array_equal(kinect.depth[0], ideal.depth[0], equal_nan=True)
+    # nor is the sensor the DepthNoise augmentation
+    assert not np.array_equal(kinect.depth, shards["plain"].depth, equal_nan=True)
