@@ -119,7 +119,7 @@ class D435(Sensor):
         # from 0.16 px to 0.10 px (measured here; docs/sensors.md).
         block = 9 if min(w, h) >= 256 else 5
         area = w * h / (640 * 480)
-        self._matcher = cv2.StereoSGBM_create(
+        self._matcher = cv2.StereoSGBM.create(
             minDisparity=0,
             numDisparities=self.num_disparities,
             blockSize=block,

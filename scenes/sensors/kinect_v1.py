@@ -160,8 +160,7 @@ class KinectV1(Sensor):
         if top * top <= 1.0 / 12.0:
             return z, cos2, ok  # sub-pixel at this focal length: no edge moves a pixel
         zo = np.where(ok, z, np.float32(1e3))
-        jump = cv2.dilate(zo, self._k3)
-        jump -= cv2.erode(zo, self._k3)
+        jump = np.subtract(cv2.dilate(zo, self._k3), cv2.erode(zo, self._k3))
         edge = (jump > self._slope * np.where(ok, z, np.float32(0.0))).view(np.uint8)
         band = cv2.dilate(edge, np.ones((2 * reach + 1, 2 * reach + 1), np.uint8))
         v, u = np.nonzero(band)

@@ -128,7 +128,7 @@ def test_an_unknown_sensor_name_says_what_it_meant() -> None:
 
 
 def test_a_size_a_sensor_cannot_support_is_refused() -> None:
-    with pytest.raises(SensorError, match="d435.*16x16.*larger image size"):
+    with pytest.raises(SensorError, match=r"d435.*16x16.*larger image size"):
         make_sensor("d435", Intrinsics(16, 16, 45.0))
-    with pytest.raises(SensorError, match="kinect-v1.*4x4"):
+    with pytest.raises(SensorError, match=r"kinect-v1.*4x4"):
         make_sensor("kinect-v1", Intrinsics(4, 4, 45.0))
