@@ -675,20 +675,26 @@ def verdict_table(verdicts: list[Verdict]) -> str:
         "|---|---|---:|" + "---:|---|" * len(keys),
     ]
     for (method, base), res in pairs.items():
-        n = max(r.n_items for r in res.values())
-        cells = []
-        for k in keys:
-            r = res.get(k)
-            if r is None:
-                cells += ["-", "-"]
-                continue
-            m = r.spec
-            cells += [
-                f"{m.format_diff(r.diff)} [{m.format_diff(r.lo)}, {m.format_diff(r.hi)}]",
-                f"**{r.verdict}**" if r.verdict != "no difference" else r.verdict,
-            ]
+        n, cells = _verdict_cells(res, keys)
         lines.append(f"| {method} | {base} | {n} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _verdict_cells(res: dict[str, Any], keys: list[str] | tuple[str, ...]) -> tuple[int, list[str]]:
+    """The items and the (difference [95%], verdict) cells of one paired row, "-" for a
+    metric the pair lacks."""
+    cells: list[str] = []
+    for k in keys:
+        r = res.get(k)
+        if r is None:
+            cells += ["-", "-"]
+            continue
+        m = r.spec
+        cells += [
+            f"{m.format_diff(r.diff)} [{m.format_diff(r.lo)}, {m.format_diff(r.hi)}]",
+            f"**{r.verdict}**" if r.verdict != "no difference" else r.verdict,
+        ]
+    return max(r.n_items for r in res.values()), cells
 
 
 def _verdict_json(v: Verdict) -> dict[str, Any]:
@@ -953,18 +959,7 @@ def sensor_verdict_table(pairs: list[SensorPair]) -> str:
         "|---|---|---|---:|" + "---:|---|" * len(keys),
     ]
     for (backend, sensor, base), res in rows.items():
-        n = max(r.n_items for r in res.values())
-        cells = []
-        for k in keys:
-            r = res.get(k)
-            if r is None:
-                cells += ["-", "-"]
-                continue
-            m = r.spec
-            cells += [
-                f"{m.format_diff(r.diff)} [{m.format_diff(r.lo)}, {m.format_diff(r.hi)}]",
-                f"**{r.verdict}**" if r.verdict != "no difference" else r.verdict,
-            ]
+        n, cells = _verdict_cells(res, keys)
         lines.append(f"| {backend} | `{sensor}` | `{base}` | {n} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

@@ -57,7 +57,6 @@ class Sensor(ABC):
         self._ray_y = np.broadcast_to(v[:, None], (h, w))
         self._ray_norm2 = (self._ray_x**2 + self._ray_y**2 + np.float32(1.0)).astype(np.float32)
 
-    @abstractmethod
     def capture(
         self,
         renderer: Renderer,
@@ -70,6 +69,16 @@ class Sensor(ABC):
         ``renderer`` is bound to) with its depth camera at ``cam_to_world`` (OpenCV axes).
         ``frame``: the ideal render from ``cam_to_world``, when the caller already has it
         (it is not rendered again). ``rng`` draws every random effect."""
+        if frame is None:
+            frame = renderer.render(data, cam_to_world)
+        return self._sense(renderer, data, cam_to_world, rng, frame)
+
+    @abstractmethod
+    def _sense(
+        self, renderer: Renderer, data: Any, cam_to_world: Mat4, rng: np.random.Generator,
+        frame: Frame,
+    ) -> Frame:  # fmt: skip
+        """What the device returns, given the ideal render ``frame`` of the same pose."""
 
     @property
     def ideal(self) -> bool:

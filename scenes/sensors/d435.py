@@ -148,16 +148,10 @@ class D435(Sensor):
         self._pattern = (pattern / max(float(pattern.max()), 1e-6)).astype(np.float32)
         self._fb = np.float32(self.f * BASELINE)
 
-    def capture(
-        self,
-        renderer: Renderer,
-        data: Any,
-        cam_to_world: Mat4,
-        rng: np.random.Generator,
-        frame: Frame | None = None,
-    ) -> Frame:
-        if frame is None:
-            frame = renderer.render(data, cam_to_world)
+    def _sense(
+        self, renderer: Renderer, data: Any, cam_to_world: Mat4, rng: np.random.Generator,
+        frame: Frame,
+    ) -> Frame:  # fmt: skip
         T = np.asarray(cam_to_world, dtype=np.float64)
         right_pose = T.copy()
         right_pose[:3, 3] = T[:3, 3] + T[:3, 0] * BASELINE

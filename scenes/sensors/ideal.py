@@ -22,12 +22,8 @@ class IdealSensor(Sensor):
     def ideal(self) -> bool:
         return True
 
-    def capture(
-        self,
-        renderer: Renderer,
-        data: Any,
-        cam_to_world: Mat4,
-        rng: np.random.Generator,
-        frame: Frame | None = None,
-    ) -> Frame:
-        return frame if frame is not None else renderer.render(data, cam_to_world)
+    def _sense(
+        self, renderer: Renderer, data: Any, cam_to_world: Mat4, rng: np.random.Generator,
+        frame: Frame,
+    ) -> Frame:  # fmt: skip
+        return frame

@@ -129,16 +129,10 @@ class KinectV1(Sensor):
         self._cos2_max = np.float32(math.cos(math.radians(MAX_INCIDENCE_DEG)) ** 2)
         self._cos2_knee = np.float32(math.cos(math.radians(AXIAL_KNEE_DEG)) ** 2)
 
-    def capture(
-        self,
-        renderer: Renderer,
-        data: Any,
-        cam_to_world: Mat4,
-        rng: np.random.Generator,
-        frame: Frame | None = None,
-    ) -> Frame:
-        if frame is None:
-            frame = renderer.render(data, cam_to_world)
+    def _sense(
+        self, renderer: Renderer, data: Any, cam_to_world: Mat4, rng: np.random.Generator,
+        frame: Frame,
+    ) -> Frame:  # fmt: skip
         z = frame.depth
         cos2 = self.incidence_cos2(z)
         ok = self.lit_by(z, BASELINE)
