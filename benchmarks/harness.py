@@ -38,6 +38,24 @@ def median_time(
     return statistics.median(times)
 
 
+def paired_median_times(
+    fn: Callable[[], Any], ref: Callable[[], Any], repeat: int
+) -> tuple[float, float]:
+    """Median wall times of ``fn`` and of its reference ``ref``, called alternately
+    ``repeat`` times each, so that both see the same machine state (a ratio of two
+    back-to-back medians moves by a quarter with the load of a shared machine)."""
+    a, b = [], []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        ref()
+        t1 = time.perf_counter()
+        fn()
+        t2 = time.perf_counter()
+        b.append(t1 - t0)
+        a.append(t2 - t1)
+    return statistics.median(a), statistics.median(b)
+
+
 def median_ms_per_item(fn: Callable[[Any], Any], items: list[Any]) -> float:
     """Median wall time (ms) of ``fn(item)`` over ``items``, after one untimed warm-up call
     on the first."""

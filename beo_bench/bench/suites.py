@@ -338,11 +338,16 @@ class Suite:
         dataset it is exactly the fields' ``asdict`` minus ``dataset``, so runs on the
         built-in library keep the identity they had before datasets existed; with one,
         the dataset's identity (its root is where it lies, not what it is: the run's
-        provenance records it)."""
+        provenance records it). Under a sensor other than ``ideal``, the sensor model's
+        version (``beo_bench.scenes.sensors.SENSOR_VERSIONS``)."""
         out = asdict(self)
         del out["dataset"]
         if self.dataset is not None:
             out["dataset"] = self.dataset.identity()
+        if self.sensor != "ideal":  # the ideal render's runs keep the identity they had
+            from beo_bench.scenes.sensors import SENSOR_VERSIONS
+
+            out["sensor_version"] = SENSOR_VERSIONS[self.sensor]
         return out
 
 

@@ -23,6 +23,13 @@ SENSORS: tuple[str, ...] = ("ideal", "kinect-v1", "d435")
 
 DEFAULT_SENSOR = "ideal"
 
+SENSOR_VERSIONS: dict[str, int] = {"ideal": 1, "kinect-v1": 2, "d435": 2}
+"""Bumped whenever a change alters what a sensor returns: a run's identity names it (the
+suite record's ``sensor_version``, for every sensor but ``ideal``), so results of an older
+model are never resumed into or compared with a newer one. Version 2 (kinect-v1: axial noise
+drawn per 2x2 block, Box-Muller draws; d435: the texture threshold, matching only where a
+surface is, the longer exposure) changed every capture of both."""
+
 
 def check_sensor_name(name: str) -> str:
     """``name`` if it is a registered sensor, else :class:`SensorError` with the close
@@ -57,4 +64,12 @@ def make_sensor(name: str, intrinsics: Intrinsics) -> Sensor:
     return D435(intrinsics)
 
 
-__all__ = ["DEFAULT_SENSOR", "SENSORS", "Sensor", "SensorError", "check_sensor_name", "make_sensor"]
+__all__ = [
+    "DEFAULT_SENSOR",
+    "SENSORS",
+    "SENSOR_VERSIONS",
+    "Sensor",
+    "SensorError",
+    "check_sensor_name",
+    "make_sensor",
+]

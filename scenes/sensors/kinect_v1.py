@@ -17,7 +17,9 @@ Effects, each from its source (docs/sensors.md has the curves and the validation
    displacement lands on.
 3. **Axial noise** (Nguyen et al. 2012, eq. 1): sigma_z(z, theta) = 0.0012 + 0.0019 (z -
    0.4)^2 m for theta <= 60 deg, plus 0.0001/sqrt(z) theta^2 / (pi/2 - theta)^2 beyond; theta
-   is the angle between the surface normal and the viewing ray.
+   is the angle between the surface normal and the viewing ray. Drawn per 2x2 pixel block,
+   as the lateral noise (the device's depth comes from a correlation window): each pixel's
+   spread is Nguyen's, and neighbours err together.
 4. **Disparity quantisation** to 1/8 pixel (Konolige and Mihelich 2011, "Technical
    description of Kinect calibration": disparity is reported in 1/8-pixel units), at the
    device's own focal length and baseline: a step of z^2 / (8 f b). Nguyen's curves are
@@ -40,7 +42,7 @@ import numpy as np
 
 from beo_bench.scenes.camera import Intrinsics
 from beo_bench.scenes.renderer import Frame, Renderer
-from beo_bench.scenes.sensors.base import Sensor, SensorError
+from beo_bench.scenes.sensors.base import Sensor, SensorError, gaussian
 from beo_bench.types import Mat4
 
 BASELINE = 0.075
@@ -125,6 +127,10 @@ class KinectV1(Sensor):
         h, w = self.shape
         self._bh, self._bw = -(-h // LATERAL_BLOCK), -(-w // LATERAL_BLOCK)
         self._k3 = np.ones((3, 3), np.uint8)
+        # the largest lateral sigma (at the incidence limit) bounds how far an edge can reach
+        self._top = float(lateral_sigma_px(np.radians(MAX_INCIDENCE_DEG))) * self.px_scale
+        reach = math.ceil(3.0 * self._top)
+        self._kband = np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)
         self._slope = np.float32(EDGE_SLOPES * math.tan(math.radians(MAX_INCIDENCE_DEG)) / self.f)
         self._cos2_max = np.float32(math.cos(math.radians(MAX_INCIDENCE_DEG)) ** 2)
         self._cos2_knee = np.float32(math.cos(math.radians(AXIAL_KNEE_DEG)) ** 2)
@@ -134,9 +140,9 @@ class KinectV1(Sensor):
         frame: Frame,
     ) -> Frame:  # fmt: skip
         z = frame.depth
-        cos2 = self.incidence_cos2(z)
+        cos2 = self.incidence_cos2(z, out=self._buf("k_cos2"))
         ok = self.lit_by(z, BASELINE)
-        ok &= cos2 > self._cos2_max
+        ok &= np.greater(cos2, self._cos2_max, out=self._buf("k_ok", bool))
         z, cos2, ok = self._lateral(z, cos2, ok, rng)
         return Frame(depth=self._axial(z, cos2, ok, rng), segmentation=frame.segmentation)
 
@@ -148,19 +154,23 @@ class KinectV1(Sensor):
         import cv2
 
         h, w = self.shape
-        # the largest sigma (at the incidence limit) bounds how far an edge can reach
-        top = float(lateral_sigma_px(np.radians(MAX_INCIDENCE_DEG))) * self.px_scale
-        reach = math.ceil(3.0 * top)
-        if top * top <= 1.0 / 12.0:
+        if self._top * self._top <= 1.0 / 12.0:
             return z, cos2, ok  # sub-pixel at this focal length: no edge moves a pixel
-        zo = np.where(ok, z, np.float32(1e3))
-        jump = np.subtract(cv2.dilate(zo, self._k3), cv2.erode(zo, self._k3))
-        edge = (jump > self._slope * np.where(ok, z, np.float32(0.0))).view(np.uint8)
-        band = cv2.dilate(edge, np.ones((2 * reach + 1, 2 * reach + 1), np.uint8))
-        v, u = np.nonzero(band)
-        if not v.size:
+        zo = self._buf("k_zo")
+        zo[:] = z
+        np.copyto(zo, np.float32(1e3), where=np.logical_not(ok, out=self._buf("k_nok", bool)))
+        hi = cv2.dilate(zo, self._k3, dst=self._buf("k_hi"))
+        jump = np.subtract(hi, cv2.erode(zo, self._k3, dst=self._buf("k_lo")), out=hi)
+        np.multiply(z, ok, out=zo)
+        zo *= self._slope
+        edge = np.greater(jump, zo, out=self._buf("k_edge", bool)).view(np.uint8)
+        band = cv2.dilate(edge, self._kband, dst=self._buf("k_band", np.uint8))
+        at = np.flatnonzero(band.view(bool))  # flat indices: 2-D fancy indexing is 5x slower
+        if not at.size:
             return z, cos2, ok
-        theta = np.arccos(np.sqrt(np.clip(cos2[v, u], self._cos2_max, 1.0)))
+        v, u = np.divmod(at, w)
+        zf, cf, okf = z.ravel(), cos2.ravel(), ok.ravel()
+        theta = np.arccos(np.sqrt(np.clip(cf[at], self._cos2_max, 1.0)))
         sigma = lateral_sigma_px(theta) * self.px_scale
         # Nguyen's figure is of edges found on whole pixels: the draw leaves out the
         # variance that rounding to a pixel adds (1/12 px^2)
@@ -171,33 +181,40 @@ class KinectV1(Sensor):
         present = np.zeros(self._bh * self._bw, dtype=bool)
         present[block] = True
         rank = np.cumsum(present) - 1
-        d = rng.standard_normal((int(present.sum()), 2), dtype=np.float32)[rank[block]]
-        su = np.clip(np.rint(u + d[:, 0] * sigma), 0, w - 1).astype(np.intp)
-        sv = np.clip(np.rint(v + d[:, 1] * sigma), 0, h - 1).astype(np.intp)
-        z2, c2, ok2 = z.copy(), cos2.copy(), ok.copy()
-        z2[v, u] = z[sv, su]
-        c2[v, u] = cos2[sv, su]
-        ok2[v, u] = ok[sv, su]
-        return z2, c2, ok2
+        n = int(present.sum())
+        draws = gaussian(rng, 2 * n)
+        pick = rank[block]
+        su = np.clip(np.rint(u + draws[:n][pick] * sigma), 0, w - 1).astype(np.intp)
+        sv = np.clip(np.rint(v + draws[n:][pick] * sigma), 0, h - 1).astype(np.intp)
+        src = sv * w + su
+        # cos2 and ok are this capture's own arrays: moved in place (gathered first); the
+        # depth is the caller's frame: moved in a copy
+        moved_c, moved_ok = cf[src], okf[src]
+        cf[at], okf[at] = moved_c, moved_ok
+        z2 = self._buf("k_z2")
+        z2[:] = z
+        z2.ravel()[at] = zf[src]
+        return z2, cos2, ok
 
     def _axial(
         self, z: np.ndarray, cos2: np.ndarray, ok: np.ndarray, rng: np.random.Generator
     ) -> np.ndarray:
         """Axial noise and 1/8-pixel disparity rounding (effects 3 and 4) of the returned
-        pixels; 0 elsewhere. float32 throughout: the noise is millimetres, float32 resolves
-        micrometres at 3 m."""
-        idx = np.flatnonzero(ok)
-        zz = z.ravel()[idx]
+        pixels; 0 elsewhere. float32 throughout (the noise is millimetres, float32 resolves
+        micrometres at 3 m), on the whole image: no gather or scatter (a capture's hot
+        path)."""
         # sigma^2 - step^2/12 with sigma = a + b (z - z0)^2 and step = z^2 / (8 f b)
-        t = zz - np.float32(AXIAL_Z0)
+        t = z - np.float32(AXIAL_Z0)
         t *= t
         t *= np.float32(AXIAL_B)
         t += np.float32(AXIAL_A)
-        grazing = np.flatnonzero(cos2.ravel()[idx] < self._cos2_knee)
+        below = np.less(cos2, self._cos2_knee, out=self._buf("k_below", bool))
+        below &= ok
+        grazing = np.flatnonzero(below)
         if grazing.size:
-            th = np.arccos(np.sqrt(cos2.ravel()[idx[grazing]])).astype(np.float32)
-            zg = zz[grazing]
-            t[grazing] += (
+            th = np.arccos(np.sqrt(cos2.ravel()[grazing])).astype(np.float32)
+            zg = z.ravel()[grazing]
+            t.ravel()[grazing] += (
                 np.float32(AXIAL_GRAZING)
                 / np.sqrt(zg)
                 * th
@@ -205,15 +222,25 @@ class KinectV1(Sensor):
                 / (np.float32(math.pi / 2) - th) ** 2
             )
         t *= t
-        step = zz * zz
+        step = np.multiply(z, z, out=self._buf("k_step"))
         step *= np.float32(DISPARITY_STEP / (NATIVE_FOCAL_PX * BASELINE))
         step *= step
         step *= np.float32(1.0 / 12.0)
         t -= step
         np.maximum(t, 0.0, out=t)
         np.sqrt(t, out=t)
-        t *= rng.standard_normal(idx.size, dtype=np.float32)
-        t += zz
+        # one draw per LATERAL_BLOCK block, as the lateral jitter: the device's depth comes
+        # from a correlation window, so neighbouring pixels' errors move together (and a
+        # quarter of the draws is most of this function's saving)
+        import cv2
+
+        h, w = self.shape
+        draws = gaussian(rng, self._bh * self._bw).reshape(self._bh, self._bw)
+        size = (self._bw * LATERAL_BLOCK, self._bh * LATERAL_BLOCK)
+        noise = self._buf("k_noise", shape=(size[1], size[0]))
+        cv2.resize(draws, size, dst=noise, interpolation=cv2.INTER_NEAREST)
+        t *= noise[:h, :w]
+        t += z
         # disparity in 1/8 px, rounded, and back: z = f b / d
         fb8 = np.float32(NATIVE_FOCAL_PX * BASELINE / DISPARITY_STEP)
         np.maximum(t, np.float32(1e-3), out=t)
@@ -221,6 +248,5 @@ class KinectV1(Sensor):
         np.rint(t, out=t)
         np.maximum(t, np.float32(1.0), out=t)
         np.divide(fb8, t, out=t)
-        out = np.zeros(self.shape, dtype=np.float32)
-        out.ravel()[idx] = t
-        return out
+        t *= ok
+        return t

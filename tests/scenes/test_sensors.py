@@ -132,3 +132,122 @@ def test_a_size_a_sensor_cannot_support_is_refused() -> None:
         make_sensor("d435", Intrinsics(16, 16, 45.0))
     with pytest.raises(SensorError, match=r"kinect-v1.*4x4"):
         make_sensor("kinect-v1", Intrinsics(4, 4, 45.0))
+
+
+# -- the hot path's arithmetic against plain references ------------------------------------------
+def _depth_with_jumps_and_holes(h: int, w: int, seed: int) -> np.ndarray:
+    """A slanted surface with float noise, boxes in front of it and holes (no depth)."""
+    rng = np.random.default_rng(seed)
+    v, u = np.mgrid[0:h, 0:w]
+    z = (1.0 + 0.002 * u + 0.001 * v + 1e-4 * rng.standard_normal((h, w))).astype(np.float32)
+    for _ in range(4):
+        r, c = rng.integers(0, h - 8), rng.integers(0, w - 8)
+        z[r : r + rng.integers(3, 12), c : c + rng.integers(3, 12)] = rng.uniform(0.4, 0.9)
+    z[rng.random((h, w)) < 0.05] = 0.0
+    return z
+
+
+def _one_sided_reference(z: np.ndarray, axis: int) -> np.ndarray:
+    """Per pixel: of the backward and forward differences with depth on both ends, the one
+    of smaller magnitude (the backward one on a tie); 0 if neither exists."""
+    zz = z if axis == 1 else z.T
+    out = np.zeros_like(zz)
+    for r in range(zz.shape[0]):
+        for c in range(zz.shape[1]):
+            cand = []
+            if c > 0 and zz[r, c] > 0 and zz[r, c - 1] > 0:
+                cand.append(zz[r, c] - zz[r, c - 1])
+            if c + 1 < zz.shape[1] and zz[r, c] > 0 and zz[r, c + 1] > 0:
+                cand.append(zz[r, c + 1] - zz[r, c])
+            if cand:
+                out[r, c] = min(cand, key=abs)
+    return out if axis == 1 else out.T
+
+
+def _lit_reference(z: np.ndarray, fb: float) -> np.ndarray:
+    """Per pixel: seen by a device fb / f metres along x (fb > 0: no point to its right in
+    the row appears at or left of it; fb < 0 mirrored)."""
+    h, w = z.shape
+    out = np.zeros((h, w), dtype=bool)
+    for r in range(h):
+        x = [c - fb / z[r, c] if z[r, c] > 0 else None for c in range(w)]
+        for c in range(w):
+            if x[c] is None:
+                continue
+            others = x[c + 1 :] if fb >= 0 else x[:c]
+            if fb >= 0:
+                out[r, c] = all(o is None or o > x[c] + 1e-3 for o in others)
+            else:
+                out[r, c] = all(o is None or o < x[c] - 1e-3 for o in others)
+    return out
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_normals_and_visibility_match_plain_references(seed) -> None:
+    intr = Intrinsics(48, 40, 45.0)
+    sensor = make_sensor("kinect-v1", intr)
+    z = _depth_with_jumps_and_holes(40, 48, seed)
+    for axis in (0, 1):
+        got = sensor._one_sided(z, axis)
+        assert np.array_equal(got, _one_sided_reference(z, axis)), axis
+    for offset in (0.075, -0.025, 0.6, -0.4):  # the last two: shadows wider than 16 px
+        got = sensor.lit_by(z, offset)
+        assert np.array_equal(got, _lit_reference(z, sensor.f * offset)), offset
+        assert not got.all() and got.any()
+    # a window holding every pixel with depth, with a void rim, sees what the whole image
+    # sees (the d435 matches only such a window)
+    z[:8] = 0.0
+    z[:, :4] = 0.0
+    z[:, 30:] = 0.0
+    win = (slice(6, 40), slice(2, 34))
+    part = np.ascontiguousarray(z[win])
+    assert np.array_equal(sensor.lit_by(part, 0.075, corner=(6, 2)), sensor.lit_by(z, 0.075)[win])
+    c2 = sensor.incidence_cos2(z)
+    assert np.array_equal(sensor.incidence_cos2(part, corner=(6, 2)), c2[win])
+    assert np.count_nonzero(c2) > 0
+
+
+def test_gaussian_draws_are_standard_normal_and_seeded() -> None:
+    from beo_bench.scenes.sensors.base import gaussian
+
+    a = gaussian(np.random.default_rng(3), 200_001)
+    assert a.dtype == np.float32 and a.shape == (200_001,)
+    assert abs(float(a.mean())) < 0.01 and float(a.std()) == pytest.approx(1.0, abs=0.01)
+    # the tails of a normal, not of a uniform or a sum of a few
+    assert float(np.mean(np.abs(a) > 3.0)) == pytest.approx(0.0027, abs=0.0008)
+    assert np.array_equal(a, gaussian(np.random.default_rng(3), 200_001))
+
+
+def test_d435_returns_no_depth_where_there_is_nothing_to_see() -> None:
+    """An isolated object before the empty far clip: outside the object (and the band its
+    matching window fattens) the IR images hold only sensor noise, which SGBM alone would
+    match; the device's texture threshold leaves it without depth."""
+    import cv2
+
+    from beo_bench.objects.dataset import ObjectSet
+    from beo_bench.scenes.isolated import IsolatedRenderer
+
+    iso = IsolatedRenderer(Intrinsics(128, 128, 45.0), sensor="d435")
+    try:
+        inst = ObjectSet("test").get("mug", 0)
+        rng = np.random.default_rng(5)
+        view = iso.rig.sample(rng, np.zeros(3))
+        got = iso.render(inst, view, rng=rng)
+        ideal = iso.render(inst, view, sensor="ideal")
+    finally:
+        iso.close()
+    obj = (ideal.depth > 0).astype(np.uint8)
+    near = cv2.dilate(obj, np.ones((15, 15), np.uint8)).astype(bool)
+    assert int((got.depth[~near] > 0).sum()) == 0
+    assert float(np.mean(got.depth[obj.astype(bool)] > 0)) > 0.9
+
+
+def test_a_sensor_run_names_its_model_version() -> None:
+    from beo_bench.bench.suites import get_suite
+    from beo_bench.scenes.sensors import SENSOR_VERSIONS
+
+    suite = get_suite("known-pose")
+    assert "sensor_version" not in suite.record()  # ideal runs keep their identity
+    for name in ("kinect-v1", "d435"):
+        record = suite.with_sensor(name).record()
+        assert record["sensor_version"] == SENSOR_VERSIONS[name]
