@@ -18,6 +18,7 @@ import inspect
 import math
 import numbers
 from collections import Counter
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -52,6 +53,11 @@ FAR_CLIP = 20.0
 OPENING_TOLERANCE = 1e-6
 """How far (m) a finger opening may stray outside [0, ``MAX_OPENING``] and still be taken
 (clipped): float32 rounding of a bound, not a user's mistake."""
+
+MAX_POSITION_M = 10.0
+"""The largest |x|, |y| or |z| (m) a grasp position may have: far beyond the table (a grasp
+off the table but within it is valid and misses), so that only a unit mistake or garbage
+is refused (an :class:`ActionError`), never a strategy."""
 
 OBS_MODES = ("image", "pointcloud")
 """The observation modes: ``image`` (depth + segmentation images) and ``pointcloud``
@@ -429,6 +435,7 @@ class BEOPickEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, Any], dict[str, Any]]:
+        check_reset_options(options)
         super().reset(seed=seed)
         frame, pixels = self._tabletop.draw(self.np_random)
         assert self._scene is not None  # the draw made it
@@ -745,6 +752,25 @@ def _copy(obs: dict[str, Any]) -> dict[str, Any]:
     return {k: v.copy() if isinstance(v, np.ndarray) else v for k, v in obs.items()}
 
 
+def check_reset_options(options: Any) -> None:
+    """BEOPick-v0 takes no reset options (a scene is the seed's): ``None`` or an empty dict,
+    else :class:`EnvConfigError` (gymnasium itself passes anything through, so a typo'd
+    option would otherwise be silently ignored)."""
+    if options is None:
+        return
+    if not isinstance(options, Mapping):
+        raise EnvConfigError(
+            f"reset(options={options!r}): options must be a dict or None, got "
+            f"{type(options).__name__}"
+        )
+    if options:
+        raise EnvConfigError(
+            f"reset(options=...): unknown option(s) {', '.join(map(repr, options))}; "
+            "BEOPick-v0 takes none (the scene is the seed's: reset(seed=N); the sensor, "
+            "camera and categories are gym.make keywords)"
+        )
+
+
 def parse_action(action: Any) -> tuple[np.ndarray, float]:
     """The gripper pose (4x4, world) and opening of an action; raises :class:`ActionError`
     on a non-numeric action (strings, dicts), a wrong shape, NaN/inf, a zero quaternion or
@@ -763,8 +789,18 @@ def parse_action(action: Any) -> tuple[np.ndarray, float]:
             f"finger opening {opening} m (entry 7) is outside the gripper's range [0, "
             f"{MAX_OPENING}] m; give an opening in that range (it is never clipped for you)"
         )
+    reach = np.abs(a[:3]).max()
+    if reach > MAX_POSITION_M:
+        raise ActionError(
+            f"action position {a[:3].tolist()} (entries 0-2) is {reach:g} m from the origin "
+            f"along an axis, beyond any reach (|x|, |y|, |z| <= {MAX_POSITION_M:g} m); give the "
+            "grasp position in metres in the world frame"
+        )
     q = a[3:7]
-    norm = float(np.linalg.norm(q))
+    # scaled by its largest entry first: the norm of a finite quaternion with an entry
+    # near 1e155 overflows to inf, and q / inf would reach scipy as a zero quaternion
+    big = float(np.abs(q).max())
+    norm = float(np.linalg.norm(q / big)) * big if big > 0 else 0.0
     if norm < 1e-9:
         raise ActionError(
             "the action's quaternion (entries 3-6) is zero; give the gripper orientation as a "
@@ -772,7 +808,7 @@ def parse_action(action: Any) -> tuple[np.ndarray, float]:
         )
     from scipy.spatial.transform import Rotation
 
-    w, x, y, z = q / norm
+    w, x, y, z = (q / big) / (norm / big)
     T = np.eye(4)
     T[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix()
     T[:3, 3] = a[:3]
