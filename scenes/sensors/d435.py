@@ -218,11 +218,10 @@ class D435(Sensor):
 
         im = image.astype(np.float32)
         k = (self._block, self._block)
-        mean = cv2.boxFilter(im, -1, k, borderType=cv2.BORDER_REPLICATE)
-        sq = cv2.boxFilter(im * im, -1, k, borderType=cv2.BORDER_REPLICATE)
-        mean *= mean
-        sq -= mean
-        return sq < np.float32(TEXTURE_MIN_DN**2)
+        mean = np.asarray(cv2.boxFilter(im, -1, k, borderType=cv2.BORDER_REPLICATE), np.float32)
+        sq = np.asarray(cv2.boxFilter(im * im, -1, k, borderType=cv2.BORDER_REPLICATE), np.float32)
+        # the window's variance E[I^2] - E[I]^2
+        return np.asarray(sq - mean * mean < np.float32(TEXTURE_MIN_DN**2))
 
     def irradiance(
         self, depth: np.ndarray, at_x: float, corner: tuple[int, int] = (0, 0)
