@@ -281,6 +281,7 @@ def write_baseline(runs: Sequence[ScoredRun], path: Path | str) -> Path:
     sees the old file or the new one)."""
     path = Path(path)
     text = json.dumps(baseline_json(runs), separators=(",", ":"), sort_keys=False)
+    path.parent.mkdir(parents=True, exist_ok=True)  # ci/baseline.json in a fresh checkout
     atomic_write_bytes(path, text + "\n")
     return path
 
@@ -808,6 +809,7 @@ def write_reports(
         (markdown_path, report.markdown),
     ):
         if path is not None:
+            Path(path).parent.mkdir(parents=True, exist_ok=True)  # out/gate.xml: out/ may be new
             atomic_write_bytes(Path(path), text())
             written.append(Path(path))
     summary = os.environ.get(STEP_SUMMARY_ENV)
