@@ -43,6 +43,7 @@ import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from statistics import NormalDist
 from typing import Any
 from xml.etree import ElementTree as ET
 
@@ -787,6 +788,50 @@ def gate(
             )
         )
     return GateReport(tuple(verdicts), o, baseline_source, tuple(b.label for b in not_run))
+
+
+# -- what n items can tell -----------------------------------------------------------------------
+Z95 = NormalDist().inv_cdf(0.975)
+"""The two-sided 95% normal quantile (1.96)."""
+
+
+def rate_half_width(rate: float, n: int) -> float:
+    """The half-width of the 95% interval of a rate (a class accuracy, a > 15 deg rate, pick
+    success) measured on ``n`` items: ``1.96 sqrt(rate (1 - rate) / n)``, what the
+    summary's bootstrap over items approaches for one view an item."""
+    return Z95 * math.sqrt(rate * (1 - rate) / n)
+
+
+def paired_half_width(discordant: float, n: int) -> float:
+    """The half-width of the 95% interval of the paired difference of two rates on ``n``
+    items when a share ``discordant`` of the items is right in one run and wrong in the
+    other, and no difference on the whole: each item's difference is then +-1 on that share,
+    0 elsewhere, of variance ``discordant``, so ``1.96 sqrt(discordant / n)``. Items both
+    runs get right or both get wrong cost nothing: pairing is why a gate needs fewer items
+    than two intervals that must not overlap."""
+    return Z95 * math.sqrt(discordant / n)
+
+
+def detectable_difference(discordant: float, n: int, power: float = 0.8) -> float:
+    """The smallest paired difference of two rates that a two-sided 5% test on ``n`` items
+    finds with probability ``power`` when a share ``discordant`` of the items differ
+    (normal approximation): the test rejects past ``1.96 sqrt(discordant / n)`` (the null's
+    spread), and a difference ``delta`` spreads as ``sqrt((discordant - delta^2) / n)``, so
+    ``delta`` solves ``delta - 1.96 sqrt(q / n) = z_power sqrt((q - delta^2) / n)``, found by
+    bisection in ``[0, discordant]`` (no difference can exceed the share that differs)."""
+    z = NormalDist().inv_cdf(power)
+    q = discordant
+
+    def short(delta: float) -> float:  # < 0 while delta is found with less than `power`
+        return delta - Z95 * math.sqrt(q / n) - z * math.sqrt(max(q - delta * delta, 0.0) / n)
+
+    lo, hi = 0.0, q
+    if short(hi) < 0:
+        return math.inf  # not even every differing item going one way is found
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if short(mid) < 0 else (lo, mid)
+    return hi
 
 
 # -- writing the reports ------------------------------------------------------------------------

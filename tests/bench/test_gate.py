@@ -260,6 +260,38 @@ def test_failure_rate_check_names_each_run_above_the_limit(tmp_path) -> None:
     gate.check_failure_rate([(tmp_path / "empty", {"n": 0, "failures": 0})], 0.0)
 
 
+# -- what n items can tell (docs/benchmark.md's table) --------------------------------------------
+def test_the_interval_formulas_agree_with_the_bootstrap_and_the_gate(tmp_path) -> None:
+    """The table's normal approximations against what the package computes: a summary's
+    bootstrap interval of a rate, ``compare``'s paired bootstrap interval, and the power of
+    the gate's sign-flip test at the smallest difference the table says it finds."""
+    from beo_bench.bench.compare import paired_metric
+
+    n, rng = 200, np.random.default_rng(4)
+    gross = rng.random(n) < 0.2  # a > 15 deg rate near 20%
+    summary = write_run(tmp_path / "r", "beo", [pose_row(i, rot_err_deg=30.0 if g else 5.0)
+                        for i, g in enumerate(gross)], track="class-free")  # fmt: skip
+    lo, hi = summary["ci95"]["gross_err_rate"]
+    rate = float(gross.mean())
+    assert (hi - lo) / 2 == pytest.approx(gate.rate_half_width(rate, n), rel=0.15)
+
+    # 30% of the items right in one run and wrong in the other, as many each way
+    a = {(i, 0): float(i % 20 < 6 and i % 2 == 1) for i in range(n)}
+    b = {(i, 0): float(i % 20 < 6 and i % 2 == 0) for i in range(n)}
+    r = paired_metric(a, b, "class_acc", n_resamples=2000)
+    assert (r.hi - r.lo) / 2 == pytest.approx(gate.paired_half_width(0.3, n), rel=0.15)
+
+    n, q = 100, 0.3
+    delta = gate.detectable_difference(q, n)
+    assert 0.14 < delta < 0.16 and gate.detectable_difference(q, 20) == float("inf")
+    found = 0
+    for k in range(200):
+        u = np.random.default_rng(100 + k).random(n)
+        d = np.where(u < (q + delta) / 2, 1.0, np.where(u < q, -1.0, 0.0))
+        found += sign_flip_p(d, permutations=999, seed=k) <= 0.05
+    assert 0.7 <= found / 200 <= 0.9  # the table's 80% power, within sampling error
+
+
 # -- the smoke set -------------------------------------------------------------------------------
 def test_the_smoke_set_holds_every_suite_small() -> None:
     from beo_bench.bench.suites import SUITE_SETS, SUITES, expand_suites, get_suite
