@@ -362,6 +362,11 @@ def is_baseline_file(path: Path | str) -> bool:
 
 def load_baseline(path: Path | str) -> list[ScoredRun]:
     """The baseline runs at ``path``: a baseline file, or runs (:func:`find_runs`)."""
+    if not Path(path).exists():
+        raise GateUsageError(
+            f"--baseline {path} does not exist: give a baseline file (write one with "
+            "`beo-bench baseline RUN ... --out FILE`), a run directory or a directory of runs"
+        )
     return read_baseline_file(path) if is_baseline_file(path) else load_runs([path])
 
 

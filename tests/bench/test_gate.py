@@ -187,6 +187,8 @@ def test_bad_arguments_exit_2(tmp_path, capsys) -> None:
         assert e.value.code == 2, argv
     assert main(["gate", str(tmp_path / "none"), "--baseline", a]) == 2
     assert "does not exist" in capsys.readouterr().err
+    assert main(["gate", a, "--baseline", str(tmp_path / "none.json")]) == 2
+    assert "--baseline " in capsys.readouterr().err
     assert main(["gate", a, "--baseline", a, "--metrics", "pick_success"]) == 2
     assert "has no metric 'pick_success'" in capsys.readouterr().err
 
