@@ -1,9 +1,11 @@
 """The ``beo-bench`` command.
 
 Exit status: 0 on success, 1 on a failure (a run that cannot finish, a corrupt model, a
-full or read-only disk), 2 on a usage error (an argument, option or setting out of range),
-130 when interrupted. An error is one line on stderr, ``beo-bench: error: ...``, saying what
-was wrong and what to do; no traceback.
+full or read-only disk), 2 on a usage error (an argument, option or setting out of range;
+runs that do not pair with a gate's baseline), 3 when results cross a limit you set (`gate`
+found a regression, a run's failures exceed --max-failure-rate; the results and reports are
+written first), 130 when interrupted. An error is one line on stderr, ``beo-bench: error:
+...``, saying what was wrong and what to do; no traceback.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from beo_bench.bench.columns import brief_columns
-from beo_bench.errors import BeoBenchError, UsageError
+from beo_bench.errors import BeoBenchError, ThresholdError, UsageError
 
 if TYPE_CHECKING:
     from beo_bench.bench.runs import Summary
@@ -77,6 +79,35 @@ def fraction(text: str) -> float:
     if value > 1:
         raise argparse.ArgumentTypeError(f"{text} is out of range: give a number in (0, 1]")
     return value
+
+
+def rate(text: str) -> float:
+    """An argparse ``type``: a share in [0, 1] (``--max-failure-rate 0``: no failure)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0 <= value <= 1:
+        raise argparse.ArgumentTypeError(f"{text} is out of range: give a share in [0, 1]")
+    return value
+
+
+def open_fraction(text: str) -> float:
+    """An argparse ``type``: a number in (0, 1) (a significance level)."""
+    value = positive_float(text)
+    if value >= 1:
+        raise argparse.ArgumentTypeError(f"{text} is out of range: give a number in (0, 1)")
+    return value
+
+
+def gate_metric(text: str) -> str:
+    """An argparse ``type`` for ``gate --metrics``: a metric that is a mean over views."""
+    from beo_bench.bench.gate import GateUsageError, metric_spec
+
+    try:
+        return metric_spec(text).key
+    except GateUsageError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def key_value(text: str) -> str:
@@ -302,6 +333,10 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         path = log_run(ctx, args.rerun)
         print(f"recording of the first views: {path}  (open with `rerun {path}`)")
+    if args.max_failure_rate is not None:
+        from beo_bench.bench.gate import check_failure_rate
+
+        check_failure_rate([(out, summary)], args.max_failure_rate)
     return 0
 
 
@@ -396,6 +431,39 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_gate(args: argparse.Namespace) -> int:
+    """Each run against its baseline run; the reports; exit 3 on a regression."""
+    from beo_bench.bench import gate
+
+    options = gate.GateOptions(
+        metrics=tuple(args.metrics) if args.metrics else None,
+        alpha=args.alpha,
+        permutations=args.permutations,
+        seed=args.seed,
+    )
+    baseline = gate.load_baseline(args.baseline)  # refused before the runs are read
+    report = gate.gate(gate.load_runs(args.runs), baseline, options, str(args.baseline))
+    print(report.text())
+    written = gate.write_reports(report, args.json, args.junit, args.markdown)
+    for path in written:
+        print(f"wrote {path}")
+    if not report.passed:
+        worst = "; ".join(v.line() for v in report.regressions)
+        raise gate.GateFailure(f"gate failed: regression in {worst}")
+    return 0
+
+
+def cmd_baseline(args: argparse.Namespace) -> int:
+    """Write the baseline file of the runs given."""
+    from beo_bench.bench import gate
+
+    runs = gate.load_runs(args.runs)
+    path = gate.write_baseline(runs, args.out)
+    held = ", ".join(f"{r.label} ({r.backend})" for r in runs)
+    print(f"wrote {path} ({path.stat().st_size / 1024:.1f} kB): {held}")
+    return 0
+
+
 def cmd_leaderboard(args: argparse.Namespace) -> int:
     from beo_bench.bench.leaderboard import regenerate
 
@@ -419,20 +487,26 @@ def cmd_all(args: argparse.Namespace) -> int:
     from beo_bench.bench.campaign import Campaign, run_campaign
     from beo_bench.bench.leaderboard import check_out
     from beo_bench.bench.runs import parse_backend_spec
-    from beo_bench.bench.suites import list_suites
+    from beo_bench.bench.suites import UnknownSuiteError, expand_suites, list_suites
     from beo_bench.reports import every_backend, leaderboard_text
 
     dataset = _dataset(args)
     _split_needs_dataset(args, dataset)
-    suites = args.suites or (list_suites() if dataset is None else dataset_suites())
-    for s in suites:
+    # suite sets (smoke) name each suite with its size; --episodes, when given, wins
+    try:
+        sizes = expand_suites(
+            args.suites or (list_suites() if dataset is None else dataset_suites())
+        )
+    except UnknownSuiteError as e:
+        raise UsageError(str(e)) from e
+    for s in sizes:
         suite = _suite(s)  # an unknown name fails before any run starts
         if dataset is not None:
             suite.with_dataset(dataset, args.split)  # so does a scene suite on a dataset
     specs = args.backends or every_backend()
     check_out(args.out)  # a refused --out fails now, not after every run
     c = Campaign(
-        {s: args.episodes for s in suites},
+        {s: n if args.episodes is None else args.episodes for s, n in sizes.items()},
         [parse_backend_spec(b) for b in specs],
         runs=Path(args.runs),
         leaderboards=Path(args.out),
@@ -445,6 +519,7 @@ def cmd_all(args: argparse.Namespace) -> int:
         item_timeout=args.item_timeout,
         update=args.update,
         sensors=tuple(dict.fromkeys(args.sensor)) if args.sensor else (None,),
+        max_failure_rate=args.max_failure_rate,
     )
     print(leaderboard_text(run_campaign(c), c.leaderboards))
     return 0
@@ -774,14 +849,19 @@ def registry_listing(width: int | None = None) -> str:
     import shutil
 
     from beo_bench.backend import describe_backend, list_backends, load_plugins
-    from beo_bench.bench.suites import SUITES
+    from beo_bench.bench.suites import SUITE_SETS, SUITES
     from beo_bench.objects.cache import KINDS
 
     width = width or max(60, shutil.get_terminal_size().columns - 2)
+    sets = {
+        n: f"{len(sizes)} suites at {min(sizes.values())}-{max(sizes.values())} items each"
+        for n, sizes in sorted(SUITE_SETS.items())
+    }
     load_plugins()  # a broken plugin is one warning, and is left out
     backends = {n: describe_backend(n) for n in list_backends()}
     sections = [
         ("suites (run --suite NAME)", {n: s.description for n, s in sorted(SUITES.items())}),
+        ("suite sets (all --suites NAME)", sets),
         # plugins: packages' entry points in the group ENTRY_POINT_GROUP
         ("backends (run --backend NAME; installed plugins included)", backends),
         ("cache kinds (cache clear --kind KIND)", KINDS),
@@ -918,6 +998,13 @@ def _add_run(sub: Any, data: argparse.ArgumentParser) -> None:
         "(default: class-free; suites without tracks refuse it)",
     )
     r.add_argument("--resume", action="store_true", help="continue a killed run in --out")
+    r.add_argument(
+        "--max-failure-rate",
+        type=rate,
+        default=None,
+        metavar="X",
+        help=MAX_FAILURE_HELP,
+    )
     r.add_argument("--rerun", default=None, help="also write a rerun .rrd of the first views")
     r.add_argument(
         "--opt",
@@ -963,7 +1050,15 @@ def _add_all(sub: Any, data: argparse.ArgumentParser) -> None:
         "--suites",
         nargs="+",
         default=None,
-        help="default: every suite (with --objects: every isolated suite that a dataset has)",
+        help="suites, or suite sets (smoke: every suite at a few items; --episodes still "
+        "wins); default: every suite (with --objects: every isolated suite that a dataset has)",
+    )
+    al.add_argument(
+        "--max-failure-rate",
+        type=rate,
+        default=None,
+        metavar="X",
+        help=MAX_FAILURE_HELP.replace("the run", "any run"),
     )
     al.add_argument(
         "--backends",
@@ -993,6 +1088,102 @@ def _add_compare(sub: Any, data: argparse.ArgumentParser) -> None:
         help="only the table (runs of any suites; no pairing, no results.jsonl needed)",
     )
     cp.set_defaults(func=cmd_compare)
+
+
+MAX_FAILURE_HELP = (
+    "exit with status 3 (after writing the results) when the run's share of failed views is "
+    "above X, in [0, 1] (0: any failure)"
+)
+
+
+def _add_gate(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``gate`` command."""
+    from beo_bench.bench.gate import DEFAULT_ALPHA, DEFAULT_PERMUTATIONS
+
+    g = sub.add_parser(
+        "gate",
+        help="fail (exit 3) when runs got worse than a baseline, item by item",
+        description="Each run against the baseline run of the same suite, track and sensor, "
+        "on the same items: per metric, a paired sign-flip permutation test over items, "
+        "Holm-corrected over every test; a regression is a difference the wrong way whose "
+        "adjusted p is at most --alpha (docs/benchmark.md, 'A regression gate').",
+        epilog="exit status: 0 no regression, 3 a regression (the reports are written "
+        "first), 2 a usage error (runs that do not pair with the baseline: another suite, "
+        "version, seed, track, sensor or items), 1 a failure (a damaged results file)",
+    )
+    g.add_argument(
+        "runs",
+        nargs="+",
+        metavar="RUN",
+        help="run directories, their summary.json, or a directory of runs (all --runs)",
+    )
+    g.add_argument(
+        "--baseline",
+        required=True,
+        metavar="FILE|RUN",
+        help="a baseline file (`beo-bench baseline`), a run directory or a directory of runs",
+    )
+    g.add_argument(
+        "--metrics",
+        type=gate_metric,
+        nargs="+",
+        default=None,
+        metavar="METRIC",
+        help="summary metrics to gate every suite on, e.g. gross_err_rate class_acc iou_mean "
+        "(default: each suite's primary metric: class_acc for known-pose and tabletop, "
+        "gross_err_rate for the other pose suites, pick_success for pick)",
+    )
+    g.add_argument(
+        "--alpha",
+        type=open_fraction,
+        default=DEFAULT_ALPHA,
+        help=f"the gate's family-wise error rate (default {DEFAULT_ALPHA})",
+    )
+    g.add_argument(
+        "--permutations",
+        type=positive_int,
+        default=DEFAULT_PERMUTATIONS,
+        help="random sign patterns when more than 16 items differ (default "
+        f"{DEFAULT_PERMUTATIONS}; fewer are enumerated exactly)",
+    )
+    g.add_argument(
+        "--seed", type=seed_int, default=0, help="seeds the permutations and the bootstrap"
+    )
+    g.add_argument("--json", type=Path, default=None, metavar="FILE", help="the verdicts as JSON")
+    g.add_argument(
+        "--junit",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="JUnit XML: a test suite per suite, a test case per metric",
+    )
+    g.add_argument(
+        "--markdown",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="a Markdown summary (also appended to $GITHUB_STEP_SUMMARY when it is set)",
+    )
+    g.set_defaults(func=cmd_gate)
+
+
+def _add_baseline(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``baseline`` command."""
+    b = sub.add_parser(
+        "baseline",
+        help="write a baseline file for `gate` from runs (per-item values, to commit)",
+        description="A small versioned JSON file holding each run's suite identity, backend "
+        "and per-view values of every pairable metric, keyed by item: what `beo-bench gate "
+        "--baseline FILE` pairs later runs with.",
+    )
+    b.add_argument(
+        "runs",
+        nargs="+",
+        metavar="RUN",
+        help="run directories, their summary.json, or a directory of runs (all --runs)",
+    )
+    b.add_argument("--out", type=Path, required=True, metavar="FILE", help="the file to write")
+    b.set_defaults(func=cmd_baseline)
 
 
 def _add_leaderboard(sub: Any, data: argparse.ArgumentParser) -> None:
@@ -1131,6 +1322,8 @@ _COMMANDS = (
     _add_run,
     _add_all,
     _add_compare,
+    _add_gate,
+    _add_baseline,
     _add_leaderboard,
     _add_train,
     _add_publish,
@@ -1179,6 +1372,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
         try:
             return int(args.func(args))
+        except ThresholdError as e:  # not an error of the command: what it found
+            return _fail(str(e), e.exit_code, what="")
         except BeoBenchError as e:
             return _fail(str(e), e.exit_code)
         except OSError as e:

@@ -157,3 +157,12 @@ class PluginError(BackendError):
     """A third-party backend plugin (entry point) that fails to import or register."""
 
     exit_code = 1
+
+
+class ThresholdError(BeoBenchError):
+    """A command that finished its work and found its results past a limit the user set:
+    ``gate`` found a regression, or a run's failure rate is above ``--max-failure-rate``.
+    The CLI exits with status 3 for it, so a CI job tells "worse" (3) from "broken" (1)
+    and "asked wrongly" (2)."""
+
+    exit_code = 3

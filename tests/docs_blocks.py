@@ -17,6 +17,9 @@ The rules (docs/contributing.md, "Examples in the documentation", says the same 
   demo, full campaigns, training, publishing, Ray, datasets the test does not have) must be
   in such a block: in a running block they fail, naming the marker to add.
 - A ```` ```toml ```` block must parse (``tomllib``).
+- A ```` ```yaml ```` block (a CI job) must parse (PyYAML), and every ``beo-bench`` command
+  in its shell steps (the strings under ``run``, ``script``, ``before_script`` and
+  ``after_script`` keys, :func:`yaml_commands`) is checked as in a ``check`` block.
 - Any other block fails, unless it is preceded by ``<!-- docs-test: skip REASON -->``.
 
 Run as a script (``python tests/docs_blocks.py ARGS``) it is the ``beo-bench`` of a running
@@ -32,6 +35,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 SHELL_LANGS = ("bash", "sh", "console", "shell")
+YAML_LANGS = ("yaml", "yml")
+SCRIPT_KEYS = ("run", "script", "before_script", "after_script")
+"""The keys whose strings are shell commands: a GitHub Actions step's ``run``, a GitLab CI
+job's ``script`` and its neighbours."""
+SHELL_OPERATORS = {"|", "||", "&", "&&", ";", ";;", ">", ">>", "<", "(", ")"}
 MARKER = re.compile(r"<!--\s*docs-test:\s*(check|skip)\b\s*(.*?)\s*-->")
 
 CHECK_ONLY = {
@@ -123,6 +131,50 @@ def source_line(bs: list[Block], script_line: int) -> str:
     return f"line {script_line} of the script"
 
 
+def shell_commands(text: str) -> list[list[str]]:
+    """The argv of every ``beo-bench`` command in the shell text ``text`` (a command ends
+    at a line end, a shell operator or a comment; a backslash continues the line). The
+    command word may be a path to the script (``.venv/bin/beo-bench``)."""
+    import shlex
+
+    out = []
+    for line in text.replace("\\\n", " ").splitlines():
+        lex = shlex.shlex(line, posix=True, punctuation_chars=True)
+        lex.whitespace_split = True
+        lex.commenters = "#"
+        tokens = list(lex)
+        for i, tok in enumerate(tokens):
+            if tok.rsplit("/", 1)[-1] == "beo-bench" and (
+                i == 0 or tokens[i - 1] in SHELL_OPERATORS
+            ):
+                argv = []
+                for t in tokens[i + 1 :]:
+                    if t in SHELL_OPERATORS:
+                        break
+                    argv.append(t)
+                out.append(argv)
+    return out
+
+
+def yaml_commands(doc: object) -> list[list[str]]:
+    """The ``beo-bench`` commands of a parsed YAML document: in the strings (or lists of
+    strings) under :data:`SCRIPT_KEYS`, at any depth."""
+    out: list[list[str]] = []
+    if isinstance(doc, dict):
+        for key, value in doc.items():
+            if key in SCRIPT_KEYS:
+                texts = value if isinstance(value, list) else [value]
+                for text in texts:
+                    if isinstance(text, str):
+                        out += shell_commands(text)
+            else:
+                out += yaml_commands(value)
+    elif isinstance(doc, list):
+        for value in doc:
+            out += yaml_commands(value)
+    return out
+
+
 def makefile_targets() -> set[str]:
     text = (ROOT / "Makefile").read_text()
     return {m.group(1) for m in re.finditer(r"^([A-Za-z][\w.-]*)\s*:(?!=)", text, re.M)}
@@ -167,7 +219,7 @@ def check_command(argv: list[str]) -> None:
     backends and their options); raises ``AssertionError`` saying what is wrong."""
     from beo_bench.backend import get_backend, load_plugins
     from beo_bench.bench.runs import parse_backend_spec, parse_option_pairs
-    from beo_bench.bench.suites import get_suite
+    from beo_bench.bench.suites import expand_suites, get_suite
     from beo_bench.cli import build_parser
 
     try:
@@ -176,7 +228,7 @@ def check_command(argv: list[str]) -> None:
         raise AssertionError(f"beo-bench {' '.join(argv)}: the parser refused it") from e
     load_plugins()
     suites = [args.suite] if getattr(args, "suite", None) else getattr(args, "suites", None)
-    for s in suites or []:
+    for s in expand_suites(suites or []):  # suite sets (smoke) are names too
         suite = get_suite(s)
         if getattr(args, "track", None):
             suite.with_overrides(track=args.track)

@@ -25,9 +25,11 @@ ROOT = Path(__file__).resolve().parent.parent
 BOARDS = ROOT / "leaderboards"
 PAGES = {
     "README.md": {"headline"},
-    "docs/results.md": set(TABLES) - {"beo-figures", "ref-accuracy", "pick-models", "beo-prior"},
+    "docs/results.md": set(TABLES)
+    - {"beo-figures", "ref-accuracy", "pick-models", "beo-prior", "interval-widths"},
     "docs/backends.md": {"beo-figures"},
     "docs/reference-models.md": {"ref-accuracy", "pick-models"},
+    "docs/benchmark.md": {"interval-widths"},
 }
 """The pages with generated tables, and which tables each must have."""
 

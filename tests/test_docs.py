@@ -21,6 +21,7 @@ import pytest
 from tests.docs_blocks import (
     ROOT,
     SHELL_LANGS,
+    YAML_LANGS,
     Block,
     blocks,
     check_command,
@@ -28,6 +29,7 @@ from tests.docs_blocks import (
     pages,
     python_script,
     source_line,
+    yaml_commands,
 )
 
 PAGES = pages()
@@ -41,6 +43,8 @@ def _env(tmp: Path) -> dict[str, str]:
     env["BEO_BENCH_CACHE"] = os.environ["BEO_BENCH_CACHE"]
     env["PYTHONPATH"] = str(ROOT)
     env.pop("PYTEST_CURRENT_TEST", None)
+    # the examples' `beo-bench gate` would append to the CI job's own summary
+    env.pop("GITHUB_STEP_SUMMARY", None)
     return env
 
 
@@ -56,7 +60,9 @@ def test_every_block_is_run_or_classified() -> None:
                 bad.append(f"{b.where()}: shell blocks run or are checked, never skipped")
             elif b.marker is not None and not b.reason:
                 bad.append(f"{b.where()}: the docs-test marker needs a reason")
-            elif b.lang not in ("python", "toml", *SHELL_LANGS) and b.marker != "skip":
+            elif b.lang not in ("python", "toml", *SHELL_LANGS, *YAML_LANGS) and (
+                b.marker != "skip"
+            ):
                 bad.append(
                     f"{b.where()}: a ```{b.lang or '(no language)'} block is neither run nor "
                     "checked: use python/bash/toml or mark it <!-- docs-test: skip REASON -->"
@@ -174,6 +180,29 @@ def test_toml_blocks_parse(page: Path) -> None:
     for b in blocks(page):
         if b.lang == "toml":
             tomllib.loads(b.code)
+
+
+@pytest.mark.parametrize("page", PAGES, ids=IDS)
+def test_yaml_blocks_parse_and_their_commands_check(page: Path) -> None:
+    """A YAML block (a CI job) parses, and each ``beo-bench`` command of its shell steps
+    goes through the real parser and registries, as a check block's do."""
+    bs = [b for b in blocks(page) if b.lang in YAML_LANGS]
+    if not bs:
+        pytest.skip("no yaml block")
+    yaml = pytest.importorskip("yaml", reason="PyYAML comes with the ray extra (make test)")
+    for b in bs:
+        try:
+            doc = yaml.safe_load(b.code)
+        except yaml.YAMLError as e:
+            pytest.fail(f"yaml block at {b.where()} does not parse: {e}", pytrace=False)
+        for argv in yaml_commands(doc):
+            try:
+                check_command(argv)
+            except Exception as e:  # the parser's or a registry's refusal
+                pytest.fail(
+                    f"yaml block at {b.where()}: `beo-bench {' '.join(argv)}`: {e}",
+                    pytrace=False,
+                )
 
 
 def _prose(page: Path) -> list[tuple[int, str]]:

@@ -67,6 +67,10 @@ class Campaign:
     """``--sensor``: every suite is run under each of these depth sensors (None: the
     suite's own); the leaderboard pairs a backend's runs across them (its robustness
     table)."""
+    max_failure_rate: float | None = None
+    """``--max-failure-rate``: after every run and the leaderboard are written, a
+    :class:`~beo_bench.bench.gate.FailureRateError` (exit status 3) names each run whose
+    share of failed views is above it (None: no limit)."""
 
 
 def run_campaign(c: Campaign) -> list[Path]:
@@ -102,9 +106,10 @@ def run_campaign(c: Campaign) -> list[Path]:
                 out = c.runs / run_name(suite.name, name, kwargs, c.seed, track, suite.sensor_tag)
                 contexts.append((RunContext.of(cfg, progress=c.progress), out))
     # one set of worker processes for every run (see WorkerPool: start-up once, not per run)
+    finished = []
     with WorkerPool(c.workers) as pool:
         for ctx, out in contexts:
-            run(
+            summary = run(
                 ctx,
                 out,
                 resume=True,
@@ -113,4 +118,11 @@ def run_campaign(c: Campaign) -> list[Path]:
                 pool=pool,
                 item_timeout=c.item_timeout,
             )
-    return regenerate(c.runs, c.leaderboards, update=c.update)
+            finished.append((out, summary))
+    written = regenerate(c.runs, c.leaderboards, update=c.update)
+    if c.max_failure_rate is not None:
+        from beo_bench.bench.gate import check_failure_rate
+
+        # every run finished first: one broken suite does not hide how the others did
+        check_failure_rate(finished, c.max_failure_rate)
+    return written

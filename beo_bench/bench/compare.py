@@ -270,7 +270,7 @@ def verdict(lo: float, hi: float, higher_is_better: bool) -> str:
     return "no difference"
 
 
-def _per_item(
+def per_item_sums(
     va: dict[tuple[int, int], float], vb: dict[tuple[int, int], float]
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per common item (sorted): the sums of A's and B's values over the views both scored,
@@ -300,7 +300,7 @@ def paired_metric(
     resampling over items: each resample draws items with replacement and takes the ratio
     of the drawn items' summed differences to their view count (the cluster bootstrap of a
     mean over views)."""
-    sa, sb, n = _per_item(a_values, b_values)
+    sa, sb, n = per_item_sums(a_values, b_values)
     if not len(n):
         return None
     d = sb - sa

@@ -641,6 +641,40 @@ def pick_models(b: Boards) -> str:
     return _table(["backend", "pick success"], rows)
 
 
+INTERVAL_ITEMS = (20, 50, 100, 200, 500, 1000)
+"""From the smoke set's 20 items an isolated suite (``SMOKE_SIZES``) to a full suite."""
+INTERVAL_RATES = (0.5, 0.8, 0.95)
+INTERVAL_DISCORDANT = (0.1, 0.3)
+
+
+def interval_widths(boards: Boards) -> str:
+    """docs/benchmark.md's table of what n items can tell: the 95% half-width of a rate
+    near 50% (the widest), 80% and 95%, of a paired difference of two rates when 10% or
+    30% of the items differ between the runs, and the smallest such difference a gate
+    finds with 80% power (:mod:`beo_bench.bench.gate`'s formulas; ``boards`` is not
+    read: these figures follow from n alone)."""
+    from beo_bench.bench.gate import detectable_difference, paired_half_width, rate_half_width
+
+    head = (
+        ["items n"]
+        + [f"a rate near {r:.0%}" for r in INTERVAL_RATES]
+        + [f"paired, {q:.0%} of items differ" for q in INTERVAL_DISCORDANT]
+        + [f"smallest difference found, {INTERVAL_DISCORDANT[-1]:.0%} differ"]
+    )
+    lines = [
+        "| " + " | ".join(head) + " |",
+        "|" + "---:|" * len(head),
+    ]
+    for n in INTERVAL_ITEMS:
+        cells = [f"{n}"]
+        cells += [f"{100 * rate_half_width(r, n):.1f}" for r in INTERVAL_RATES]
+        cells += [f"{100 * paired_half_width(q, n):.1f}" for q in INTERVAL_DISCORDANT]
+        found = detectable_difference(INTERVAL_DISCORDANT[-1], n)
+        cells.append(f"{100 * found:.1f}" if np.isfinite(found) else "-")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 TABLES: dict[str, Callable[[Boards], str]] = {
     "ref-accuracy": ref_accuracy,
     "pick-models": pick_models,
@@ -657,6 +691,7 @@ TABLES: dict[str, Callable[[Boards], str]] = {
     "modelnet10": modelnet10,
     "modelnet10-headroom": modelnet10_headroom,
     "modelnet10-chapter4": modelnet10_chapter4,
+    "interval-widths": interval_widths,
 }
 
 

@@ -540,6 +540,42 @@ SUITES: dict[str, Suite] = {
 }
 
 
+SMOKE_SIZES: dict[Kind, int] = {Kind.ISOLATED: 20, Kind.TABLETOP: 6, Kind.PICK: 8}
+"""Items per suite of the ``smoke`` set, by item kind (so a suite added to :data:`SUITES`
+is in the set without being listed): the sizes at which every suite, with a fast backend
+(``oracle``, ``hbeo``), runs in under 90 s on 2 cores with a warm asset cache
+(docs/benchmark.md, "A smoke set"; ``benchmarks/bench_smoke.py`` measures it). Enough to see
+a backend that breaks, not a small regression: the interval table beside it says which
+differences n items can tell."""
+
+SUITE_SETS: dict[str, dict[str, int]] = {
+    "smoke": {name: SMOKE_SIZES[s.kind] for name, s in sorted(SUITES.items())},
+}
+"""Named sets of suites for ``beo-bench all --suites NAME``: each suite with its number of
+items (a suite's own size when it is named alone)."""
+
+
+def expand_suites(names: Sequence[str]) -> dict[str, int | None]:
+    """Suite and set names (``all --suites``) -> each suite with its number of items (None:
+    the suite's own size), in the order given; a suite named twice keeps its last mention.
+    An unknown name is an :class:`UnknownSuiteError` (a usage error) listing both."""
+    out: dict[str, int | None] = {}
+    for name in names:
+        if name in SUITE_SETS:
+            out.update(SUITE_SETS[name])
+            continue
+        try:
+            get_suite(name)
+        except UnknownSuiteError:
+            raise UnknownSuiteError(
+                f"unknown suite {name!r}; the suites are {sorted(SUITES)} and the suite sets "
+                f"{sorted(SUITE_SETS)}"
+            ) from None
+        out.pop(name, None)  # moved to where it was last named
+        out[name] = None
+    return out
+
+
 def item_rng(suite: Suite, index: int) -> np.random.Generator:
     """The generator of item ``index``: depends on the suite's seed and the index only."""
     return np.random.default_rng(np.random.SeedSequence([suite.seed, index]))

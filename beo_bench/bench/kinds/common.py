@@ -105,6 +105,14 @@ def no_timing(M: tally.Tally, rows: Rows) -> None:
     """No timing beyond the per-view one."""
 
 
+def estimate_primary(suite: Suite) -> str:
+    """The primary metric of a suite whose views are each scored on an estimate: the class
+    accuracy when the pose is given (Table 3.1's headline), else the > 15 deg gross-error
+    rate (Table 5.2's): a rate, scored in both tracks, that one bad view moves by at most
+    one view's share (a mean rotation error can move by 180 deg / n)."""
+    return "gross_err_rate" if suite.protocol.scores_pose else "class_acc"
+
+
 @dataclass(frozen=True)
 class ItemKind:
     """What one item kind does, as its module (:mod:`.isolated`, :mod:`.tabletop`,
@@ -122,3 +130,6 @@ class ItemKind:
     collect: Callable[[tally.Tally, Rows, dict[str, np.ndarray]], None] = tally.collect_estimates
     timing: Callable[[tally.Tally, Rows], None] = no_timing
     worst_cases: Callable[[Suite], dict[str, float]] = tally.worst_cases
+    primary_metric: Callable[[Suite], str] = estimate_primary
+    """The ``summary["metrics"]`` key that ``beo-bench gate`` judges a suite by unless told
+    other metrics (``--metrics``): one metric, so one test and no multiple comparisons."""

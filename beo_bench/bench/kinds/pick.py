@@ -135,6 +135,11 @@ def worst_cases(suite: Suite) -> dict[str, float]:
     return {}
 
 
+def primary_metric(suite: Suite) -> str:
+    """Pick success: what the suite is for."""
+    return "pick_success"
+
+
 PICK = ItemKind(
     Kind.PICK,
     categories,
@@ -145,5 +150,6 @@ PICK = ItemKind(
     collect=collect,
     timing=timing,
     worst_cases=worst_cases,
+    primary_metric=primary_metric,
 )
 """Pick items: one episode per item, decided from every visible object's estimate."""
