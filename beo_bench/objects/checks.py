@@ -136,14 +136,15 @@ class FileCheck:
         if largest < NEAR_LIMIT * MIN_EXTENT:
             return (
                 f"{read} makes it {_length(largest)} across, within {NEAR_LIMIT:g}x of the "
-                f"{_length(MIN_EXTENT)} minimum: if it is larger, pass {UNITS_FLAG} (the "
-                f"files' units) or {SIZE_FLAG} (its largest extent in metres)"
+                f"{_length(MIN_EXTENT)} minimum: if it is larger, pass {UNITS_FLAG} for the "
+                f"files' units or {SIZE_FLAG} for its largest extent in metres"
             )
         if diagonal > MAX_DIAGONAL / NEAR_LIMIT:
             return (
                 f"{read} makes its diagonal {_length(diagonal)}, within {NEAR_LIMIT:g}x of the "
                 f"{_length(MAX_DIAGONAL)} maximum (the table's depth): if it is smaller, pass "
-                f"{UNITS_FLAG} (the files' units) or {SIZE_FLAG} (its largest extent in metres)"
+                f"{UNITS_FLAG} for the files' units or {SIZE_FLAG} for its largest extent in "
+                f"metres"
             )
         return None
 
@@ -198,7 +199,7 @@ class DatasetCheck:
         rows = [f for f in self.files if keep is None or f.path in keep]
         width = max([len("file"), *(len(f.path) for f in rows)])
         head = (
-            f"{'file':<{width}}  {'faces':>9}  {'extent':>9}  {'units':<14}  "
+            f"  {'file':<{width}}  {'faces':>9}  {'extent':>9}  {'units':<14}  "
             f"{'largest':>9}  {'diagonal':>9}  note"
         )
         out = [
@@ -217,7 +218,7 @@ class DatasetCheck:
             if f.near_limit() is not None:
                 note = f"near the size limits ({_length(MIN_EXTENT)} to {_length(MAX_DIAGONAL)})"
             out.append(
-                f"{f.path:<{width}}  {faces:>9}  {native:>9}  {f.scale():<14}  {largest:>9}  "
+                f"  {f.path:<{width}}  {faces:>9}  {native:>9}  {f.scale():<14}  {largest:>9}  "
                 f"{diagonal:>9}  {note}".rstrip()
             )
         return "\n".join(out)
@@ -471,7 +472,8 @@ def _size_problem(trace: dict[str, Any]) -> str:
             f"{_length(MAX_DIAGONAL)})"
         )
     ext = trace["extents"]
-    dims = " x ".join(f"{e * 100:.3g}" for e in ext) + " cm"
+    unit, per = ("cm", 100.0) if max(ext) < 1 else ("m", 1.0)
+    dims = " x ".join(f"{e * per:.3g}" for e in ext) + f" {unit}"
     units = trace.get("units")
     how = (
         "at --size"
@@ -497,7 +499,8 @@ def _size_fix(trace: dict[str, Any]) -> str:
             hints.append(f"--units {u} makes it {_length(max(ext))}")
     hint = f" ({'; '.join(hints)})" if hints else ""
     return (
-        f"pass {UNITS_FLAG} (the files' units){hint} or {SIZE_FLAG} (its largest extent in metres)"
+        f"pass {UNITS_FLAG} for the files' units{hint} or {SIZE_FLAG} for its largest "
+        f"extent in metres"
     )
 
 

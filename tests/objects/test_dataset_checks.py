@@ -112,7 +112,7 @@ def test_each_kind_of_bad_file_says_what_and_which_flag(tmp_path) -> None:
     assert "truncated" in str(got["thing/cut.obj"][1])
     assert "not a text .obj file" in str(got["thing/binary.obj"][1])
     kind, problem, fix = got["thing/huge.stl"]
-    assert kind == "size" and "it loads at 6.8e+03 x 5e+03 x 4e+03 cm (read as m)" in str(problem)
+    assert kind == "size" and "it loads at 68 x 50 x 40 m (read as m)" in str(problem)
     assert "--units mm makes it 6.8 cm" in str(fix) and "--size M" in str(fix)
     # the line a user sees: path, what, the flags (and --skip-bad), in CLI syntax
     line = check.line(next(f for f in check.bad if f.path == "thing/huge.stl"))
@@ -419,3 +419,25 @@ def test_a_bad_file_in_a_worker_is_raised_as_itself(tmp_path) -> None:
     with pytest.raises(EmptyMeshError) as e:
         run(RunConfig(suite, "oracle"), tmp_path / "run", workers=2, progress=False)
     assert "notes.obj: the file has no faces" in str(e.value) and "bug" not in str(e.value)
+
+
+# -- the docs show what a user sees -------------------------------------------------------------
+def _doc_block() -> list[str]:
+    page = Path(__file__).resolve().parents[2] / "docs" / "own-dataset.md"
+    text = page.read_text()
+    start = text.index("  ```text\n", text.index("## Checks before anything runs")) + 10
+    return [ln.strip() for ln in text[start : text.index("  ```\n", start)].splitlines()]
+
+
+def test_the_docs_show_the_lines_a_user_sees(tmp_path, capsys) -> None:
+    """docs/own-dataset.md's example of the error lines is the real output."""
+    root = make_folder(tmp_path / "ROOT", junk=True, sheet=True)
+    (root / "tray").mkdir()
+    for i in range(2):
+        trimesh.creation.cylinder(radius=0.03, height=0.1 + 0.01 * i).export(root / f"tray/c{i}.stl")
+    trimesh.creation.box(extents=(68.0, 50.0, 40.0)).export(root / "tray" / "tray.stl")
+    with pytest.raises(BadObjectsError) as e:
+        vet(open_dataset(root, units="m"), workers=1)
+    # the lines vet prints, then the error the CLI prints for what it raises
+    lines = [*_errors(capsys.readouterr().err), f"beo-bench: error: {e.value}"]
+    assert [ln.replace(str(root), "ROOT") for ln in lines] == _doc_block()
