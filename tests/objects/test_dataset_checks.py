@@ -262,8 +262,15 @@ def test_links_out_of_the_root_are_skipped_and_never_read(tmp_path, monkeypatch)
         opened.append(str(p))
         return real_read(p, *args)
 
+    real_scandir = os.scandir
+
+    def scandir(path: object) -> object:  # a folder listed is a folder followed
+        opened.append(str(path))
+        return real_scandir(path)  # type: ignore[call-overload]
+
     monkeypatch.setattr(ds, "_file_sha256", sha)
     monkeypatch.setattr(dataset_load, "read_mesh", read)
+    monkeypatch.setattr(walk.os, "scandir", scandir)
     with pytest.warns(walk.DatasetScanWarning) as caught:
         d = open_dataset(root)
         check = check_dataset(d)
@@ -273,7 +280,32 @@ def test_links_out_of_the_root_are_skipped_and_never_read(tmp_path, monkeypatch)
     assert "outside the dataset root" in said and "never followed" in said
     assert d.categories() == ("ball", "block")
     assert [f.path for f in check.files] == ["ball/ball.obj", "block/b0.stl", "block/b1.stl"]
-    assert opened and not any(str(outside) in p or p.endswith("x.obj") for p in opened), opened
+    far = os.path.realpath(outside)
+    touched = [p for p in opened if Path(os.path.realpath(p)).is_relative_to(far)]
+    assert opened and not touched, touched
+
+
+def test_a_modelnet_file_link_out_of_the_root_is_never_read(tmp_path, monkeypatch) -> None:
+    """Layouts that do not search folders (ModelNet, ShapeNet) drop such links too."""
+    root = tmp_path / "ModelNet10"
+    for split in ("train", "test"):
+        (root / "chair" / split).mkdir(parents=True)
+        trimesh.creation.box(extents=(1, 1, 1)).export(root / "chair" / split / "chair_1.off")
+    outside = tmp_path / "secret.off"
+    trimesh.creation.box(extents=(1, 2, 3)).export(outside)
+    os.symlink(outside, root / "chair" / "test" / "chair_2.off")
+    from beo_bench.objects import dataset as ds
+
+    hashed: list[str] = []
+    real_sha = ds._file_sha256
+    monkeypatch.setattr(ds, "_file_sha256", lambda p: hashed.append(str(p)) or real_sha(p))
+    with pytest.warns(walk.DatasetScanWarning, match="chair_2.off is a symbolic link to"):
+        d = open_dataset(root)
+    assert d.layout == "modelnet" and len(hashed) == 2 and not any("chair_2" in p for p in hashed)
+    assert [f.path for f in check_dataset(d).files] == [
+        "chair/test/chair_1.off",
+        "chair/train/chair_1.off",
+    ]
 
 
 def test_a_link_inside_the_root_is_followed_once(tmp_path) -> None:
@@ -434,7 +466,9 @@ def test_the_docs_show_the_lines_a_user_sees(tmp_path, capsys) -> None:
     root = make_folder(tmp_path / "ROOT", junk=True, sheet=True)
     (root / "tray").mkdir()
     for i in range(2):
-        trimesh.creation.cylinder(radius=0.03, height=0.1 + 0.01 * i).export(root / f"tray/c{i}.stl")
+        trimesh.creation.cylinder(radius=0.03, height=0.1 + 0.01 * i).export(
+            root / f"tray/c{i}.stl"
+        )
     trimesh.creation.box(extents=(68.0, 50.0, 40.0)).export(root / "tray" / "tray.stl")
     with pytest.raises(BadObjectsError) as e:
         vet(open_dataset(root, units="m"), workers=1)
