@@ -475,3 +475,40 @@ def test_the_docs_show_the_lines_a_user_sees(tmp_path, capsys) -> None:
     # the lines vet prints, then the error the CLI prints for what it raises
     lines = [*_errors(capsys.readouterr().err), f"beo-bench: error: {e.value}"]
     assert [ln.replace(str(root), "ROOT") for ln in lines] == _doc_block()
+
+
+# -- the verdicts' cache and the check's processes ----------------------------------------------
+def test_verdicts_are_cached_by_content(tmp_path, monkeypatch) -> None:
+    from beo_bench.objects import dataset as ds
+
+    monkeypatch.setattr(ds, "RACY_NS", 0)  # the files were written just now
+    root = make_folder(tmp_path / "data", junk=True)
+    first = check_dataset(open_dataset(root))
+    built: list[str] = []
+    real = checks.build_mesh
+
+    def counting(path: str, *args: object, **kw: object) -> object:
+        built.append(Path(path).name)
+        return real(path, *args, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(checks, "build_mesh", counting)
+    assert check_dataset(open_dataset(root)) == first and built == []  # nothing built again
+    edited = root / "ball" / "ball.obj"
+    trimesh.creation.icosphere(2, radius=0.04).export(edited)
+    stamp = edited.stat().st_mtime_ns + 5_000_000_000  # a later edit, whatever the clock's grain
+    os.utime(edited, ns=(stamp, stamp))
+    again = check_dataset(open_dataset(root))
+    assert built == ["ball.obj"] and again.files != first.files  # only the edited file
+    assert check_dataset(open_dataset(root, repair="voxel")).files and len(built) == 6
+
+
+@pytest.mark.slow
+def test_worker_processes_give_the_same_verdicts(tmp_path) -> None:
+    root = make_folder(tmp_path / "data", junk=True, sheet=True)
+    for i in range(checks.PARALLEL_FROM):
+        trimesh.creation.box(extents=(0.05 + 0.01 * i, 0.05, 0.05)).export(root / f"block/x{i}.stl")
+    d = open_dataset(root)
+    parallel = check_dataset(d, workers=2)
+    shutil.rmtree(Path(os.environ[cache.CACHE_ENV]) / "datasets")  # build them all again
+    assert check_dataset(d, workers=1) == parallel
+    assert [f.path for f in parallel.bad] == ["junk/notes.obj", "paper/sheet.obj"]
