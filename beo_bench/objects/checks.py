@@ -179,10 +179,10 @@ class DatasetCheck:
     def summary(self) -> str:
         """The one-line error for a dataset with bad files and no ``--skip-bad``."""
         n, good = len(self.bad), len(self.files) - len(self.bad)
+        rest = f"or pass --skip-bad to run on the other {good}" if good else "none is usable"
         return (
             f"{n} of {len(self.files)} files of {self.root} cannot be used as objects (each "
-            f"is named above with the flag that fixes it): fix them, or pass --skip-bad to "
-            f"run on the other {good}"
+            f"is named above with the flag that fixes it): fix them, {rest}"
         )
 
     def raise_if_bad(self) -> None:

@@ -512,3 +512,11 @@ def test_worker_processes_give_the_same_verdicts(tmp_path) -> None:
     shutil.rmtree(Path(os.environ[cache.CACHE_ENV]) / "datasets")  # build them all again
     assert check_dataset(d, workers=1) == parallel
     assert [f.path for f in parallel.bad] == ["junk/notes.obj", "paper/sheet.obj"]
+
+
+def test_with_no_usable_file_skip_bad_is_not_suggested(tmp_path) -> None:
+    root = tmp_path / "data"
+    (root / "junk").mkdir(parents=True)
+    (root / "junk" / "a.obj").write_text("nothing\n")
+    summary = check_dataset(open_dataset(root)).summary()
+    assert summary.endswith("fix them, none is usable") and "run on the other" not in summary
