@@ -2,10 +2,11 @@
 
 Exit status: 0 on success, 1 on a failure (a run that cannot finish, a corrupt model, a
 full or read-only disk), 2 on a usage error (an argument, option or setting out of range;
-runs that do not pair with a gate's baseline), 3 when results cross a limit you set (`gate`
-found a regression, a run's failures exceed --max-failure-rate; the results and reports are
-written first), 130 when interrupted. An error is one line on stderr, ``beo-bench: error:
-...``, saying what was wrong and what to do; no traceback.
+runs that do not pair with a gate's baseline) or a problem with your data or set-up (a bad
+mesh file, a missing dataset folder, an unusable asset cache), 3 when results cross a limit
+you set (`gate` found a regression, a run's failures exceed --max-failure-rate; the results
+and reports are written first), 130 when interrupted. An error is one line on stderr,
+``beo-bench: error: ...``, saying what was wrong and what to do; no traceback.
 """
 
 from __future__ import annotations
@@ -205,7 +206,36 @@ def dataset_parent(
         help="with --objects: largest extent in metres, or native (the files' units); "
         "default: the category's size",
     )
+    _add_check_options(g)
     return p
+
+
+def _add_check_options(g: Any) -> None:
+    """``--units``, ``--skip-bad`` and ``--max-faces``: how a dataset's files are read and
+    what its check (``objects.checks``, before the command uses it) does with bad ones."""
+    from beo_bench.objects.meshfile import MAX_INPUT_FACES, UNIT_MODES
+
+    g.add_argument(
+        "--units",
+        choices=list(UNIT_MODES),
+        default=None,
+        help="with --objects: the files' units (in: inches); default: auto (detected) for "
+        "folders, normalised (the class's size) for ShapeNet and ModelNet",
+    )
+    g.add_argument(
+        "--skip-bad",
+        action="store_true",
+        help="with --objects: leave out the files that cannot be used (each is named with "
+        "why) and run on the rest; the summary lists them",
+    )
+    g.add_argument(
+        "--max-faces",
+        type=positive_int,
+        default=MAX_INPUT_FACES,
+        metavar="N",
+        help=f"with --objects: refuse mesh files of more faces (default {MAX_INPUT_FACES:,}: "
+        "beyond it, loading takes minutes and gigabytes)",
+    )
 
 
 SPLITS_ALL = ["train", "val", "test", "all"]
@@ -216,29 +246,42 @@ def _dataset(args: argparse.Namespace) -> Any:
     """The :class:`~beo_bench.objects.dataset.Dataset` that ``--objects`` names (None
     without it; loading options given without it are a usage error)."""
     from beo_bench.objects.loaders import DEFAULT_REPAIR
+    from beo_bench.objects.meshfile import MAX_INPUT_FACES
 
     root = getattr(args, "objects", None)
     if root is None:
         given = [
             f"--{k}"
-            for k, default in (("repair", DEFAULT_REPAIR), ("up", "z"), ("object-size", None))
+            for k, default in (
+                ("repair", DEFAULT_REPAIR),
+                ("up", "z"),
+                ("object-size", None),
+                ("units", None),
+                ("skip-bad", False),
+                ("max-faces", MAX_INPUT_FACES),
+            )
             if getattr(args, k.replace("-", "_"), default) != default
         ]
         if given or getattr(args, "split", None) == "all":
             given += ["--split all"] if getattr(args, "split", None) == "all" else []
             raise UsageError(f"{', '.join(given)} apply to a user dataset only: add --objects ROOT")
         return None
+    from beo_bench.objects.checks import vet
     from beo_bench.objects.dataset import open_dataset
 
-    return open_dataset(root, repair=args.repair, up=args.up, size=args.object_size)
+    dataset = open_dataset(root, args.repair, args.up, args.object_size, args.units, args.max_faces)
+    # every file is built once, here in the driver, before anything uses the dataset: a bad
+    # one is named now with the flag that fixes it, not found by a worker mid-run
+    return vet(dataset, args.skip_bad, getattr(args, "workers", None), args.command == "objects")
 
 
 def cmd_objects(args: argparse.Namespace) -> int:
     from beo_bench import reports
 
-    dataset = _dataset(args)
-    if dataset is not None and args.root is not None:
+    if args.objects is not None and args.root is not None:
         raise UsageError("give the dataset once: --objects ROOT (--root is its older spelling)")
+    args.objects, args.root = args.objects or args.root, None  # checked as --objects is
+    dataset = _dataset(args)
     if dataset is not None:
         print(f"dataset {dataset.root}: {dataset.layout} layout, digest {dataset.digest}")
     objects, counts = reports.select_objects(
@@ -255,13 +298,24 @@ def cmd_objects(args: argparse.Namespace) -> int:
     )
     print()
     print(report.text())
+    _print_skipped(dataset)
     return 0
+
+
+def _print_skipped(dataset: Any) -> None:
+    """The files ``--skip-bad`` left out, at the end of a command's output."""
+    from beo_bench.objects.checks import skipped_text
+
+    if text := skipped_text(dataset):
+        print(f"\n{text}")
 
 
 def cmd_cache(args: argparse.Namespace) -> int:
     from beo_bench import reports
     from beo_bench.objects import cache
 
+    # a cache that is a file is an error, not an empty cache (info needs no write access)
+    cache.check_root(writable=args.action == "clear", min_free=0)
     if args.action == "clear":
         freed = cache.clear(args.kind)
         print(f"cleared {reports.format_bytes(freed)} from {cache.cache_root()}")
@@ -328,6 +382,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     )
     print(format_runs([summary]))
     print(f"\nresults: {out / 'results.jsonl'}\nsummary: {out / 'summary.json'}")
+    _print_skipped(dataset)
     if args.rerun:
         from beo_bench.bench.recording import log_run
 
@@ -522,6 +577,7 @@ def cmd_all(args: argparse.Namespace) -> int:
         max_failure_rate=args.max_failure_rate,
     )
     print(leaderboard_text(run_campaign(c), c.leaderboards))
+    _print_skipped(dataset)
     return 0
 
 
@@ -1363,6 +1419,11 @@ RESUME_HINTS = {
 """What to tell a user who pressed Ctrl-C, per command (the others have nothing to resume)."""
 
 
+CACHE_COMMANDS = ("demo", "objects", "view", "pick-check", "run", "all", "train", "render-dataset")
+"""The commands that write the asset cache, whose directory is checked as they start
+(``objects.cache.check_root``); ``cache`` checks it itself."""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line ``argv``; returns the exit status (argparse's own usage errors
     exit 2 through ``SystemExit``)."""
@@ -1371,6 +1432,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         # inside: `--help` loads the backend plugins, and a broken one is a warning line
         args = build_parser().parse_args(argv)
         try:
+            if args.command in CACHE_COMMANDS:  # once, before anything is computed
+                from beo_bench.objects.cache import check_root
+
+                check_root()
             return int(args.func(args))
         except ThresholdError as e:  # not an error of the command: what it found
             return _fail(str(e), e.exit_code, what="")

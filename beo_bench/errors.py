@@ -40,7 +40,16 @@ class InvalidKeyError(BeoBenchError, ValueError):
     exit_code = 2
 
 
-class MeshError(BeoBenchError, ValueError):
+class UserDataError(BeoBenchError):
+    """An error caused by the user's data or set-up, never by beo-bench: a mesh file, a
+    dataset folder, the asset cache directory. The CLI exits 2 for it (as for a usage
+    error: what must change is the input), and a worker process hands it to the driver as
+    it is (:mod:`beo_bench.bench.pool`), so it is never reported as a bug in beo-bench."""
+
+    exit_code = 2
+
+
+class MeshError(UserDataError, ValueError):
     """A mesh that cannot be used as an object."""
 
 
@@ -68,6 +77,16 @@ class EmptyMeshError(MeshError):
     """A mesh with no faces or no volume."""
 
 
+class TooManyFacesError(MeshError):
+    """A mesh file with more faces than the face budget of a dataset check
+    (:data:`beo_bench.objects.meshfile.MAX_INPUT_FACES`, ``--max-faces``): loading and
+    repairing a multi-million-face scan takes minutes and gigabytes, so it is refused
+    before it is parsed, where its face count can be read from the file's header or lines."""
+
+    faces: int | None = None
+    """The file's face count (set where it is raised; not kept across processes)."""
+
+
 class NonWatertightMeshError(MeshError):
     """A mesh that is not watertight and could not be repaired."""
 
@@ -80,8 +99,26 @@ class ImplausibleSizeError(MeshError):
     ``size=`` option that fixes it."""
 
 
-class DatasetLayoutError(BeoBenchError, ValueError):
-    """A dataset folder that does not have the expected layout."""
+class DatasetLayoutError(UserDataError, ValueError):
+    """A dataset folder that is missing, is no directory or does not have the expected
+    layout."""
+
+
+class DatasetTooLargeError(DatasetLayoutError):
+    """A dataset folder whose scan passed its bound on the files and folders it visits
+    (:data:`beo_bench.objects.walk.MAX_FILES`): usually ``--objects`` pointing at a home
+    or root directory rather than at a dataset."""
+
+
+class BadObjectsError(UserDataError, ValueError):
+    """Files of a user's dataset that cannot be used as objects, found by the check before
+    a command uses the dataset (:func:`beo_bench.objects.checks.check_dataset`); the
+    message lists each with what is wrong and the flag that fixes it."""
+
+
+class CacheDirError(UserDataError):
+    """An asset cache (``$BEO_BENCH_CACHE``) that is not a directory, is not writable or has
+    too little free space: found when a command starts, or when an entry cannot be written."""
 
 
 class EnvConfigError(BeoBenchError, ValueError):

@@ -9,7 +9,10 @@ at a time and it answers in up to three messages:
   the backend then kills or hangs the worker, the driver records these rows as failures,
   without needing the backend or the worker again;
 - ``("done", index, rows)``, or ``("error", index, traceback)`` when the package's own code
-  raised (a backend's exception is a recorded failure, not an error).
+  raised (a backend's exception is a recorded failure, not an error), or
+  ``("data-error", index, exception)`` when the user's data or set-up did (a
+  :class:`~beo_bench.errors.UserDataError`: a bad mesh file, an unwritable cache), which
+  the driver raises as it is: it is not a bug in beo-bench, and its message says what to fix.
 
 A worker that dies (a signal, ``os.abort``, ``sys.exit``) or overruns its item's deadline is
 killed and replaced; its item is recorded as failed with the reason (``timeout after 60 s``,
@@ -46,6 +49,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from beo_bench.bench.runs import RunContext, RunError
+from beo_bench.errors import UserDataError
 
 if TYPE_CHECKING:
     from beo_bench.backend import Backend
@@ -119,6 +123,8 @@ class WorkerState:
         self.evaluator: Evaluator | None = None
         self.import_error = import_error
         self.error = ""
+        self.data_error: UserDataError | None = None
+        """Set-up's error when the user's data caused it (passed on as it is)."""
 
     def setup(self, ctx: RunContext) -> None:
         """Set up the evaluator for ``ctx`` (closing one set up for another run). An error
@@ -129,6 +135,7 @@ class WorkerState:
         if self.evaluator is not None:
             self.evaluator.close()
         self.ctx, self.evaluator, self.error = ctx, None, self.import_error
+        self.data_error = None
         if self.import_error:
             return
         try:
@@ -136,6 +143,8 @@ class WorkerState:
             self.evaluator = Evaluator(ctx)
         except Exception as e:
             self.error = f"{type(e).__name__}: {e}"
+            if isinstance(e, UserDataError):
+                self.data_error = e
             return
         if "torch" in sys.modules:  # loaded by the backend: the environment came too late
             sys.modules["torch"].set_num_threads(WORKER_THREADS)
@@ -144,6 +153,8 @@ class WorkerState:
         """Item ``index`` of the run set up by :meth:`setup`."""
         if self.evaluator is None:
             assert self.ctx is not None
+            if self.data_error is not None:
+                raise self.data_error
             raise setup_error(self.ctx, self.error)
         return index, [clean_row(r) for r in self.evaluator.run_item(index)]
 
@@ -198,6 +209,7 @@ def worker_main(conn: Any, parent: int, imports: tuple[str, ...], deathsig: bool
     _die_with_parent(parent, deathsig)
     # Ctrl-C reaches the whole process group: the driver handles it and stops the workers
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    quiet_dataset_warnings()
     pin_threads()
     state = WorkerState(_import_all(imports))
     while True:
@@ -207,7 +219,11 @@ def worker_main(conn: Any, parent: int, imports: tuple[str, ...], deathsig: bool
             return
         if state.ctx != ctx:
             state.setup(ctx)
-            conn.send(("setup", "" if state.evaluator is not None else state.error or "unknown"))
+            if state.data_error is not None:
+                _send_data_error(conn, "setup", state.data_error, state.error)
+            else:
+                error = "" if state.evaluator is not None else state.error or "unknown"
+                conn.send(("setup", error))
         if state.evaluator is None:
             continue
 
@@ -217,8 +233,32 @@ def worker_main(conn: Any, parent: int, imports: tuple[str, ...], deathsig: bool
         try:
             rows = state.evaluator.run_item(index, announce=begin)
             conn.send(("done", index, [clean_row(r) for r in rows]))
+        except UserDataError as e:
+            _send_data_error(conn, index, e, traceback.format_exc()[-4000:])
         except Exception:
             conn.send(("error", index, traceback.format_exc()[-4000:]))
+
+
+def quiet_dataset_warnings() -> None:
+    """Silence, in a worker, the warnings about a dataset that the driver already showed
+    (links skipped by the scan, files near the size limits): each worker scans the
+    dataset again, and would repeat them once per process, in Python's multi-line form."""
+    import warnings
+
+    from beo_bench.objects.meshfile import UnknownSizeWarning
+    from beo_bench.objects.walk import DatasetScanWarning
+
+    warnings.simplefilter("ignore", DatasetScanWarning)
+    warnings.simplefilter("ignore", UnknownSizeWarning)
+
+
+def _send_data_error(conn: Any, index: int | str, e: UserDataError, fallback: str) -> None:
+    """Send a user-data error to the driver as the exception itself (``index``: the item,
+    or ``"setup"``); one that cannot be pickled goes as its text, a plain error."""
+    try:
+        conn.send(("data-error", index, e))
+    except Exception:  # unpicklable arguments: the traceback text, as for any error
+        conn.send(("error", index, fallback) if index != "setup" else ("setup", fallback))
 
 
 # -- driver side -----------------------------------------------------------------------------
@@ -401,6 +441,11 @@ class WorkerPool:
                 yield from self._failed(slot, ctx, None)
                 return
             kind, *rest = msg
+            if kind == "data-error":  # the user's data or set-up: raised as it is, no "bug"
+                if rest[0] == "setup":
+                    self._kill(slot)  # as for any failed set-up: it holds no evaluator
+                slot.index, slot.begun = None, None
+                raise rest[1]
             if kind == "setup":
                 if rest[0]:
                     self._kill(slot)
@@ -508,6 +553,7 @@ def ray_results(
     @ray.remote(num_cpus=1)
     class Actor:
         def __init__(self, c: RunContext, modules: tuple[str, ...]) -> None:
+            quiet_dataset_warnings()
             pin_threads()
             # a failed import is reported by the first item, as set-up's
             self.state = WorkerState(_import_all(modules))
@@ -543,6 +589,9 @@ def ray_results(
                     rows = failed(i, "worker died: Ray actor lost")
                     fresh.add(actor := actors.remote(ctx, imports))
                 except ray.exceptions.RayTaskError as e:
+                    cause = getattr(e, "cause", None)
+                    if isinstance(cause, UserDataError):  # as a local worker's: as it is
+                        raise cause from None
                     raise RunError(f"item {i} failed on a Ray actor: {e}") from e
                 idle.append(actor)
                 yield i, rows

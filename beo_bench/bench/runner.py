@@ -560,6 +560,12 @@ def provenance(ctx: RunContext) -> dict[str, Any]:
         "suite": ctx.suite.record(),
         "backend_kwargs": ctx.backend.kwargs,
         **({"dataset_root": ctx.dataset.root} if ctx.dataset else {}),
+        # files --skip-bad left out, with why (the paths are also in the suite's identity)
+        **(
+            {"dataset_skipped": [{"path": p, "why": w} for p, w in ctx.dataset.skipped]}
+            if ctx.dataset and ctx.dataset.skipped
+            else {}
+        ),
     }
 
 

@@ -22,11 +22,13 @@ The cache only deletes what it made: when it creates its root it writes a
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import logging
 import os
 import shutil
+import tempfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -35,7 +37,7 @@ import numpy as np
 import trimesh
 
 from beo_bench.atomic import atomic_write
-from beo_bench.errors import InvalidNameError, UsageError
+from beo_bench.errors import CacheDirError, InvalidNameError, UsageError
 from beo_bench.names import check_name
 
 CACHE_ENV = "BEO_BENCH_CACHE"
@@ -77,6 +79,53 @@ def default_root() -> Path:
 def cache_root() -> Path:
     """The cache directory (``$BEO_BENCH_CACHE`` or ``~/.cache/beo_bench``)."""
     return Path(os.environ.get(CACHE_ENV) or default_root())
+
+
+MIN_FREE_BYTES = 256 << 20
+"""Free space the cache's file system must have when a command starts (256 MiB): a run's
+entries for a few hundred objects (voxels, surface samples, collision parts) take tens of
+MB and a trained model up to 100 MB, so below this a run would likely stop midway on a full
+disk; rendered HBEO training sets need more (docs/reference-models.md)."""
+
+_FIX = f"set {CACHE_ENV} to a writable directory with free space"
+
+
+def check_root(writable: bool = True, min_free: int = MIN_FREE_BYTES) -> Path:
+    """The cache root, checked once as a command starts, so that a cache that cannot work
+    fails now with one line rather than later inside a worker: it must be a directory (or
+    not exist yet: it is then created, as the first entry would create it) and, when
+    ``writable``, accept a new file and have ``min_free`` bytes free.
+    :class:`~beo_bench.errors.CacheDirError` (exit status 2) says which and how to fix it."""
+    root = cache_root()
+    where = (
+        f"the asset cache {root} (${CACHE_ENV})"
+        if os.environ.get(CACHE_ENV)
+        else (f"the asset cache {root}")
+    )
+    if root.exists() and not root.is_dir():
+        raise CacheDirError(f"{where} is not a directory; {_FIX}")
+    if not root.exists() and not writable:
+        return root  # nothing cached yet: an empty cache to report
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+        if writable:
+            # a real write: permission bits say nothing on a read-only mount, or for root
+            fd, probe = tempfile.mkstemp(prefix=".write-probe.", suffix=".tmp", dir=root)
+            os.close(fd)
+            os.unlink(probe)  # our own empty probe file
+    except OSError as e:
+        why = e.strerror or type(e).__name__
+        if e.errno in (errno.ENOTDIR, errno.EEXIST):
+            why = "a file is in the way of the directory"
+        raise CacheDirError(f"{where} is not writable ({why}); {_FIX}") from e
+    if writable:
+        free = shutil.disk_usage(root).free
+        if free < min_free:
+            raise CacheDirError(
+                f"{where} has {free / 2**20:.0f} MiB free, under the {min_free / 2**20:.0f} "
+                f"MiB a run needs; free some space or {_FIX}"
+            )
+    return root
 
 
 def mesh_hash(mesh: trimesh.Trimesh) -> str:
@@ -323,8 +372,20 @@ def cached(
         return found
     arrays = {k: np.asarray(v) for k, v in compute().items()}
     claim_for(path)
-    atomic_save_npz(path, **with_checksum(arrays))
+    try:
+        atomic_save_npz(path, **with_checksum(arrays))
+    except OSError as e:
+        if e.errno not in _UNWRITABLE:
+            raise
+        # the user's set-up, not a bug: said as such, also from a worker (bench.pool)
+        raise CacheDirError(
+            f"cannot write the asset cache entry {path} ({e.strerror}); {_FIX}"
+        ) from e
     return arrays
+
+
+_UNWRITABLE = (errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOSPC, errno.EDQUOT, errno.ENOTDIR)
+"""Write errors that mean the cache directory cannot take entries (not a failing disk)."""
 
 
 # -- info and clear -------------------------------------------------------------------------------

@@ -40,7 +40,7 @@ from beo_bench.objects.layouts import (
     load_objects,
     resolve_key,
 )
-from beo_bench.objects.meshfile import axes_rotation
+from beo_bench.objects.meshfile import MAX_INPUT_FACES, UNIT_MODES, axes_rotation
 from beo_bench.objects.objectset import PROCEDURAL_PREFIX, ObjectSet, resolve_procedural_key
 
 DIGEST_CHARS = 16
@@ -75,27 +75,50 @@ class Dataset:
     up: str = "z"
     size: float | str | None = None
     """Largest extent in metres, ``"native"``, or None for the category size."""
+    units: str | None = None
+    """The files' units (``--units``: one of :data:`~beo_bench.objects.meshfile.UNIT_MODES`),
+    or None for the layout's default (folders ``auto``, ShapeNet and ModelNet
+    ``normalised``)."""
+    skipped: tuple[tuple[str, str], ...] = ()
+    """Files left out (``--skip-bad``): (path relative to the root, what is wrong), sorted;
+    the paths are part of the identity, the reasons are not (their wording may change)."""
+    max_faces: int = MAX_INPUT_FACES
+    """The face budget the dataset was checked with (``--max-faces``); not part of the
+    identity: it decides only which files are refused, and those are :attr:`skipped`."""
 
     @property
     def short(self) -> str:
         """What suite names carry (``pose-3dof.<short>``): the content digest's first
         characters with the default loading options; with others (``--repair``, ``--up``,
-        ``--size``) a digest of content and options, so that the same files loaded two
-        ways never share a run directory or a leaderboard page."""
-        if (self.repair, self.up, self.size) == (DEFAULT_REPAIR, "z", None):
+        ``--size``, ``--units``, files skipped) a digest of content and options, so that the
+        same files loaded two ways never share a run directory or a leaderboard page."""
+        if (self.repair, self.up, self.size, self.units, self.skipped) == (
+            DEFAULT_REPAIR,
+            "z",
+            None,
+            None,
+            (),
+        ):
             return self.digest[:SHORT_CHARS]
         blob = json.dumps(self.identity(), sort_keys=True).encode()
         return hashlib.sha256(blob).hexdigest()[:SHORT_CHARS]
 
     def identity(self) -> dict[str, object]:
-        """What fixes the objects (the root is where they are, not what they are)."""
-        return {
+        """What fixes the objects (the root is where they are, not what they are). The
+        newer options appear only when set, so that a dataset loaded as before keeps its
+        identity (and its suites, runs and models their names)."""
+        out: dict[str, object] = {
             "layout": self.layout,
             "digest": self.digest,
             "repair": self.repair,
             "up": self.up,
             "size": self.size,
         }
+        if self.units is not None:
+            out["units"] = self.units
+        if self.skipped:
+            out["skipped"] = [rel for rel, _ in self.skipped]
+        return out
 
     @property
     def layout_spec(self) -> Layout:
@@ -107,14 +130,16 @@ class Dataset:
         where the layout has that option: folders)."""
         spec = self.layout_spec
         up = self.up if spec.axes_option else "z"
-        return LoadOptions.make(self.repair, self.size, up, "x", None, spec.default_units)
+        return LoadOptions.make(self.repair, self.size, up, "x", self.units, spec.default_units)
 
     def objects(
         self, split: str, categories: Sequence[str] | None = None, per_category: int | None = None
     ) -> ObjectSet:
-        """The dataset's ``split`` (or every model: :data:`ALL_SPLIT`) as an object set."""
+        """The dataset's ``split`` (or every model: :data:`ALL_SPLIT`) as an object set,
+        without the :attr:`skipped` files."""
+        exclude = frozenset(rel for rel, _ in self.skipped)
         return load_objects(
-            self.layout_spec, self.root, split, categories, per_category, self.options()
+            self.layout_spec, self.root, split, categories, per_category, self.options(), exclude
         )
 
     def instance(self, key: str) -> ObjectInstance:
@@ -145,9 +170,12 @@ def open_dataset(
     repair: str = DEFAULT_REPAIR,
     up: str = "z",
     size: float | str | None = None,
+    units: str | None = None,
+    max_faces: int = MAX_INPUT_FACES,
 ) -> Dataset:
     """The dataset at ``root`` (layout detected, content digested); a
-    :class:`~beo_bench.errors.UsageError` for options that do not apply."""
+    :class:`~beo_bench.errors.UsageError` for options that do not apply. Nothing is checked
+    yet: :func:`beo_bench.objects.checks.check_dataset` builds every file."""
     layout = detect_layout(root)
     path = str(Path(root).expanduser().resolve())
     if up != "z" and not get_layout(layout).axes_option:
@@ -161,7 +189,15 @@ def open_dataset(
         axes_rotation(up, "x")  # the folder loader's front axis is +x
     except ValueError as e:
         raise UsageError(f"--up {up!r}: {e}") from None
-    return Dataset(path, layout, dataset_digest(path, layout), repair, up, size)
+    default_units = get_layout(layout).default_units
+    try:  # the layout's own default becomes None: one identity whether it was passed or not
+        units = LoadOptions.make(repair, None, "z", "x", units, default_units).units
+    except ValueError:
+        raise UsageError(f"--units {units!r}: use one of {', '.join(UNIT_MODES)}") from None
+    if int(max_faces) < 1:
+        raise UsageError(f"--max-faces {max_faces}: give a whole number of faces >= 1")
+    digest = dataset_digest(path, layout)
+    return Dataset(path, layout, digest, repair, up, size, units, (), int(max_faces))
 
 
 def dataset_files(root: str, layout: str) -> list[tuple[str, Path]]:
@@ -173,8 +209,17 @@ def dataset_files(root: str, layout: str) -> list[tuple[str, Path]]:
 
 def dataset_digest(root: str | Path, layout: str) -> str:
     """SHA-256 over the sorted (relative path, file SHA-256) pairs of the dataset's mesh
-    files, :data:`DIGEST_CHARS` hex characters. Per-file hashes are cached (see the module
-    docstring); a file whose size or modification time changed is hashed again."""
+    files, :data:`DIGEST_CHARS` hex characters (the files' hashes: :func:`file_hashes`)."""
+    h = hashlib.sha256(layout.encode())
+    for rel, file_hash in file_hashes(root, layout).items():
+        h.update(f"{rel}\0{file_hash}\n".encode())
+    return h.hexdigest()[:DIGEST_CHARS]
+
+
+def file_hashes(root: str | Path, layout: str) -> dict[str, str]:
+    """SHA-256 of each mesh file of the dataset, by path relative to the root, sorted.
+    They are cached (see the module docstring); a file whose size or modification time
+    changed is hashed again."""
     root = str(Path(root).resolve())
     memo_path = (
         cache_root()
@@ -186,20 +231,26 @@ def dataset_digest(root: str | Path, layout: str) -> str:
     except (OSError, ValueError):
         memo = {}
     fresh: dict[str, list] = {}
-    h = hashlib.sha256(layout.encode())
+    out: dict[str, str] = {}
     now_ns = time.time_ns()
     for rel, path in dataset_files(root, layout):
-        st = path.stat()
-        old = memo.get(rel)
-        if old is not None and old[2] is not None and old[:2] == [st.st_size, st.st_mtime_ns]:
-            file_hash = str(old[2])
-        else:
-            file_hash = _file_sha256(path)
+        try:
+            st = path.stat()
+            old = memo.get(rel)
+            if old is not None and old[2] is not None and old[:2] == [st.st_size, st.st_mtime_ns]:
+                file_hash = str(old[2])
+            else:
+                file_hash = _file_sha256(path)
+        except OSError as e:
+            # a missing or unreadable model file is the dataset check's to report (with the
+            # flag that skips it), not a reason to refuse the whole dataset here; not cached
+            out[rel] = f"unreadable:{e.errno}"
+            continue
         # a file modified just now may change again within the file system's timestamp
         # granularity without its size or time changing: hash it again next time
         recent = now_ns - st.st_mtime_ns < RACY_NS
         fresh[rel] = [st.st_size, st.st_mtime_ns, None if recent else file_hash]
-        h.update(f"{rel}\0{file_hash}\n".encode())
+        out[rel] = file_hash
     if fresh != memo:
         try:
             memo_path.parent.mkdir(parents=True, exist_ok=True)
@@ -208,7 +259,7 @@ def dataset_digest(root: str | Path, layout: str) -> str:
             atomic_write_bytes(memo_path, json.dumps(fresh), durable=False)
         except OSError:
             pass  # a read-only cache only costs re-hashing next time
-    return h.hexdigest()[:DIGEST_CHARS]
+    return out
 
 
 def _file_sha256(path: Path) -> str:
@@ -294,6 +345,12 @@ def train_command(
             parts += ["--up", dataset.up]
         if dataset.size is not None:
             parts += ["--object-size", str(dataset.size)]  # train's --size is the network's
+        if dataset.units is not None:
+            parts += ["--units", dataset.units]
+        if dataset.max_faces != MAX_INPUT_FACES:
+            parts += ["--max-faces", str(dataset.max_faces)]
+        if dataset.skipped:  # the same files left out: the same dataset identity
+            parts += ["--skip-bad"]
         if set(categories) == set(dataset.categories()):
             categories = ()
     if categories:

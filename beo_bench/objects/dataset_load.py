@@ -16,6 +16,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 from urllib.parse import parse_qsl, quote, urlencode
 
 import numpy as np
@@ -30,6 +31,7 @@ from beo_bench.objects.meshfile import (
     UNIT_MODES,
     axes_rotation,
     check_plausible_size,
+    detected_units,
     how_scaled,
     read_mesh,
     scale_factor,
@@ -298,19 +300,41 @@ def build_mesh(
     rotation: tuple[tuple[float, ...], ...],
     opts: LoadOptions,
     units: str = "normalised",
+    *,
+    max_faces: int | None = None,
+    trace: dict[str, Any] | None = None,
 ) -> Generated:
     """Read, rotate, repair, centre, scale and check one file (the lazy part of an
-    instance); ``units`` is the option with the layout's default filled in."""
-    mesh = read_mesh(path)
+    instance); ``units`` is the option with the layout's default filled in. ``max_faces``:
+    the face budget (None: none; see :func:`~beo_bench.objects.meshfile.read_mesh`).
+    ``trace``, when given, is filled as the steps go (the dataset check,
+    :mod:`beo_bench.objects.checks`, tells from it where a file failed and what it
+    measured): ``stage`` (``read``, ``repair``, ``scale``, ``size``: the step under way),
+    ``faces``, ``native_extents`` (file units, our axes), ``units`` (the ones used, detected
+    ones resolved; None when ``size`` set the scale) and ``extents`` (metres)."""
+    t: dict[str, Any] = {} if trace is None else trace
+    t["stage"] = "read"
+    mesh = read_mesh(path, max_faces)
+    t["faces"] = len(mesh.faces)
     R = np.asarray(rotation, dtype=np.float64)
     if not np.allclose(R, np.eye(3)):
         T = np.eye(4)
         T[:3, :3] = R
         mesh.apply_transform(T)
+    t["native_extents"] = tuple(float(e) for e in mesh.extents)
+    t["stage"] = "repair"
     mesh = processing.repair(mesh, what=path, mode=opts.repair)
     # centre and scale after the repair, which may move the bounds (voxel remeshing)
     mesh.apply_translation(-mesh.bounds.mean(axis=0))
+    t["stage"] = "scale"
     size = opts.size_for(category)
+    if size is None and units == "auto":  # resolved here, so that messages say which
+        t["detected"] = True
+        units = detected_units(mesh, path, category)
+    t["units"] = None if isinstance(size, float) else "m" if size == "native" else units
     mesh.apply_scale(scale_factor(mesh, path, category, size, units))
-    check_plausible_size(mesh, path, how_scaled(size, units))
+    t["extents"] = tuple(float(e) for e in mesh.extents)
+    t["stage"] = "size"
+    check_plausible_size(mesh, path, how_scaled(size, units, bool(t.get("detected"))))
+    t["stage"] = "done"
     return _LoadedGenerated(mesh)

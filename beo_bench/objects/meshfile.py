@@ -24,6 +24,7 @@ from beo_bench.errors import (
     EmptyMeshError,
     ImplausibleSizeError,
     MeshLoadError,
+    TooManyFacesError,
     TruncatedMeshError,
 )
 from beo_bench.objects import processing
@@ -55,14 +56,29 @@ at most half the diagonal), so placement can never push it off; beyond it, objec
 placed hanging over the edge, fell off and gave episodes with no visible target."""
 
 
-UNITS: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001}
-"""Metres per file unit of the units a file may be stated or detected to be in."""
+UNITS: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
+"""Metres per file unit of the units a file may be stated to be in (``in``: inches, common in
+CAD exports)."""
+
+DETECTED_UNITS: tuple[str, ...] = ("m", "cm", "mm")
+"""The units :func:`detect_units` chooses among. Inches are never detected: 2.54 cm lies
+between the metric readings, so with them any extent would have a plausible reading near
+every reference size, and detection would no longer tell a millimetre file from a
+centimetre one."""
 
 
 UNIT_MODES: tuple[str, ...] = ("auto", *UNITS, "normalised")
 """Values of the ``units`` option: ``auto`` (detect, :func:`detect_units`), ``m``, ``cm``,
-``mm`` (keep the file's scale, in these units), ``normalised`` (the file has no meaningful
-scale: scale the largest extent to the category's size, :func:`default_size`)."""
+``mm``, ``in`` (keep the file's scale, in these units), ``normalised`` (the file has no
+meaningful scale: scale the largest extent to the category's size, :func:`default_size`)."""
+
+
+MAX_INPUT_FACES = 500_000
+"""Face budget of the dataset check (``--max-faces``): a file with more faces is refused
+before it is parsed (:func:`read_mesh` with ``max_faces``). A 5.2M-face scan took 209 s and
+5 GB to load and repair, for an object that is simplified to 5,000 faces anyway
+(:data:`~beo_bench.objects.processing.MAX_FACES`); at 500k faces loading takes a few
+seconds, and real object scans (YCB's, robotics packages') have 10k-300k."""
 
 
 # Typical largest extent (m) of each category, for normalised datasets. Values are for the
@@ -175,7 +191,7 @@ def detect_units(extent: float, category: str | None = None) -> str:
     ref = DEFAULT_SIZE
     if category is not None and (category in CATEGORY_SIZES or category in registered_categories()):
         ref = default_size(category)
-    plausible = [u for u, f in UNITS.items() if MIN_EXTENT <= extent * f <= MAX_DIAGONAL]
+    plausible = [u for u in DETECTED_UNITS if MIN_EXTENT <= extent * UNITS[u] <= MAX_DIAGONAL]
     if not plausible:
         raise ImplausibleSizeError(
             f"a largest extent of {extent:.6g} file units is no tabletop object in metres, "
@@ -225,22 +241,29 @@ def scale_factor(
     if units == "normalised":
         return _size_of(category) / extent
     if units == "auto":
-        try:
-            units = detect_units(extent, category)
-        except ImplausibleSizeError as e:
-            raise ImplausibleSizeError(f"{path}: {e}") from None
+        units = detected_units(mesh, path, category)
     return UNITS[units]
 
 
-def how_scaled(size: float | str | None, units: str) -> str:
-    """How a mesh got its size (from the ``size`` option and ``units``), for the
-    plausibility error."""
+def detected_units(mesh: trimesh.Trimesh, path: str, category: str) -> str:
+    """:func:`detect_units` of ``mesh`` (the file at ``path``), whose error names the file."""
+    try:
+        return detect_units(float(mesh.extents.max()), category)
+    except ImplausibleSizeError as e:
+        raise ImplausibleSizeError(f"{path}: {e}") from None
+
+
+def how_scaled(size: float | str | None, units: str, detected: bool = False) -> str:
+    """How a mesh got its size (from the ``size`` option and ``units``; ``detected``: the
+    units were detected, ``units='auto'``), for the plausibility error."""
     if isinstance(size, float):
         return f"size={size} m"
     if size == "native":
         return "size='native': the file's units taken as metres"
     if units == "normalised":
         return "units='normalised': scaled to the category's size"
+    if detected:
+        return f"units='auto', detected as {units!r}"
     return f"units={units!r}"
 
 
@@ -275,7 +298,7 @@ _TEXT_SUFFIXES = (".obj", ".off")
 _GLUED_OFF = re.compile(rb"\A(\s*C?OFF)(?=[ \t]*[-+0-9])")
 
 
-def read_mesh(path: str | Path) -> trimesh.Trimesh:
+def read_mesh(path: str | Path, max_faces: int | None = None) -> trimesh.Trimesh:
     """Read one mesh file as a single :class:`trimesh.Trimesh` (scenes are concatenated,
     materials skipped), in the file's own axes and units.
 
@@ -283,7 +306,10 @@ def read_mesh(path: str | Path) -> trimesh.Trimesh:
     unreadable or unparseable file; :class:`~beo_bench.errors.NonFiniteMeshError` for NaN
     or infinite coordinates; :class:`~beo_bench.errors.TruncatedMeshError` for an OBJ that
     was cut off (its last line is incomplete, or unterminated while the surface is open);
-    :class:`~beo_bench.errors.EmptyMeshError` for one without faces.
+    :class:`~beo_bench.errors.EmptyMeshError` for one without faces;
+    :class:`~beo_bench.errors.TooManyFacesError` for one with more than ``max_faces``
+    faces (None: no budget), counted before parsing where the format allows
+    (:func:`count_faces`), so that an oversized file costs a read, not minutes of parsing.
     """
     p = Path(path)
     if not p.is_file():
@@ -298,6 +324,8 @@ def read_mesh(path: str | Path) -> trimesh.Trimesh:
     suffix = p.suffix.lower()
     if suffix == ".off":
         data = _GLUED_OFF.sub(rb"\1\n", data, count=1)
+    if max_faces is not None:
+        _check_faces(p, count_faces(data, suffix), max_faces)
     # before parsing: a cut file may not parse at all, and a parser error would hide why
     cut = _obj_unterminated_line(data) if suffix == ".obj" else None
     if cut is not None and not _obj_line_ok(cut):
@@ -330,6 +358,8 @@ def read_mesh(path: str | Path) -> trimesh.Trimesh:
         raise EmptyMeshError(
             f"{p}: the file has no faces; use a mesh with geometry or remove the file"
         )
+    if max_faces is not None:  # formats without a cheap count (glTF), and polygons split
+        _check_faces(p, len(loaded.faces), max_faces)
     processing.check_finite(loaded, str(p))
     if cut is not None:
         closed = loaded.copy()
@@ -338,6 +368,45 @@ def read_mesh(path: str | Path) -> trimesh.Trimesh:
             _raise_truncated(p, cut, "and the surface is open")
     loaded.process()  # what trimesh does by default: merge duplicate vertices
     return loaded
+
+
+def _check_faces(p: Path, faces: int | None, max_faces: int) -> None:
+    if faces is not None and faces > max_faces:
+        e = TooManyFacesError(
+            f"{p}: {faces:,} faces, over the face budget of {max_faces:,}; simplify it in a "
+            f"mesh tool, or raise the budget (max_faces=N)"
+        )
+        e.faces = faces
+        raise e
+
+
+_OBJ_FACE = re.compile(rb"^[ \t]*f[ \t]", re.M)
+_PLY_FACES = re.compile(rb"^element[ \t]+face[ \t]+(\d+)", re.M)
+_OFF_COUNTS = re.compile(rb"\A\s*C?OFF\s+(?:#[^\n]*\n\s*)*(\d+)\s+(\d+)")
+
+
+def count_faces(data: bytes, suffix: str) -> int | None:
+    """The number of faces a mesh file declares, read without parsing it (``suffix``: its
+    extension, lower case): an OBJ's ``f`` lines, an STL's triangle count (its header when
+    binary, ``endfacet`` when text), a PLY's or an OFF's header count. None for formats
+    without one (glTF: its counts are in accessors) or a header that does not say. Polygons
+    of more than three sides count once, so a quad mesh has twice the faces once loaded."""
+    if suffix == ".obj":
+        return len(_OBJ_FACE.findall(data))
+    if suffix == ".stl":
+        if data[:5].lower() == b"solid" and b"endfacet" in data[:4096]:
+            return data.count(b"endfacet")
+        if len(data) >= 84:
+            n = int.from_bytes(data[80:84], "little")
+            return n if len(data) == 84 + 50 * n else None
+        return None
+    if suffix == ".ply":
+        m = _PLY_FACES.search(data[: data.find(b"end_header") + 1 or 4096])
+        return int(m.group(1)) if m else None
+    if suffix == ".off":
+        m = _OFF_COUNTS.match(data)
+        return int(m.group(2)) if m else None
+    return None
 
 
 _OBJ_REF = re.compile(rb"^-?\d+(/(-?\d+)?){0,2}$")

@@ -33,6 +33,7 @@ from beo_bench.objects.layouts.modelnet import MODELNET
 from beo_bench.objects.layouts.shapenet import SHAPENET
 from beo_bench.objects.objectset import ObjectSet
 from beo_bench.objects.registry import check_split
+from beo_bench.objects.walk import inside, warn_outside
 from beo_bench.types import Mat3
 
 
@@ -164,15 +165,32 @@ def detect_layout(root: str | Path) -> str:
 
 @functools.lru_cache(maxsize=64)
 def top_dirs(layout: Layout, root: str) -> tuple[str, ...]:
-    """The sub-folders of ``root`` that hold models of ``layout``."""
+    """The sub-folders of ``root`` that hold models of ``layout``; a link to a folder
+    outside ``root`` is skipped with a warning, before anything under it is looked at."""
     path = Path(root)
-    return tuple(d for d in subdirs(path) if layout.holds_models(path / d))
+    return tuple(
+        d for d in subdirs(path) if _within(path / d, path) and layout.holds_models(path / d)
+    )
 
 
 @functools.lru_cache(maxsize=1024)
 def dir_entries(layout: Layout, root: str, dirname: str) -> tuple[Entry, ...]:
-    """All models under one top-level folder (every split), sorted by id."""
-    return tuple(sorted(layout.entries(Path(root), dirname), key=lambda e: e.ident))
+    """All models under one top-level folder (every split), sorted by id; a model file
+    that is (or lies behind) a link out of ``root`` is skipped with a warning, so it is
+    never read."""
+    base = Path(root)
+    entries = [e for e in layout.entries(base, dirname) if _within(e.path, base)]
+    return tuple(sorted(entries, key=lambda e: e.ident))
+
+
+def _within(path: Path, root: Path) -> bool:
+    """Whether ``path`` resolves inside ``root``; warns (once) when it does not."""
+    if inside(path, root):
+        return True
+    # name the link itself: the first component of the path that is one
+    link = next((p for p in [path, *path.parents] if p.is_symlink()), path)
+    warn_outside(str(link), str(root))
+    return False
 
 
 def dataset_entries(layout: Layout, root: str) -> list[Entry]:
@@ -216,10 +234,13 @@ def load_objects(
     categories: Sequence[str] | None,
     per_category: int | None,
     opts: LoadOptions,
+    exclude: frozenset[str] = frozenset(),
 ) -> ObjectSet:
     """The models of ``split`` (or every model: ``"all"``) of the ``layout`` dataset at
     ``root``, of ``categories`` (default: all; our names or the layout's folder names) and
-    at most ``per_category`` each, as lazily built instances loaded with ``opts``."""
+    at most ``per_category`` each, as lazily built instances loaded with ``opts``; the files
+    in ``exclude`` (paths relative to the root: what ``--skip-bad`` skips) are left out
+    before instances are numbered."""
     source = layout.name
     if split != "all":  # "all": every model of the dataset, whatever its hash split
         check_split(split)
@@ -241,6 +262,8 @@ def load_objects(
     instances: dict[str, list[ObjectInstance]] = {}
     for c in dict.fromkeys(names):
         entries = category_entries(layout, path, c, split)
+        if exclude:
+            entries = [e for e in entries if e.path.relative_to(path).as_posix() not in exclude]
         if per_category is not None:
             entries = entries[: int(per_category)]
         if entries or categories is not None:

@@ -4,7 +4,8 @@
 
 The sub-folder name is the category name. The files' axes are an option (``up``,
 ``front``; default ours) and their units are real (default units ``auto``: detected).
-Splits: a stable hash of the path relative to the root.
+Splits: a stable hash of the path relative to the root. The search never follows a link out
+of the root and is bounded (:mod:`beo_bench.objects.walk`).
 """
 
 from __future__ import annotations
@@ -14,20 +15,16 @@ from pathlib import Path
 
 from beo_bench.objects.dataset_load import Entry, LoadOptions, hash_split
 from beo_bench.objects.meshfile import MESH_SUFFIXES, axes_rotation
+from beo_bench.objects.walk import walk_files
 from beo_bench.types import Mat3
 
 
-def mesh_files(folder: Path) -> Iterator[Path]:
+def mesh_files(folder: Path, root: Path | None = None) -> Iterator[Path]:
     """The mesh files under ``folder`` (any depth, hidden files and folders skipped),
-    sorted."""
-    for p in sorted(folder.rglob("*")):
-        rel = p.relative_to(folder).parts
-        if (
-            p.suffix.lower() in MESH_SUFFIXES
-            and p.is_file()
-            and not any(s.startswith(".") for s in rel)
-        ):
-            yield p
+    sorted; links out of ``root`` (default: ``folder``'s parent, the dataset root of a
+    category folder) are skipped (:func:`~beo_bench.objects.walk.walk_files`)."""
+    base = Path(folder).absolute().parent.resolve() if root is None else Path(root).resolve()
+    return walk_files(Path(folder), base, MESH_SUFFIXES)
 
 
 class FolderLayout:
@@ -50,7 +47,7 @@ class FolderLayout:
 
     def entries(self, root: Path, dirname: str) -> list[Entry]:
         out = []
-        for f in mesh_files(root / dirname):
+        for f in mesh_files(root / dirname, root):
             ident = f.relative_to(root).as_posix()
             out.append(Entry(ident, dirname, hash_split(ident), f))
         return out
