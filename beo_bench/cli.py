@@ -17,6 +17,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from beo_bench.argparsing import SuggestingParser
 from beo_bench.bench.columns import brief_columns
 from beo_bench.errors import BeoBenchError, UsageError
 
@@ -399,6 +400,11 @@ def cmd_compare(args: argparse.Namespace) -> int:
 def cmd_leaderboard(args: argparse.Namespace) -> int:
     from beo_bench.bench.leaderboard import regenerate
 
+    if not Path(args.runs).is_dir():  # a mistyped --runs is a usage error, not an empty one
+        raise UsageError(
+            f"--runs {args.runs} is not a directory: give the directory the runs are in "
+            "(where `beo-bench run --out` or `all --runs` wrote them)"
+        )
     written = regenerate(args.runs, args.out, update=args.update)
     if not written and not args.update:  # --update alone prunes pages of older versions
         raise BeoBenchError(f"no summary.json under {args.runs}: run `beo-bench run` first")
@@ -793,7 +799,7 @@ def registry_listing(width: int | None = None) -> str:
     return "\n".join(out).rstrip()
 
 
-class _MainParser(argparse.ArgumentParser):
+class _MainParser(SuggestingParser):
     """The top-level parser: its help lists the registries (read only when help is shown,
     so that a command never pays for importing every backend)."""
 
@@ -1151,8 +1157,9 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--version", action="version", version=f"beo-bench {beo_bench.__version__}")
-    # the commands' parsers are plain ones: only the top-level help lists the registries
-    sub = p.add_subparsers(dest="command", required=True, parser_class=argparse.ArgumentParser)
+    # the commands' parsers take no abbreviations and suggest the closest flag on a typo, as
+    # the top-level one does; only the top-level help lists the registries
+    sub = p.add_subparsers(dest="command", required=True, parser_class=SuggestingParser)
     data = dataset_parent()
 
     for add in _COMMANDS:
