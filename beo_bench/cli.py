@@ -295,6 +295,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         resume=args.resume,
         use_ray=args.ray,
         item_timeout=args.item_timeout,
+        report_views=args.report_views,
     )
     print(format_runs([summary]))
     print(f"\nresults: {out / 'results.jsonl'}\nsummary: {out / 'summary.json'}")
@@ -303,7 +304,20 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         path = log_run(ctx, args.rerun)
         print(f"recording of the first views: {path}  (open with `rerun {path}`)")
+    _print_run_end(ctx, out, label=False)
     return 0
+
+
+def _print_run_end(ctx: Any, out: Path, label: bool = True) -> None:
+    """A run's last lines: its failures by exception, its pick reasons, its report (a run
+    in which every view failed also warns on stderr); ``label``: name the run (``all``)."""
+    from beo_bench.bench.runner import run_end
+    from beo_bench.bench.runs import backend_label
+
+    who = f"{ctx.suite.label} / {backend_label(ctx.backend.name, ctx.backend.kwargs)}"
+    end = run_end(out, ctx.suite.size, who if label else "")
+    print(f"\n{end.text()}")
+    end.warn()
 
 
 def _split_needs_dataset(args: argparse.Namespace, dataset: Any) -> None:
@@ -373,6 +387,11 @@ def format_runs(runs: Sequence[Summary | dict[str, Any]]) -> str:
             f"{where(s):<{w_suite}} {who(s):<{w_backend}} {s['n']:>5} {s['failures']:>4} "
             + " ".join(cells)
         )
+    from beo_bench.bench.failures import reasons_text, summary_pick_reasons
+
+    for s in summaries:  # a pick run's episodes by reason (docs/env.md, "Why a pick fails")
+        if reasons := summary_pick_reasons(s):
+            lines.append(f"pick reasons, {where(s)} {who(s)}: {reasons_text(reasons)}")
     return "\n".join(lines)
 
 
@@ -451,6 +470,8 @@ def cmd_all(args: argparse.Namespace) -> int:
         item_timeout=args.item_timeout,
         update=args.update,
         sensors=tuple(dict.fromkeys(args.sensor)) if args.sensor else (None,),
+        report_views=args.report_views,
+        after_run=_print_run_end,
     )
     print(leaderboard_text(run_campaign(c), c.leaderboards))
     return 0
@@ -689,6 +710,20 @@ def runs_parent(help: str | None = None) -> argparse.ArgumentParser:
     return _option_parent("--runs", default="runs", help=help)
 
 
+def report_views_parent() -> argparse.ArgumentParser:
+    """``--report-views N``: the worst views a run's ``report.html`` shows (0: no report)."""
+    from beo_bench.bench.runs import REPORT_VIEWS
+
+    return _option_parent(
+        "--report-views",
+        type=nonneg_int,
+        default=REPORT_VIEWS,
+        metavar="N",
+        help=f"write OUT/report.html, an offline page of the run's failures and its N worst "
+        f"views by the suite's primary error (default {REPORT_VIEWS}; 0: no report)",
+    )
+
+
 def ray_parent() -> argparse.ArgumentParser:
     """``--ray``: items as Ray tasks instead of worker processes."""
     return _option_parent("--ray", action="store_true", help="run the items as Ray tasks")
@@ -907,6 +942,7 @@ def _add_run(sub: Any, data: argparse.ArgumentParser) -> None:
             ray_parent(),
             item_timeout_parent(),
             privileged_parent(),
+            report_views_parent(),
             sensor_parent(
                 f"the depth sensor the views are captured by ({SENSOR_NAMES}; "
                 "docs/sensors.md; default: the suite's own, kinect-v1 for tabletop, ideal "
@@ -957,6 +993,7 @@ def _add_all(sub: Any, data: argparse.ArgumentParser) -> None:
             out_parent("leaderboards"),
             privileged_parent(),
             update_parent(),
+            report_views_parent(),
             sensor_parent(
                 f"run every suite under each of these depth sensors ({SENSOR_NAMES}; "
                 "docs/sensors.md; default: each suite's own); the leaderboard pairs them in "

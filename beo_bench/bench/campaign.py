@@ -12,6 +12,7 @@ only (see :func:`~beo_bench.bench.suites.backend_tracks`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -67,6 +68,12 @@ class Campaign:
     """``--sensor``: every suite is run under each of these depth sensors (None: the
     suite's own); the leaderboard pairs a backend's runs across them (its robustness
     table)."""
+    report_views: int = 0
+    """``--report-views``: each run's ``report.html`` shows that many worst views (0: no
+    report)."""
+    after_run: Callable[[RunContext, Path], None] | None = None
+    """Called with each run's context and directory when it ends (the CLI prints its
+    failures there, so each run of a campaign ends with them as a lone run does)."""
 
 
 def run_campaign(c: Campaign) -> list[Path]:
@@ -112,5 +119,8 @@ def run_campaign(c: Campaign) -> list[Path]:
                 progress=c.progress,
                 pool=pool,
                 item_timeout=c.item_timeout,
+                report_views=c.report_views,
             )
+            if c.after_run is not None:
+                c.after_run(ctx, out)
     return regenerate(c.runs, c.leaderboards, update=c.update)
