@@ -78,8 +78,8 @@ def _rows(out: Path) -> list[dict]:
 
 def test_a_plugin_that_raises_on_every_view_is_impossible_to_miss(capfd, tmp_path, plugin):
     out = tmp_path / "run"
-    code, stdout, stderr = _run(capfd, out, "--suite", "pose-1dof", "--backend", plugin,
-                                "--episodes", "5", "--opt", "mode=raise")  # fmt: skip
+    args = ["--suite", "pose-1dof", "--backend", plugin, "--episodes", "5", "--opt", "mode=raise"]
+    code, stdout, stderr = _run(capfd, out, *args)
     assert code == 0  # scored as failures, as documented; --max-failure-rate gates on them
     # the run ends with the exception, its message and its count (the numbers in the
     # messages differ, the group is one)
@@ -151,15 +151,15 @@ def test_the_report_shows_the_worst_views_offline(capfd, tmp_path, plugin) -> No
 
 def test_report_views_0_writes_no_report(capfd, tmp_path, plugin) -> None:
     out = tmp_path / "run"
-    code, stdout, _ = _run(capfd, out, "--suite", "pose-1dof", "--backend", plugin,
-                           "--episodes", "2", "--report-views", "0")  # fmt: skip
+    args = ["--suite", "pose-1dof", "--backend", plugin, "--episodes", "2", "--report-views", "0"]
+    code, stdout, _ = _run(capfd, out, *args)
     assert code == 0 and not (out / "report.html").exists() and "report:" not in stdout
 
 
 def test_a_pick_run_prints_its_reasons_and_its_report_shows_them(capfd, tmp_path, plugin):
     out = tmp_path / "pick"
-    code, stdout, _ = _run(capfd, out, "--suite", "pick", "--backend", plugin,
-                           "--episodes", "3", "--opt", "mode=mixed")  # fmt: skip
+    args = ["--suite", "pick", "--backend", plugin, "--episodes", "3", "--opt", "mode=mixed"]
+    code, stdout, _ = _run(capfd, out, *args)
     assert code == 0
     rows = _rows(out)
     counts: dict[str, int] = {}
@@ -207,3 +207,15 @@ def test_a_silhouette_projects_the_true_voxels_onto_the_mask() -> None:
             assert np.count_nonzero(off & view.mask) / np.count_nonzero(off | view.mask) < iou
     finally:
         items.close()
+
+
+def test_each_run_of_all_ends_with_its_failures(capfd, tmp_path, plugin) -> None:
+    where = ["--runs", str(tmp_path / "runs"), "--out", str(tmp_path / "lb")]
+    what = ["--suites", "pose-1dof", "--backends", f"{plugin}:mode=raise", "--episodes", "2"]
+    assert main(["all", *what, "--workers", "1", *where]) == 0
+    captured = capfd.readouterr()
+    lines = captured.out.splitlines()
+    head = f'pose-1dof@class-free / {plugin} (mode="raise"): failures: 2 of 2 views (100%)'
+    at = next(i for i, line in enumerate(lines) if line.startswith(head))
+    assert lines[at + 1].startswith("  2 x ModelMissingError: no model file at /models/x.pt")
+    assert "every one of the 2 views of run pose-1dof@class-free" in captured.err
