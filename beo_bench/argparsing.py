@@ -24,8 +24,9 @@ class SuggestingParser(argparse.ArgumentParser):
     invalid choice name the closest known one. Used as the top-level parser and as the
     ``parser_class`` of its commands, so every parser that parses arguments is one."""
 
-    def __init__(self, *args: Any, allow_abbrev: bool = False, **kwargs: Any) -> None:
-        super().__init__(*args, allow_abbrev=allow_abbrev, **kwargs)
+    def __init__(self, *, allow_abbrev: bool = False, **kwargs: Any) -> None:
+        # keywords only: argparse makes a command's parser with keywords (add_parser)
+        super().__init__(allow_abbrev=allow_abbrev, **kwargs)
 
     def _check_value(self, action: argparse.Action, value: Any) -> None:
         # argparse's own check, with a hint before the list (its wording is kept, so a
