@@ -22,7 +22,7 @@ from beo_bench.bench.columns import brief_columns
 from beo_bench.errors import BeoBenchError, UsageError
 
 if TYPE_CHECKING:
-    from beo_bench.bench.runs import Summary
+    from beo_bench.bench.runs import RunContext, Summary
     from beo_bench.perception.hbeo_train import HBEOConfig, Kind
 
 
@@ -308,7 +308,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print_run_end(ctx: Any, out: Path, label: bool = True) -> None:
+def _print_run_end(ctx: RunContext, out: Path, label: bool = True) -> None:
     """A run's last lines: its failures by exception, its pick reasons, its report (a run
     in which every view failed also warns on stderr); ``label``: name the run (``all``)."""
     from beo_bench.bench.runner import run_end

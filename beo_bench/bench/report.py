@@ -21,6 +21,7 @@ intrinsics.
 from __future__ import annotations
 
 import base64
+import contextlib
 import html
 import math
 import time
@@ -425,6 +426,7 @@ def write_report(
     row is predicted again: a run whose every row failed never builds one). Atomic: a
     reader sees the old page or the new one."""
     from beo_bench.bench.evaluate import Evaluator
+    from beo_bench.bench.pool import pinned_threads
 
     t0 = time.perf_counter()
     out = Path(out)
@@ -446,7 +448,8 @@ def write_report(
         return ev.predict(index, j, view)
 
     spent = 0.0
-    try:
+    # threads pinned as a worker's: the backend computes as it did in the run
+    with pinned_threads(), contextlib.closing(items):
         for row in chosen:
             # what predicting it took in the run, against what predicting took here so far
             cost = float(row.get("ms_decision") or row.get("ms") or 0.0) / 1000.0
@@ -456,8 +459,6 @@ def write_report(
             spent += time.perf_counter() - t if again else 0.0
             predicted += case.estimate is not None
             cards.append(card(case, ctx, bool(again)))
-    finally:
-        items.close()
     fs = summarise_failures(rows)
     seconds = time.perf_counter() - t0
     path = out / REPORT_NAME
