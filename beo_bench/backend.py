@@ -536,8 +536,11 @@ def _unknown_backend(name: str) -> BackendError:
         return PluginError(
             f"backend {name!r}: {broken[0]}; fix, reinstall or uninstall that package"
         )
+    from beo_bench.names import did_you_mean
+
+    hint = did_you_mean(name, _REGISTRY)
     return BackendError(
-        f"unknown backend {name!r}; registered: {sorted(_REGISTRY)} (third-party backends "
+        f"unknown backend {name!r}; {hint}registered: {sorted(_REGISTRY)} (third-party backends "
         f"need their package installed and `load_plugins()`, which `beo-bench` calls)"
     )
 
@@ -582,7 +585,8 @@ def _legacy_options(spec: BackendSpec, kwargs: dict[str, Any]) -> LegacyOptions:
         if unknown:
             raise UsageError(
                 f"backend {spec.name!r} has no option {', '.join(map(repr, unknown))}; "
-                f"{_legacy_hint(spec)} (on the command line: --opt KEY=VALUE)"
+                f"{_option_hint(unknown, opts)}{_legacy_hint(spec)} (on the command line: "
+                "--opt KEY=VALUE)"
             )
         for key, value in kwargs.items():
             expected = _type_mismatch(opts[key], value)
@@ -592,6 +596,13 @@ def _legacy_options(spec: BackendSpec, kwargs: dict[str, Any]) -> LegacyOptions:
                     f"(default {opts[key]!r})"
                 )
     return LegacyOptions(tuple(sorted(kwargs.items())))
+
+
+def _option_hint(unknown: list[str], known: Mapping[str, Any]) -> str:
+    """ "did you mean 'seed'? " for the first misspelt option that is close to a real one."""
+    from beo_bench.names import did_you_mean
+
+    return next((h for h in (did_you_mean(k, known) for k in unknown) if h), "")
 
 
 def _type_mismatch(default: Any, value: Any) -> str | None:

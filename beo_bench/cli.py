@@ -20,11 +20,12 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from beo_bench.argparsing import SuggestingParser
 from beo_bench.bench.columns import brief_columns
 from beo_bench.errors import BeoBenchError, ThresholdError, UsageError
 
 if TYPE_CHECKING:
-    from beo_bench.bench.runs import Summary
+    from beo_bench.bench.runs import RunContext, Summary
     from beo_bench.perception.hbeo_train import HBEOConfig, Kind
 
 
@@ -379,6 +380,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         resume=args.resume,
         use_ray=args.ray,
         item_timeout=args.item_timeout,
+        report_views=args.report_views,
     )
     print(format_runs([summary]))
     print(f"\nresults: {out / 'results.jsonl'}\nsummary: {out / 'summary.json'}")
@@ -388,11 +390,24 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         path = log_run(ctx, args.rerun)
         print(f"recording of the first views: {path}  (open with `rerun {path}`)")
+    _print_run_end(ctx, out, label=False)
     if args.max_failure_rate is not None:
         from beo_bench.bench.gate import check_failure_rate
 
         check_failure_rate([(out, summary)], args.max_failure_rate)
     return 0
+
+
+def _print_run_end(ctx: RunContext, out: Path, label: bool = True) -> None:
+    """A run's last lines: its failures by exception, its pick reasons, its report (a run
+    in which every view failed also warns on stderr); ``label``: name the run (``all``)."""
+    from beo_bench.bench.runner import run_end
+    from beo_bench.bench.runs import backend_label
+
+    who = f"{ctx.suite.label} / {backend_label(ctx.backend.name, ctx.backend.kwargs)}"
+    end = run_end(out, ctx.suite.size, who if label else "")
+    print(f"\n{end.text()}")
+    end.warn()
 
 
 def _split_needs_dataset(args: argparse.Namespace, dataset: Any) -> None:
@@ -462,6 +477,11 @@ def format_runs(runs: Sequence[Summary | dict[str, Any]]) -> str:
             f"{where(s):<{w_suite}} {who(s):<{w_backend}} {s['n']:>5} {s['failures']:>4} "
             + " ".join(cells)
         )
+    from beo_bench.bench.failures import reasons_text, summary_pick_reasons
+
+    for s in summaries:  # a pick run's episodes by reason (docs/env.md, "Why a pick fails")
+        if reasons := summary_pick_reasons(s):
+            lines.append(f"pick reasons, {where(s)} {who(s)}: {reasons_text(reasons)}")
     return "\n".join(lines)
 
 
@@ -522,6 +542,11 @@ def cmd_baseline(args: argparse.Namespace) -> int:
 def cmd_leaderboard(args: argparse.Namespace) -> int:
     from beo_bench.bench.leaderboard import regenerate
 
+    if not Path(args.runs).is_dir():  # a mistyped --runs is a usage error, not an empty one
+        raise UsageError(
+            f"--runs {args.runs} is not a directory: give the directory the runs are in "
+            "(where `beo-bench run --out` or `all --runs` wrote them)"
+        )
     written = regenerate(args.runs, args.out, update=args.update)
     if not written and not args.update:  # --update alone prunes pages of older versions
         raise BeoBenchError(f"no summary.json under {args.runs}: run `beo-bench run` first")
@@ -575,6 +600,8 @@ def cmd_all(args: argparse.Namespace) -> int:
         update=args.update,
         sensors=tuple(dict.fromkeys(args.sensor)) if args.sensor else (None,),
         max_failure_rate=args.max_failure_rate,
+        report_views=args.report_views,
+        after_run=_print_run_end,
     )
     print(leaderboard_text(run_campaign(c), c.leaderboards))
     _print_skipped(dataset)
@@ -814,6 +841,20 @@ def runs_parent(help: str | None = None) -> argparse.ArgumentParser:
     return _option_parent("--runs", default="runs", help=help)
 
 
+def report_views_parent() -> argparse.ArgumentParser:
+    """``--report-views N``: the worst views a run's ``report.html`` shows (0: no report)."""
+    from beo_bench.bench.runs import REPORT_VIEWS
+
+    return _option_parent(
+        "--report-views",
+        type=nonneg_int,
+        default=REPORT_VIEWS,
+        metavar="N",
+        help=f"write OUT/report.html, an offline page of the run's failures and its N worst "
+        f"views by the suite's primary error (default {REPORT_VIEWS}; 0: no report)",
+    )
+
+
 def ray_parent() -> argparse.ArgumentParser:
     """``--ray``: items as Ray tasks instead of worker processes."""
     return _option_parent("--ray", action="store_true", help="run the items as Ray tasks")
@@ -929,7 +970,7 @@ def registry_listing(width: int | None = None) -> str:
     return "\n".join(out).rstrip()
 
 
-class _MainParser(argparse.ArgumentParser):
+class _MainParser(SuggestingParser):
     """The top-level parser: its help lists the registries (read only when help is shown,
     so that a command never pays for importing every backend)."""
 
@@ -1037,6 +1078,7 @@ def _add_run(sub: Any, data: argparse.ArgumentParser) -> None:
             ray_parent(),
             item_timeout_parent(),
             privileged_parent(),
+            report_views_parent(),
             sensor_parent(
                 f"the depth sensor the views are captured by ({SENSOR_NAMES}; "
                 "docs/sensors.md; default: the suite's own, kinect-v1 for tabletop, ideal "
@@ -1094,6 +1136,7 @@ def _add_all(sub: Any, data: argparse.ArgumentParser) -> None:
             out_parent("leaderboards"),
             privileged_parent(),
             update_parent(),
+            report_views_parent(),
             sensor_parent(
                 f"run every suite under each of these depth sensors ({SENSOR_NAMES}; "
                 "docs/sensors.md; default: each suite's own); the leaderboard pairs them in "
@@ -1400,8 +1443,9 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--version", action="version", version=f"beo-bench {beo_bench.__version__}")
-    # the commands' parsers are plain ones: only the top-level help lists the registries
-    sub = p.add_subparsers(dest="command", required=True, parser_class=argparse.ArgumentParser)
+    # the commands' parsers take no abbreviations and suggest the closest flag on a typo, as
+    # the top-level one does; only the top-level help lists the registries
+    sub = p.add_subparsers(dest="command", required=True, parser_class=SuggestingParser)
     data = dataset_parent()
 
     for add in _COMMANDS:

@@ -161,9 +161,14 @@ def parse_options(cls: type[T], raw: Mapping[str, Any], who: str) -> T:
     names = option_names(cls)
     unknown = sorted(set(raw) - set(names))
     if unknown:
+        from beo_bench.names import did_you_mean
+
+        # hidden options are real ones too, but a hint never points at one
+        shown = [f.name for f in dataclasses.fields(cls) if not f.metadata.get("hidden")]
+        hint = next((h for h in (did_you_mean(k, shown) for k in unknown) if h), "")
         raise UsageError(
             f"backend {who!r} has no option {', '.join(map(repr, unknown))}; "
-            f"{describe_options(cls)} (on the command line: --opt KEY=VALUE)"
+            f"{hint}{describe_options(cls)} (on the command line: --opt KEY=VALUE)"
         )
     hints = typing.get_type_hints(cls)
     values: dict[str, Any] = {}

@@ -56,3 +56,57 @@ def test_every_section_the_code_cites_is_a_heading() -> None:
         if not any(h == section or h.startswith(section + " ") for h in headings)
     ]
     assert not bad, f"the code cites sections of docs/design.md that it lacks: {bad}"
+
+
+NAME = re.compile(r"`(beo_bench(?:\.\w+)+)`")
+
+
+def _public_names() -> list[str]:
+    """The dotted names in backticks of the page's "Public names" section."""
+    text = DESIGN.read_text()
+    section = text[text.index("## Public names\n") :]
+    section = section[: section.index("\n## ", 1)]
+    return sorted(set(NAME.findall(section)))
+
+
+def _resolve(dotted: str) -> object:
+    """The object ``dotted`` names: its longest importable module prefix, then attributes."""
+    import importlib
+
+    parts = dotted.split(".")
+    for cut in range(len(parts), 0, -1):
+        try:
+            obj: object = importlib.import_module(".".join(parts[:cut]))
+        except ModuleNotFoundError:
+            continue
+        for attr in parts[cut:]:
+            obj = getattr(obj, attr)  # AttributeError: the page names what is not there
+        return obj
+    raise ModuleNotFoundError(dotted)
+
+
+def test_every_stable_name_in_design_md_imports() -> None:
+    names = _public_names()
+    # the plugin contract is among them
+    for must in ("beo_bench.types.View", "beo_bench.types.Estimate", "beo_bench.backend.Backend"):
+        assert must in names
+    assert "beo_bench.perception.means.class_means" in names
+    unresolved = []
+    for dotted in names:
+        try:
+            _resolve(dotted)
+        except (ImportError, AttributeError) as e:
+            unresolved.append(f"{dotted} ({type(e).__name__}: {e})")
+    assert not unresolved, f"docs/design.md lists stable names that do not import: {unresolved}"
+    # and only objects: a dotted name that resolves to a module is a path, not a name
+    import types
+
+    assert not [n for n in names if isinstance(_resolve(n), types.ModuleType)]
+
+
+def test_the_stable_names_checker_sees_a_wrong_name() -> None:
+    import pytest
+
+    with pytest.raises(AttributeError):
+        _resolve("beo_bench.types.NoSuchView")
+    assert NAME.findall("`beo_bench.types.View` and `View`") == ["beo_bench.types.View"]

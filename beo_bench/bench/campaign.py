@@ -12,6 +12,7 @@ only (see :func:`~beo_bench.bench.suites.backend_tracks`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -71,6 +72,12 @@ class Campaign:
     """``--max-failure-rate``: after every run and the leaderboard are written, a
     :class:`~beo_bench.bench.gate.FailureRateError` (exit status 3) names each run whose
     share of failed views is above it (None: no limit)."""
+    report_views: int = 0
+    """``--report-views``: each run's ``report.html`` shows that many worst views (0: no
+    report)."""
+    after_run: Callable[[RunContext, Path], None] | None = None
+    """Called with each run's context and directory when it ends (the CLI prints its
+    failures there, so each run of a campaign ends with them as a lone run does)."""
 
 
 def run_campaign(c: Campaign) -> list[Path]:
@@ -117,8 +124,11 @@ def run_campaign(c: Campaign) -> list[Path]:
                 progress=c.progress,
                 pool=pool,
                 item_timeout=c.item_timeout,
+                report_views=c.report_views,
             )
             finished.append((out, summary))
+            if c.after_run is not None:
+                c.after_run(ctx, out)
     written = regenerate(c.runs, c.leaderboards, update=c.update)
     if c.max_failure_rate is not None:
         from beo_bench.bench.gate import check_failure_rate

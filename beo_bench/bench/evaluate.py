@@ -41,13 +41,17 @@ def failed_rows(suite: Suite, templates: list[dict[str, Any]], reason: str) -> l
 class Evaluator:
     """Scores the run's backend on items of its suite. Create one per process; it builds
     the backend once (or takes the one the driver built: ``backend``) and prepares it with
-    the context."""
+    the context; ``items``: the suite's items to use (default: its own, opened here)."""
 
-    def __init__(self, ctx: RunContext, backend: Backend | None = None) -> None:
+    def __init__(
+        self, ctx: RunContext, backend: Backend | None = None, items: Items | None = None
+    ) -> None:
         self.ctx = ctx
         self.suite = ctx.suite
         self.kind = get_kind(ctx.suite.kind)
-        self.items: Items = self.kind.open(ctx.suite, ctx.class_given)
+        # the items may be the caller's (the report rebuilds views with its own, and the
+        # truth a privileged backend is handed must be of the scene those hold)
+        self.items: Items = self.kind.open(ctx.suite, ctx.class_given) if items is None else items
         if backend is None:
             backend = ctx.backend.build()
             backend.prepare(ctx)

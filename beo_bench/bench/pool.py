@@ -500,21 +500,31 @@ def in_process_results(
     if not todo:  # a finished run (resumed) builds nothing
         return
     # pin this process's threads for the run, as a worker's, then restore them
+    with pinned_threads():
+        try:
+            ev = Evaluator(ctx, backend)
+        except Exception as e:
+            why = f"{type(e).__name__}: {e}"
+            raise RunError(f"could not set up backend {ctx.backend.name!r}: {why}") from e
+        try:
+            for i in todo:
+                yield i, [clean_row(r) for r in ev.run_item(i)]
+        finally:
+            ev.close()
+
+
+@contextlib.contextmanager
+def pinned_threads() -> Iterator[None]:
+    """This process's threads pinned as a worker's (:func:`pin_threads`) for the ``with``
+    block, then restored: a backend called here (in-process runs, the run's report) computes
+    as it does in a worker, with the same reductions."""
     saved = {v: os.environ.get(v) for v in _THREAD_VARS}
     had_torch = "torch" in sys.modules
     torch_threads = sys.modules["torch"].get_num_threads() if had_torch else None
     limiter = pin_threads()
     try:
-        ev = Evaluator(ctx, backend)
-    except Exception as e:
-        limiter.restore_original_limits()
-        why = f"{type(e).__name__}: {e}"
-        raise RunError(f"could not set up backend {ctx.backend.name!r}: {why}") from e
-    try:
-        for i in todo:
-            yield i, [clean_row(r) for r in ev.run_item(i)]
+        yield
     finally:
-        ev.close()
         limiter.restore_original_limits()
         for var, value in saved.items():
             if value is None:

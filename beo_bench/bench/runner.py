@@ -48,7 +48,7 @@ import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from beo_bench.atomic import atomic_write_bytes
 from beo_bench.backend import Backend
@@ -65,6 +65,7 @@ from beo_bench.bench.runs import (
     MARKER_NAME,
     MARKER_TEXT,
     RECORD_NAME,
+    REPORT_NAME,
     RESULTS_NAME,
     SUMMARY_NAME,
     CorruptRunError,
@@ -76,6 +77,9 @@ from beo_bench.bench.runs import (
 )
 from beo_bench.bench.suites import Suite
 from beo_bench.errors import UsageError
+
+if TYPE_CHECKING:
+    from beo_bench.bench.failures import RunEnd
 
 __all__ = [
     "WORKER_THREADS",
@@ -90,6 +94,7 @@ __all__ = [
     "lock_run_dir",
     "read_rows",
     "run",
+    "run_end",
     "scan_rows",
 ]
 
@@ -618,13 +623,16 @@ def run(
     progress: bool = True,
     pool: WorkerPool | None = None,
     item_timeout: float | None = None,
+    report_views: int = 0,
 ) -> Summary:
     """Run (or resume) ``cfg`` into ``out`` with ``workers`` processes (default: one per
     core), Ray actors, or the processes of ``pool`` (kept across runs; it sets the number
     of workers; with ``use_ray`` only its ``imports`` are used); returns the summary.
     ``item_timeout``: seconds an item may take before it is recorded as failed (default:
-    the suite's ``item_timeout_s``). The directory is locked for the whole run. The run's
-    context is resolved here, once (a :class:`RunContext` given is used as it is)."""
+    the suite's ``item_timeout_s``). ``report_views``: also write ``OUT/report.html`` with
+    that many worst views (:mod:`.report`; 0: none), when this call scored items or there
+    is none yet. The directory is locked for the whole run. The run's context is resolved
+    here, once (a :class:`RunContext` given is used as it is)."""
     ctx = cfg if isinstance(cfg, RunContext) else RunContext.of(cfg, progress=progress)
     if pool is not None:
         workers = pool.workers
@@ -632,7 +640,31 @@ def run(
     timeout = item_timeout_s(ctx.suite, item_timeout)
     out = _run_dir(Path(out))
     with lock_run_dir(out):
-        return _run_locked(ctx, out, workers, resume, use_ray, progress, pool, timeout)
+        summary, prepared, scored = _run_locked(
+            ctx, out, workers, resume, use_ray, progress, pool, timeout
+        )
+        if report_views > 0 and (scored or not (out / REPORT_NAME).exists()):
+            _report(ctx, out, report_views, prepared)
+        return summary
+
+
+def _report(ctx: RunContext, out: Path, views: int, prepared: Prepared | None) -> None:
+    """The run's report, with the backend the driver prepared (if it did). The results
+    and summary are written by now: a report that cannot be made is one warning, and the
+    run stands."""
+    from beo_bench.bench.report import ReportWarning, write_report
+
+    rows = _scan(out / RESULTS_NAME, False, False).rows  # what was skipped was reported
+    try:
+        backend = prepared.backend if prepared is not None else None
+        write_report(ctx, out, rows, views, backend)
+    except Exception as e:  # whatever drawing or predicting again raised: the run is done
+        warnings.warn(
+            f"{out / REPORT_NAME} was not written ({type(e).__name__}: {e}); the results and "
+            "summary are complete (--report-views 0 skips the report)",
+            ReportWarning,
+            stacklevel=3,
+        )
 
 
 def _run_locked(
@@ -644,7 +676,9 @@ def _run_locked(
     progress: bool,
     pool: WorkerPool | None,
     timeout: float,
-) -> Summary:
+) -> tuple[Summary, Prepared | None, bool]:
+    """The run, then its summary; with the backend the driver prepared (None: nothing was
+    left to do) and whether any item was scored."""
     from tqdm import tqdm
 
     record, done, todo, prepared = _open_run(ctx, out, resume)
@@ -667,7 +701,26 @@ def _run_locked(
             writer.append(rows)
             bar.update(1)
     wall = time.perf_counter() - t0
-    return _summarise(ctx, out, record, wall, workers, use_ray, timeout)
+    summary = _summarise(ctx, out, record, wall, workers, use_ray, timeout)
+    return summary, prepared, bool(todo)
+
+
+def run_end(out: Path | str, size: int | None = None, label: str = "") -> RunEnd:
+    """What the run in ``out`` ends by printing (:class:`~beo_bench.bench.failures.RunEnd`):
+    its failures grouped by exception, a pick run's reasons, its report if this run wrote
+    one. ``size``: the items its summary covers (a resume may ask for fewer)."""
+    from beo_bench.bench.failures import RunEnd, summarise_failures
+
+    out = Path(out)
+    rows = read_rows(out / RESULTS_NAME, report=False)  # damage was reported by the run
+    if size is not None:
+        rows = [r for r in rows if r["item"] < size]
+    report = out / REPORT_NAME
+    try:  # a report older than the results is an earlier session's: not this run's
+        fresh = report.stat().st_mtime >= (out / RESULTS_NAME).stat().st_mtime
+    except OSError:
+        fresh = False
+    return RunEnd(summarise_failures(rows, label), report if fresh else None)
 
 
 def _open_run(

@@ -9,8 +9,9 @@ that workers, the evaluator and ``Backend.prepare(ctx)`` receive (no per-process
 carries a run's configuration).
 
 A run directory holds :data:`RECORD_NAME`, :data:`RESULTS_NAME`, :data:`SUMMARY_NAME`,
-:data:`LOCK_NAME` and :data:`MARKER_NAME`; its default name is :func:`run_name`. The
-summary is a :class:`Summary` (``summary.json`` is its :meth:`Summary.to_json`).
+:data:`LOCK_NAME` and :data:`MARKER_NAME` (and :data:`REPORT_NAME` when asked for); its
+default name is :func:`run_name`. The summary is a :class:`Summary` (``summary.json`` is
+its :meth:`Summary.to_json`).
 """
 
 from __future__ import annotations
@@ -48,6 +49,10 @@ LOCK_NAME = "run.lock"
 RESULTS_NAME = "results.jsonl"
 RECORD_NAME = "run.json"
 SUMMARY_NAME = "summary.json"
+REPORT_NAME = "report.html"
+"""The run's offline report of its worst views (:mod:`beo_bench.bench.report`)."""
+REPORT_VIEWS = 8
+"""The worst views a run's report shows unless ``--report-views`` says otherwise."""
 MARKER_NAME = ".beo-bench-run"
 MARKER_TEXT = (
     "This directory is a run directory of beo-bench (`beo-bench run --out`, `beo-bench all`).\n"

@@ -593,8 +593,23 @@ def get_suite(name: str) -> Suite:
     if plus and head in SUITES and tail:
         return SUITES[head].with_categories(tail.split("+"))
     if name not in SUITES:
-        raise UnknownSuiteError(f"unknown suite {name!r}; the suites are {sorted(SUITES)}")
+        raise UnknownSuiteError(
+            f"unknown suite {name!r}; {_suite_hint(name)}the suites are {sorted(SUITES)}"
+        )
     return SUITES[name]
+
+
+def _suite_hint(name: str) -> str:
+    """ "did you mean 'pose-3dof'? " for a misspelt suite, in any case, also before a class
+    subset (``pose-3dfo+car`` -> ``pose-3dof+car``); "" when no suite is close."""
+    from beo_bench.names import closest
+
+    head, plus, tail = name.partition("+")
+    match = closest(head if plus else name, SUITES)
+    if match is None:
+        return ""
+    meant = match + plus + tail if plus else match
+    return f"did you mean {meant!r}? "
 
 
 def list_suites() -> list[str]:

@@ -13,8 +13,6 @@ One module per sensor, each citing the published source of every parameter:
 
 from __future__ import annotations
 
-import difflib
-
 from beo_bench.scenes.camera import Intrinsics
 from beo_bench.scenes.sensors.base import Sensor, SensorError
 
@@ -34,14 +32,11 @@ surface is, the longer exposure) changed every capture of both."""
 def check_sensor_name(name: str) -> str:
     """``name`` if it is a registered sensor, else :class:`SensorError` with the close
     matches (case-insensitively)."""
+    from beo_bench.names import did_you_mean
+
     if name in SENSORS:
         return name
-    lowered = {s.lower(): s for s in SENSORS}
-    if name.lower() in lowered:
-        hint = f"did you mean {lowered[name.lower()]!r}? "
-    else:
-        close = difflib.get_close_matches(name.lower(), list(lowered), n=1, cutoff=0.5)
-        hint = f"did you mean {lowered[close[0]]!r}? " if close else ""
+    hint = did_you_mean(name, SENSORS, cutoff=0.5)
     raise SensorError(
         f"unknown sensor {name!r}: {hint}use one of {', '.join(SENSORS)} (--sensor NAME)"
     )

@@ -11,9 +11,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from beo_bench.bench import tally
-from beo_bench.bench.scoring import base_row, view_row
+from beo_bench.bench.scoring import Answer, base_row, view_row
 from beo_bench.bench.suites import Kind, Suite
-from beo_bench.types import GroundTruth, View
+from beo_bench.types import Estimate, GroundTruth, View
 
 if TYPE_CHECKING:
     from beo_bench.bench.evaluate import Evaluator
@@ -113,6 +113,78 @@ def estimate_primary(suite: Suite) -> str:
     return "gross_err_rate" if suite.protocol.scores_pose else "class_acc"
 
 
+# -- the run's report (beo_bench.bench.report): its worst rows, and each one's view again ---
+@dataclass(frozen=True)
+class Ranking:
+    """A run's rows ordered worst first by the suite's primary error."""
+
+    criterion: str
+    """What the order is by, as the report says it (``rotation error, largest first``)."""
+    order: list[int]
+    """Indices into the rows, worst first."""
+
+
+@dataclass(frozen=True)
+class ReportCase:
+    """What the report shows of one row: the view it scored (rebuilt from its item index:
+    items are deterministic), the truth about the object it shows, and the backend's
+    estimate for it again (None: the row failed, or it was not re-predicted)."""
+
+    row: dict[str, Any]
+    view: View
+    truth: GroundTruth
+    estimate: Estimate | None = None
+    note: str = ""
+    """Anything the report should say about how the case was rebuilt."""
+
+
+def rank_view_rows(suite: Suite, rows: Rows) -> Ranking:
+    """Views scored on an estimate, worst first: by rotation error where the suite scores
+    the pose (a failure counts as 180 degrees), else by the class (misclassified first,
+    then the true class's probability, lowest first), then the voxel IoU, lowest first."""
+    if suite.protocol.scores_pose:
+        worst = tally.worst_cases(suite)["rot_err_deg"]
+        rot = tally.field_values(rows, "rot_err_deg", worst)
+        rot = np.where(np.isnan(rot), -1.0, rot)  # not measured: last
+        order = sorted(range(len(rows)), key=lambda i: (-rot[i], rows[i]["item"]))
+        return Ranking("rotation error, largest first (a failed view counts as 180 deg)", order)
+
+    def key(i: int) -> tuple[bool, bool, float, float, int]:
+        r = rows[i]
+        prob = r.get("class_prob_true")
+        iou = r.get("iou")
+        return (
+            not r.get("failure"),
+            bool(r.get("correct")),
+            1.0 if prob is None else float(prob),
+            1.0 if iou is None else float(iou),
+            int(r["item"]),
+        )
+
+    order = sorted(range(len(rows)), key=key)
+    return Ranking(
+        "failed, then misclassified, then by the true class's probability (lowest first)",
+        order,
+    )
+
+
+Predict = Callable[[int, int, View], Answer]
+"""The run's backend on view ``j`` of item ``index`` (:meth:`Evaluator.predict`)."""
+
+
+def view_report_case(items: Items, row: dict[str, Any], predict: Predict | None) -> ReportCase:
+    """Row ``row``'s view rebuilt from its item, with its truth; and, given ``predict``, the
+    backend's estimate for it again."""
+    index, j = int(row["item"]), int(row["view"])
+    views = items.views(index)
+    truth = items.truths(index, views)[j]  # before predicting: a scene is still this item's
+    if predict is None:
+        return ReportCase(row, views[j], truth)
+    est, _, failure = predict(index, j, views[j])
+    note = f"predicting it again failed: {failure}" if failure else ""
+    return ReportCase(row, views[j], truth, est, note)
+
+
 @dataclass(frozen=True)
 class ItemKind:
     """What one item kind does, as its module (:mod:`.isolated`, :mod:`.tabletop`,
@@ -133,3 +205,9 @@ class ItemKind:
     primary_metric: Callable[[Suite], str] = estimate_primary
     """The ``summary["metrics"]`` key that ``beo-bench gate`` judges a suite by unless told
     other metrics (``--metrics``): one metric, so one test and no multiple comparisons."""
+
+    rank_rows: Callable[[Suite, Rows], Ranking] = rank_view_rows
+    """The rows worst first by the suite's primary error (the report's order)."""
+    report_case: Callable[[Items, dict[str, Any], Predict | None], ReportCase] = view_report_case
+    """A row's view again, for the report (``report_case(items, row, predict)``; ``predict``
+    None: the row is shown without an estimate)."""

@@ -8,11 +8,20 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from beo_bench import metrics
-from beo_bench.bench.kinds.common import Announce, ItemKind, Rows
+from beo_bench.bench.kinds.common import (
+    Announce,
+    ItemKind,
+    Items,
+    Predict,
+    Ranking,
+    ReportCase,
+    Rows,
+)
 from beo_bench.bench.kinds.tabletop import SceneItems, categories, view_label
 from beo_bench.bench.scoring import estimate_mesh, obstacle_points
 from beo_bench.bench.suites import Kind, Suite
 from beo_bench.bench.tally import Tally, flags
+from beo_bench.types import View
 
 if TYPE_CHECKING:
     from beo_bench.bench.evaluate import Evaluator
@@ -96,6 +105,60 @@ def run_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
     return [row]
 
 
+REASON_ORDER = (
+    "worker_died",
+    "timeout",
+    "no_estimate",
+    "empty_shape",
+    "no_grasp",
+    "inside_table",
+    "pregrasp_in_collision",
+    "wrong_class",
+    "nothing_lifted",
+)
+"""The pick reasons of docs/env.md ("Why a pick fails") in the report's order: the
+backend's own failures first, then what its estimate made impossible, then misses."""
+
+
+def rank_rows(suite: Suite, rows: Rows) -> Ranking:
+    """Failed episodes first, in :data:`REASON_ORDER` (an unknown reason after them),
+    then the successes; by item within each."""
+
+    def key(i: int) -> tuple[int, int]:
+        r = rows[i]
+        said = str(r.get("reason") or "")
+        rank = REASON_ORDER.index(said) if said in REASON_ORDER else len(REASON_ORDER)
+        return (len(REASON_ORDER) + 1 if r.get("success") else rank, int(r["item"]))
+
+    order = sorted(range(len(rows)), key=key)
+    return Ranking("failed episodes first (by reason), then the successes", order)
+
+
+def report_case(items: Items, row: dict[str, Any], predict: Predict | None) -> ReportCase:
+    """Episode ``row`` again: its scene, and (given ``predict``) every visible object's
+    estimate, the chosen one as the episode chose it (the highest probability of the asked
+    class); the case shows the chosen object, or the target when nothing was chosen."""
+    assert isinstance(items, PickItems)
+    index = int(row["item"])
+    obs = items.reset(index)
+    target = int(obs["target_class"])
+    views = items.scene_views(obs)
+    env = items.env
+    shown = next((v for v in views if view_label(v) == env.target_label), None)
+    if shown is None:  # the target shows fewer than min_pixels: its view all the same
+        shown = View.from_observation(obs, env.target_label, env.categories)
+    est, note = None, ""
+    if predict is not None and views:
+        answers = [predict(index, j, v) for j, v in enumerate(views)]
+        scores = [-1.0 if a[0] is None else float(a[0].class_probs[target]) for a in answers]
+        if max(scores) >= 0:
+            k = int(np.argmax(scores))  # as run_item chooses
+            shown, est = views[k], answers[k][0]
+        else:
+            note = f"predicting the scene again failed: {answers[0][2]}"
+    return ReportCase(row, shown, items.scene_truths([shown])[0], est, note)
+
+
 def failed_rows(templates: Rows, reason: str) -> Rows:
     """The row of an episode whose backend never answered: unsuccessful, its ``reason``
     ``timeout`` or ``worker_died``. No time is recorded."""
@@ -151,5 +214,7 @@ PICK = ItemKind(
     timing=timing,
     worst_cases=worst_cases,
     primary_metric=primary_metric,
+    rank_rows=rank_rows,
+    report_case=report_case,
 )
 """Pick items: one episode per item, decided from every visible object's estimate."""
