@@ -568,8 +568,8 @@ def expand_suites(names: Sequence[str]) -> dict[str, int | None]:
             get_suite(name)
         except UnknownSuiteError:
             raise UnknownSuiteError(
-                f"unknown suite {name!r}; the suites are {sorted(SUITES)} and the suite sets "
-                f"{sorted(SUITE_SETS)}"
+                f"unknown suite {name!r}; {_suite_hint(name)}the suites are {sorted(SUITES)} "
+                f"and the suite sets {sorted(SUITE_SETS)}"
             ) from None
         out.pop(name, None)  # moved to where it was last named
         out[name] = None
