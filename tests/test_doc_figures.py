@@ -122,3 +122,26 @@ def test_the_committed_modelnet10_3dof_leaves_headroom() -> None:
     failed = [ln for ln, v in zip(table.splitlines()[2:], verdicts, strict=True)
               if v != "holds" and not v.startswith("waits")]  # fmt: skip
     assert failed == [], failed
+
+
+def test_the_modelnet10_pages_per_class_tables_equal_their_committed_runs() -> None:
+    """Each ``modelnet10-*`` page's table in the form of Tables 3.1 and 4.1 is what the
+    leaderboard makes of the page's committed summaries (``<suite>.json``), the
+    dissertation's row included: its per-class figures (chapter 4's three classes) are in
+    the pages, not only in the code."""
+    from beo_bench.bench import leaderboard as lb
+
+    head = "Class accuracy in the form of the dissertation's Tables 3.1 and 4.1"
+    for suite in lb.DISSERTATION_MODELNET10:
+        rows = [lb.Row(s) for s in json.loads((BOARDS / f"{suite}.json").read_text())]
+        version, newest, _ = lb._newest(rows)
+        fresh = [
+            table
+            for tracks in lb._parts(suite, version, newest).values()
+            for secs in tracks.values()
+            if (table := lb.modelnet10_table(suite, secs[0].rows))
+        ]
+        lines = (BOARDS / f"{suite}.md").read_text().split("\n")
+        starts = [i for i, ln in enumerate(lines) if ln.startswith(head)]
+        committed = ["\n".join(lines[i : lines.index("", i + 2)]) for i in starts]
+        assert committed == fresh, f"leaderboards/{suite}.md's per-class tables are stale"

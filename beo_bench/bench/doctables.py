@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from beo_bench.bench.compare import sensor_tag_of
-from beo_bench.bench.leaderboard import confused_pairs
+from beo_bench.bench.leaderboard import DISSERTATION_MODELNET10, confused_pairs
 from beo_bench.bench.runs import backend_label
 from beo_bench.bench.suites import get_suite
 
@@ -425,12 +425,13 @@ HEADROOM_CAP = 0.97
 """No in-tree method may read the class of more than 97% of ``modelnet10-3dof``'s views: a
 suite the reference method aces cannot rank the next one (the bounds aside)."""
 CHAPTER4_CLASSES: dict[str, tuple[float, float]] = {
-    "desk": (0.465, 0.576),
-    "night_stand": (0.558, 0.813),
-    "bathtub": (0.480, 0.913),
+    c: (beo, DISSERTATION_MODELNET10["modelnet10-3dof"][2][c])
+    for c, beo in DISSERTATION_MODELNET10["modelnet10-1dof"][2].items()
 }
 """Chapter 4's account of HBEO's gain over BEO on ModelNet10 (Tables 3.1 and 4.1): the
-class accuracy of BEO, then HBEO, on the classes that ModelNet10 confuses."""
+class accuracy of BEO (1-DOF), then HBEO (3-DOF), on the classes that ModelNet10 confuses
+(the dissertation rows' per-class figures in
+:data:`beo_bench.bench.leaderboard.DISSERTATION_MODELNET10`)."""
 
 
 def _acc_ci(b: Boards, suite: str, name: str) -> str:

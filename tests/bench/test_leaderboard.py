@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from beo_bench.bench.columns import METRICS, board_columns
-from beo_bench.bench.leaderboard import regenerate, suite_table
+from beo_bench.bench.leaderboard import Row, regenerate, suite_table
 from tests.bench.synthetic_runs import pose_row, write_run
 
 ROT = np.random.default_rng(0).exponential(40, 22)
@@ -354,6 +354,10 @@ def test_modelnet10_suites_have_tables_3_1_and_4_1_and_the_confused_pairs(tmp_pa
                          "100.0%", "100.0%", "100.0%", "90.0%"]  # fmt: skip
     assert table[1].startswith("| dissertation: HBEO, 3-DOF (Table 4.1) |")
     assert table[1].rstrip().endswith("| 81.8% |")
+    # the dissertation's row carries the per-class figures it has (chapter 4's three
+    # classes), the other cells empty: nothing invented
+    theirs = [c.strip() for c in table[1].split("|")[2:-1]]
+    assert theirs == ["91.3%", "", "", "57.6%", "", "", "81.3%", "", "", "", "81.8%"]
     pairs = _table(md, "Most frequent confusions")
     assert pairs == ["| hbeo | desk -> table 2/4; night_stand -> dresser 2/4 |"]
     # the counts behind them: a row per true class, the diagonal in bold
@@ -480,3 +484,22 @@ def test_hbeo_is_paired_with_beo_on_class_at_a_known_pose(tmp_path) -> None:
     assert cls_row.startswith("| `hbeo` - `beo`, paired | +10.0 pts [")
     assert cls_row.endswith("**better** | - | - |")
     assert iou_row.startswith("| `hbeo` - `beo`, IoU, paired | +0.100 [+0.100, +0.100] **better**")
+
+
+def test_the_dissertation_rows_carry_chapter_4s_per_class_figures() -> None:
+    """Tables 3.1 and 4.1's rows on the ModelNet10 pages: BEO at 1-DOF and HBEO at 3-DOF
+    carry the three per-class figures chapter 4 quotes (bathtub, desk, night stand); every
+    other per-class cell, and every one at a known pose, stays empty."""
+    from beo_bench.bench.leaderboard import modelnet10_table
+
+    def dissertation_row(suite: str) -> list[str]:
+        run = {"backend": "hbeo", "metrics": {"class_acc": 0.5}, "per_category": {}}
+        last = modelnet10_table(suite, [Row(run)]).splitlines()[-1]
+        return [c.strip() for c in last.split("|")[2:-1]]
+
+    empty = [""] * 10
+    assert dissertation_row("modelnet10-known-pose") == [*empty, "76.3%"]
+    assert dissertation_row("modelnet10-1dof") == [
+        "48.0%", "", "", "46.5%", "", "", "55.8%", "", "", "", "54.5%"]  # fmt: skip
+    assert dissertation_row("modelnet10-3dof") == [
+        "91.3%", "", "", "57.6%", "", "", "81.3%", "", "", "", "81.8%"]  # fmt: skip
