@@ -487,7 +487,8 @@ def format_runs(runs: Sequence[Summary | dict[str, Any]]) -> str:
 
 def cmd_compare(args: argparse.Namespace) -> int:
     """The runs' table; then, unless ``--table``, each run paired with the first on the
-    items both scored (B - A with a bootstrap interval over items, and a verdict)."""
+    items both scored (B - A with a bootstrap interval over items, and a verdict), and a
+    footnote that the verdicts are uncorrected and ``gate`` is the pass/fail check."""
     from beo_bench.bench import compare
 
     loaded = [compare.load_summary(p) for p in args.runs]
@@ -503,6 +504,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     for b in others:
         print()
         print(compare.format_paired(first, b, compare.paired_runs(first, b)))
+    print(compare.UNCORRECTED_NOTE)  # under the last verdict table: these are not a gate
     return 0
 
 
@@ -1178,7 +1180,12 @@ def _add_compare(sub: Any, data: argparse.ArgumentParser) -> None:
         description="A table of the runs; then, for two or more runs of one suite, version, "
         "track and seed, each run B against the first run A: per headline metric, B - A on "
         "the items both scored, a 95% bootstrap interval that resamples items, and a "
-        "verdict (better / worse / no difference for B).",
+        "verdict (better / worse / no difference for B). The verdicts are per metric and "
+        "not corrected for multiple comparisons, so with many metrics one may say worse by "
+        "chance: they are for reading, not for failing a build.",
+        epilog="for a pass/fail check in CI use `beo-bench gate` (Holm-corrected over every "
+        "metric it tests; exit status 3 on a regression): compare's exit status does not "
+        "depend on its verdicts",
     )
     cp.add_argument("runs", nargs="+", help="run directories or summary.json files")
     cp.add_argument(

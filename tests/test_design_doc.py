@@ -110,3 +110,20 @@ def test_the_stable_names_checker_sees_a_wrong_name() -> None:
     with pytest.raises(AttributeError):
         _resolve("beo_bench.types.NoSuchView")
     assert NAME.findall("`beo_bench.types.View` and `View`") == ["beo_bench.types.View"]
+
+
+def _statuses(text: str, start: str) -> list[int]:
+    """The exit statuses listed in ``text``'s parenthesis that follows ``start``."""
+    span = text[text.index(start) + len(start) :]
+    return [int(n) for n in re.findall(r"(?<![\w-])(\d+)\b", span[: span.index(")")])]
+
+
+def test_the_stable_exit_statuses_are_the_clis() -> None:
+    """docs/design.md's stable exit statuses are the ones ``beo-bench --help`` lists (the CLI
+    module's docstring), 3 (a regression, ``--max-failure-rate``) among them."""
+    from beo_bench import cli
+
+    page = _statuses(" ".join(DESIGN.read_text().split()), "and the exit statuses (")
+    assert cli.__doc__
+    listed = [int(n) for n in re.findall(r"\b(\d+) (?:on|when)\b", cli.EXIT_STATUS)]
+    assert page == listed == [0, 1, 2, 3, 130], (page, listed)

@@ -17,6 +17,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import yaml  # the dev extra's (pyproject.toml): a missing PyYAML fails, never skips
 
 from tests.docs_blocks import (
     ROOT,
@@ -189,7 +190,6 @@ def test_yaml_blocks_parse_and_their_commands_check(page: Path) -> None:
     bs = [b for b in blocks(page) if b.lang in YAML_LANGS]
     if not bs:
         pytest.skip("no yaml block")
-    yaml = pytest.importorskip("yaml", reason="PyYAML comes with the ray extra (make test)")
     for b in bs:
         try:
             doc = yaml.safe_load(b.code)

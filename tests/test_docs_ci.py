@@ -1,19 +1,21 @@
 """docs/ci.md's CI jobs do what the page says: each YAML file parses, installs the
 Makefile's way, keeps ``BEO_BENCH_CACHE`` in the CI system's cache, runs the smoke set,
 gates against the committed baseline the page tells how to write, and uploads the JUnit and
-Markdown reports the gate writes; every ``beo-bench`` command in them passes the real
-parser and registries (``tests/docs_blocks.py``, as a check block's commands do)."""
+Markdown reports the gate writes and each run's ``report.html``; every ``beo-bench`` command
+in them passes the real parser and registries (``tests/docs_blocks.py``, as a check block's
+commands do)."""
 
 from __future__ import annotations
 
+from fnmatch import fnmatchcase
 from pathlib import Path
 from typing import Any
 
-import pytest
+import yaml  # the dev extra's (pyproject.toml): a missing PyYAML fails here, never skips
 
+from beo_bench.bench.runs import REPORT_NAME, run_name
+from beo_bench.bench.suites import expand_suites
 from tests.docs_blocks import ROOT, YAML_LANGS, blocks, check_command, shell_commands, yaml_commands
-
-yaml = pytest.importorskip("yaml", reason="PyYAML comes with the ray extra (make test)")
 
 PAGE = ROOT / "docs" / "ci.md"
 
@@ -66,6 +68,41 @@ def _gate_and_smoke(doc: Any) -> tuple[list[str], list[str]]:
     return smoke, gate
 
 
+def _uploaded(path: str, patterns: list[str]) -> bool:
+    """Whether a CI upload of ``patterns`` takes the file ``path`` (relative to the checkout):
+    a pattern ending in ``/`` takes its folder; a glob's ``*`` matches within one folder."""
+    parts = path.split("/")
+    for p in patterns:
+        if p.endswith("/") and path.startswith(p):
+            return True
+        globs = p.rstrip("/").split("/")
+        if len(globs) == len(parts) and all(map(fnmatchcase, parts, globs)):
+            return True
+    return False
+
+
+def _uploads_every_runs_report(smoke: list[str], patterns: list[str]) -> None:
+    """The smoke set's runs each write ``report.html`` (``all`` does unless told
+    ``--report-views 0``), and the upload takes every one of them."""
+    if "--report-views" in smoke:
+        assert int(_flag(smoke, "--report-views")) > 0, "the runs write no report.html"
+    runs = _flag(smoke, "--runs").rstrip("/")
+    backend = _flag(smoke, "--backends")
+    suites = expand_suites([_flag(smoke, "--suites")])
+    assert len(suites) > 3
+    for suite in suites:  # a run directory of each suite of the set (tracks: names alike)
+        report = f"{runs}/{run_name(suite, backend, {}, track='class-free')}/{REPORT_NAME}"
+        assert _uploaded(report, patterns), f"{report} is not uploaded by {patterns}"
+
+
+def test_the_upload_checker_reads_globs_and_folders() -> None:
+    report = "runs/pose-1dof@class-free__hbeo/report.html"
+    assert _uploaded(report, ["out/", "runs/*/report.html"])
+    assert _uploaded(report, ["runs/"])
+    assert not _uploaded(report, ["out/", "runs/report.html", "runs/*/summary.json"])
+    assert not _uploaded(report, ["runs/*.html"])  # a glob's * stays in one folder
+
+
 def test_the_page_has_a_github_and_a_gitlab_job() -> None:
     assert set(_jobs()) == {"github", "gitlab"}
 
@@ -79,11 +116,12 @@ def test_the_github_job_installs_caches_runs_gates_and_uploads() -> None:
     cache_dir = job["env"]["BEO_BENCH_CACHE"]
     (cache,) = [s for s in steps if str(s.get("uses", "")).startswith("actions/cache@")]
     assert cache["with"]["path"] in cache_dir and cache["with"]["restore-keys"]
-    _, gate = _gate_and_smoke(doc)
+    smoke, gate = _gate_and_smoke(doc)
     (upload,) = [s for s in steps if str(s.get("uses", "")).startswith("actions/upload-artifact@")]
     assert upload["if"] == "always()"  # the report is wanted most when the gate fails
     uploaded = upload["with"]["path"].split()
     assert _flag(gate, "--junit") in uploaded and _flag(gate, "--markdown") in uploaded
+    _uploads_every_runs_report(smoke, uploaded)
     order = [i for i, r in enumerate(runs) if "make setup" in r or "beo-bench" in r]
     assert order == sorted(order) and steps.index(cache) < order[1]  # cache before the runs
 
@@ -93,12 +131,12 @@ def test_the_gitlab_job_installs_caches_runs_gates_and_uploads() -> None:
     assert job["script"][0] == "make setup"
     cache_dir = job["variables"]["BEO_BENCH_CACHE"].replace("$CI_PROJECT_DIR/", "")
     assert any(p.rstrip("/") == cache_dir for p in job["cache"]["paths"])
-    _, gate = _gate_and_smoke(job)
+    smoke, gate = _gate_and_smoke(job)
     artifacts = job["artifacts"]
     assert artifacts["when"] == "always"
     assert artifacts["reports"]["junit"] == _flag(gate, "--junit")
-    markdown = _flag(gate, "--markdown")
-    assert any(markdown.startswith(p) for p in artifacts["paths"])
+    assert _uploaded(_flag(gate, "--markdown"), artifacts["paths"])
+    _uploads_every_runs_report(smoke, artifacts["paths"])
 
 
 def test_shell_commands_are_found_where_a_ci_file_puts_them() -> None:

@@ -15,6 +15,12 @@ IoU, F-score, class and pick 0: :func:`beo_bench.bench.summary.view_values`, the
 definition), so a backend that fails on hard views cannot look better for it.
 Medians and timings are not paired (a median of differences is not a difference of
 medians, and timings depend on the machine).
+
+Each verdict is one metric's own, **not corrected for multiple comparisons**: of the dozen
+or so metrics a compare pairs, one may say ``worse`` by chance. The pass/fail check for CI is
+``beo-bench gate`` (:mod:`beo_bench.bench.gate`: Holm-corrected over every metric it tests,
+exit status 3 on a regression); ``beo-bench compare`` prints :data:`UNCORRECTED_NOTE` under
+its verdicts to say so.
 """
 
 from __future__ import annotations
@@ -35,6 +41,11 @@ RESULTS_NAME = "results.jsonl"
 SUMMARY_NAME = "summary.json"
 CLASS_FREE = "class-free"
 VERDICTS = ("better", "worse", "no difference")
+UNCORRECTED_NOTE = (
+    "note: each verdict is per metric and NOT corrected for multiple comparisons (with many "
+    "metrics, one may say worse by chance); the pass/fail check for CI is `beo-bench gate` "
+    "(Holm-corrected, exit status 3 on a regression)"
+)
 
 
 class ComparisonWarning(UserWarning):

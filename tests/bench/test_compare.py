@@ -214,6 +214,26 @@ def test_cli_compare_prints_the_paired_verdicts(tmp_path, capsys) -> None:
     assert line.split()[-1] == "better" and "-20.0" in line
     line = next(x for x in second.splitlines() if "rot. error mean" in x)
     assert line.endswith("no difference") and "[+0.0, +0.0]" in line
+    # one footnote, right under the last verdict table: the verdicts are not a gate
+    note = [x for x in out.splitlines() if "multiple comparisons" in x]
+    assert note == [second.rstrip("\n").splitlines()[-1]], out
+    assert "per metric" in note[0] and "NOT corrected" in note[0]
+    assert "beo-bench gate" in note[0] and "Holm" in note[0] and "exit status 3" in note[0]
+
+
+def test_cli_compare_help_says_its_verdicts_are_uncorrected_and_points_to_gate(capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(["compare", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "not corrected for multiple comparisons" in out
+    assert "beo-bench gate" in out and "Holm-corrected" in out and "exit status 3" in out
+
+
+def test_cli_compare_table_only_has_no_verdicts_and_no_footnote(tmp_path, capsys) -> None:
+    write_run(tmp_path / "a", "icp", [pose_row(i) for i in range(3)])
+    write_run(tmp_path / "b", "beo", [pose_row(i) for i in range(3)])
+    assert main(["compare", "--table", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+    assert "multiple comparisons" not in capsys.readouterr().out
 
 
 def test_compare_needs_the_results_beside_the_summary(tmp_path, capsys) -> None:
