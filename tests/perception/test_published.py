@@ -42,6 +42,61 @@ def test_every_published_model_is_listed_with_its_digest() -> None:
             )
 
 
+def test_the_models_page_states_the_published_sizes() -> None:
+    """docs/reference-models.md's sizes are the files': each file's row (MB, two decimals)
+    and every total ("N MB in all", "with the JSON sidecars and the manifest: N MB"), which
+    is every published file with the manifest, to 0.1 MB."""
+    text = MODELS_PAGE.read_text()
+    for name, size, sha in published.files_table():
+        if name.endswith(".npz"):
+            row = re.search(
+                rf"^\| `{re.escape(name)}` \|.*\| ([\d.]+) MB \| `{sha}` \|$", text, re.M
+            )
+            assert row, f"docs/reference-models.md has no row of {name} with its size"
+            assert row.group(1) == f"{size / 1e6:.2f}", f"{name}: {size / 1e6:.2f} MB"
+    total = sum(size for _, size, _ in published.files_table())
+    total += (published.PUBLISHED_DIR / published.MANIFEST).stat().st_size
+    stated = re.findall(r"([\d.]+) MB in all", text)
+    stated += re.findall(r"the JSON sidecars and the manifest: ([\d.]+) MB", text)
+    assert len(stated) == 2, stated
+    assert set(stated) == {f"{total / 1e6:.1f}"}, f"the published files take {total / 1e6:.1f} MB"
+
+
+def test_the_models_page_states_the_top_down_share_of_the_recipe() -> None:
+    """The recipes' share of top-down views on the page is the code's, and the published
+    networks were trained with it."""
+    from beo_bench.perception.hbeo_data import DatasetConfig
+
+    d = DatasetConfig(categories=("car",))
+    for kind in ("hbeo", "hbeo-mdn"):
+        meta, _ = published.read(kind)
+        got = meta["config"]["dataset"]
+        assert got["top_down_share"] == d.top_down_share
+        assert got["tabletop_share"] == d.tabletop_share
+        assert got["noise_share"] == d.noise_share
+    text = " ".join(MODELS_PAGE.read_text().split())
+    isolated = (1 - d.tabletop_share) * d.top_down_share
+    assert (
+        f"{d.tabletop_share:.0%} are tabletop scenes" in text
+        and f"with probability {d.top_down_share:g} (`top_down_share`: "
+        f"{d.top_down_share:.0%} of the isolated crops, {isolated:.0%} of all of them"
+        in text
+        and f"{d.noise_share:.0%} of the crops get the depth-noise augmentation" in text
+    ), "docs/reference-models.md's recipe shares differ from DatasetConfig's"
+
+
+def test_the_models_page_names_the_default_beo_model_of_a_class_subset() -> None:
+    """The page's command for the ``modelnet10`` classes' BEO model stores it under the name
+    the backend looks for (trained on first use otherwise)."""
+    from beo_bench.objects.sets import MODELNET10
+
+    name = beo_model.default_name(tuple(MODELNET10), 32, None, None)
+    assert f"beo-bench train beo --categories modelnet10   # -> models/beo/{name}" in (
+        MODELS_PAGE.read_text()
+    )
+    assert beo_model.published_for(tuple(MODELNET10), 32, None) is None  # not the published
+
+
 def test_the_default_models_are_the_published_ones(no_training) -> None:
     cats = default_categories()
     beo = beo_model.load_model(None, cats, 32)
