@@ -274,8 +274,13 @@ def mdn_prior_table(suite: str) -> Callable[[Boards], str]:
             # the samples themselves are the same in both modes: what the best one errs
             best = b.metric(suite, method, "sample_best_err_deg_mean")
             rows.append([f"N = {n}, best sample's error", deg(best), deg(best), "-"])
-            # the views the pick got wrong (> 15 deg) alone: what the samples held there
             ms = [b.row(suite, x)["metrics"] for x in (base, method)]
+            # how far the samples lie from the estimate each mode picks (median angle)
+            key = "sample_spread_deg_mean"
+            if all(m.get(key) is not None for m in ms):
+                rows.append([f"N = {n}, samples' spread (median angle to the estimate)",
+                             deg(ms[0][key]), deg(ms[1][key]), "-"])  # fmt: skip
+            # the views the pick got wrong (> 15 deg) alone: what the samples held there
             for label, key, fmt in (
                 ("gross errors: rank of the best sample", "sample_best_rank_gross_mean", rank),
                 ("gross errors with a sample within 15 deg", "sample_near_true_gross_rate", pct),

@@ -398,7 +398,7 @@ def test_the_silhouette_prior_table_pairs_the_rank_of_the_best_sample(tmp_path) 
     for name, rank in (("hbeo-mdn-likelihood", 6), ("hbeo-mdn-posterior", 2)):
         rows = [
             pose_row(i, rot_err_deg=20.0 - rank, sample_best_err_deg=3.0,
-                     sample_best_rank=rank + i % 2, sample_spread_deg=30.0)
+                     sample_best_rank=rank + i % 2, sample_spread_deg=30.0 + rank)
             for i in range(20)
         ]  # fmt: skip
         write_run(runs / name, name, rows, suite="modelnet10-3dof", track="class-free",
@@ -410,7 +410,11 @@ def test_the_silhouette_prior_table_pairs_the_rank_of_the_best_sample(tmp_path) 
     assert lines[4].startswith("| N = 25, rank of the best sample (0: first) | 6.5 | 2.5 | -4.0")
     assert lines[4].endswith("**better** |")
     assert lines[5] == "| N = 25, best sample's error | 3.0 deg | 3.0 deg | - |"
-    assert len(lines) == 6  # no N = 100 runs: no rows for them
+    # the spread is of the samples about each mode's own estimate: it differs by mode
+    assert lines[6] == (
+        "| N = 25, samples' spread (median angle to the estimate) | 36.0 deg | 32.0 deg | - |"
+    )
+    assert len(lines) == 7  # no N = 100 runs: no rows for them
     text = "<!-- table: mdn-prior -->\nold\n<!-- /table -->\n"
     assert PENDING.split("(")[0] in render(text, boards)  # pose-3dof is not there
 
