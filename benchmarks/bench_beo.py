@@ -3,10 +3,11 @@ and the median time per view of known-pose classification + completion, 1-DOF an
 joint pose + class + completion (one process, torch on both cores). Accuracy is in the
 leaderboards (``beo-bench all --suites known-pose pose-1dof pose-3dof --backends beo``).
 
-Then where BEO's 1-DOF error comes from, on the first ``DIAG_VIEWS`` views of
-``pose-1dof``: class accuracy at the true rotation with the true cube, with the true centre
-and the estimated edge, and with both estimated; and how often the coarse step (eq. 3.21)
-and the fine score (eq. 3.22) rank the true yaw (the nearest of 36) first."""
+Then where BEO's 1-DOF error comes from, on the first ``DIAG_VIEWS`` views of ``pose-1dof``
+and of ``modelnet10-1dof`` (chapter 3's top-down view, its own 10-class model): class
+accuracy at the true rotation with the true cube, with the true centre and the estimated
+edge, and with both estimated; and how often the coarse step (eq. 3.21) and the fine score
+(eq. 3.22) rank the true yaw (the nearest of 36) first."""
 
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from beo_bench.bench.suites import get_suite
 from beo_bench.envs.pick import default_categories
 
 DIAG_VIEWS = 44
+DIAG_SUITES = ("pose-1dof", "modelnet10-1dof")
 
 # (suite, views timed, target ms, dissertation's time per view)
 CASES = (
@@ -88,10 +90,11 @@ def main() -> None:
             f"dissertation: {theirs}",
         )
 
-    diagnose(ev.backend, cats)
+    for suite in DIAG_SUITES:
+        diagnose(suite)
 
 
-def diagnose(backend, cats: tuple[str, ...]) -> None:
+def diagnose(suite: str) -> None:
     import numpy as np
     import torch
 
@@ -100,8 +103,10 @@ def diagnose(backend, cats: tuple[str, ...]) -> None:
     from beo_bench.perception.beo import Hypotheses
     from beo_bench.perception.beo_observe import Observation
 
+    ev = Evaluator.of(get_suite(suite), "beo")  # the suite's own class list and model
+    backend = ev.backend
+    cats = tuple(ev.items.isolated_view(0)[0].categories)
     model, full, coarse = backend._model(cats)
-    ev = Evaluator.of(get_suite("pose-1dof"), "beo")
     classes = list(range(len(cats)))
     right = {"true cube": [], "true centre": [], "estimated cube": []}
     first = {"coarse EDT error": [], "fine density": []}
@@ -137,9 +142,9 @@ def diagnose(backend, cats: tuple[str, ...]) -> None:
         first["fine density"].append(bool(fine[true].min() <= fine.min()))
     ev.close()
     for name, ok in right.items():
-        report(f"pose-1dof, true rotation, {name}: class accuracy", 100 * np.mean(ok), "%")
+        report(f"{suite}, true rotation, {name}: class accuracy", 100 * np.mean(ok), "%")
     for name, ok in first.items():
-        report(f"pose-1dof: {name} ranks the true yaw first", 100 * np.mean(ok), "%")
+        report(f"{suite}: {name} ranks the true yaw first", 100 * np.mean(ok), "%")
 
 
 if __name__ == "__main__":
