@@ -203,50 +203,57 @@ class KinectV1(Sensor):
         pixels; 0 elsewhere. float32 throughout (the noise is millimetres, float32 resolves
         micrometres at 3 m), on the whole image: no gather or scatter (a capture's hot
         path)."""
-        # sigma^2 - step^2/12 with sigma = a + b (z - z0)^2 and step = z^2 / (8 f b)
-        t = z - np.float32(AXIAL_Z0)
-        t *= t
-        t *= np.float32(AXIAL_B)
-        t += np.float32(AXIAL_A)
-        below = np.less(cos2, self._cos2_knee, out=self._buf("k_below", bool))
-        below &= ok
-        grazing = np.flatnonzero(below)
-        if grazing.size:
-            th = np.arccos(np.sqrt(cos2.ravel()[grazing])).astype(np.float32)
-            zg = z.ravel()[grazing]
-            t.ravel()[grazing] += (
-                np.float32(AXIAL_GRAZING)
-                / np.sqrt(zg)
-                * th
-                * th
-                / (np.float32(math.pi / 2) - th) ** 2
-            )
-        t *= t
-        step = np.multiply(z, z, out=self._buf("k_step"))
-        step *= np.float32(DISPARITY_STEP / (NATIVE_FOCAL_PX * BASELINE))
-        step *= step
-        step *= np.float32(1.0 / 12.0)
-        t -= step
-        np.maximum(t, 0.0, out=t)
-        np.sqrt(t, out=t)
-        # one draw per LATERAL_BLOCK block, as the lateral jitter: the device's depth comes
-        # from a correlation window, so neighbouring pixels' errors move together (and a
-        # quarter of the draws is most of this function's saving)
         import cv2
 
         h, w = self.shape
+        # one draw per LATERAL_BLOCK block, as the lateral jitter: the device's depth comes
+        # from a correlation window, so neighbouring pixels' errors move together (and a
+        # quarter of the draws is most of this function's saving)
         draws = gaussian(rng, self._bh * self._bw).reshape(self._bh, self._bw)
         size = (self._bw * LATERAL_BLOCK, self._bh * LATERAL_BLOCK)
         noise = self._buf("k_noise", shape=(size[1], size[0]))
         cv2.resize(draws, size, dst=noise, interpolation=cv2.INTER_NEAREST)
-        t *= noise[:h, :w]
-        t += z
-        # disparity in 1/8 px, rounded, and back: z = f b / d
+        out = np.empty((h, w), dtype=np.float32)
         fb8 = np.float32(NATIVE_FOCAL_PX * BASELINE / DISPARITY_STEP)
-        np.maximum(t, np.float32(1e-3), out=t)
-        np.divide(fb8, t, out=t)
-        np.rint(t, out=t)
-        np.maximum(t, np.float32(1.0), out=t)
-        np.divide(fb8, t, out=t)
-        t *= ok
-        return t
+        # in bands of rows whose temporaries stay in cache (every step is per pixel)
+        rows = max(1, 32768 // w)
+        for r0 in range(0, h, rows):
+            r1 = min(h, r0 + rows)
+            zb, t = z[r0:r1], out[r0:r1]
+            shape = t.shape
+            # sigma^2 - step^2/12 with sigma = a + b (z - z0)^2 and step = z^2 / (8 f b)
+            np.subtract(zb, np.float32(AXIAL_Z0), out=t)
+            t *= t
+            t *= np.float32(AXIAL_B)
+            t += np.float32(AXIAL_A)
+            below = np.less(cos2[r0:r1], self._cos2_knee, out=self._buf("k_below", bool, shape))
+            below &= ok[r0:r1]
+            grazing = np.flatnonzero(below)
+            if grazing.size:
+                th = np.arccos(np.sqrt(cos2[r0:r1].ravel()[grazing])).astype(np.float32)
+                zg = zb.ravel()[grazing]
+                t.ravel()[grazing] += (
+                    np.float32(AXIAL_GRAZING)
+                    / np.sqrt(zg)
+                    * th
+                    * th
+                    / (np.float32(math.pi / 2) - th) ** 2
+                )
+            t *= t
+            step = np.multiply(zb, zb, out=self._buf("k_step", shape=shape))
+            step *= np.float32(DISPARITY_STEP / (NATIVE_FOCAL_PX * BASELINE))
+            step *= step
+            step *= np.float32(1.0 / 12.0)
+            t -= step
+            np.maximum(t, 0.0, out=t)
+            np.sqrt(t, out=t)
+            t *= noise[r0:r1, :w]
+            t += zb
+            # disparity in 1/8 px, rounded, and back: z = f b / d
+            np.maximum(t, np.float32(1e-3), out=t)
+            np.divide(fb8, t, out=t)
+            np.rint(t, out=t)
+            np.maximum(t, np.float32(1.0), out=t)
+            np.divide(fb8, t, out=t)
+            t *= ok[r0:r1]
+        return out
