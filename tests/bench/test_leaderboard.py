@@ -507,3 +507,22 @@ def test_the_dissertation_rows_carry_chapter_4s_per_class_figures() -> None:
         "48.0%", "", "", "46.5%", "", "", "55.8%", "", "", "", "54.5%"]  # fmt: skip
     assert dissertation_row("modelnet10-3dof") == [
         "91.3%", "", "", "57.6%", "", "", "81.3%", "", "", "", "81.8%"]  # fmt: skip
+
+
+def test_our_viewpoint_modelnet10_suites_carry_the_same_dissertation_row() -> None:
+    """``known-pose+modelnet10`` and ``pose-1dof+modelnet10`` (our viewpoints, the ModelNet10
+    set) get the per-class table of the top-down suite of the same protocol, with its
+    dissertation row, so the two viewpoints read side by side; another class subset of
+    the same suite gets none."""
+    from beo_bench.bench.leaderboard import confusion_counts, modelnet10_table
+
+    run = {"backend": "hbeo", "metrics": {"class_acc": 0.5}, "per_category": {}}
+    for ours, theirs in (("known-pose+modelnet10", "modelnet10-known-pose"),
+                         ("pose-1dof+modelnet10", "modelnet10-1dof")):  # fmt: skip
+        table = modelnet10_table(ours, [Row(run)])
+        assert table and table == modelnet10_table(theirs, [Row(run)])
+    assert modelnet10_table("pose-1dof+car+mug", [Row(run)]) == ""
+    conf = {**run, "metrics": {"class_acc": 0.5, "confusion": [[1, 0], [0, 1]]},
+            "categories": ["bed", "sofa"]}  # fmt: skip
+    assert "Confusion matrix of hbeo" in confusion_counts("pose-1dof+modelnet10", [Row(conf)])
+    assert confusion_counts("pose-1dof", [Row(conf)]) == ""
