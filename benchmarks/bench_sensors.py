@@ -26,7 +26,7 @@ IMAGES = Path(__file__).resolve().parent.parent / "docs" / "images"
 VGA = Intrinsics(640, 480, 45.0)
 DISTANCES = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0)
 ANGLES = (0, 30, 45, 70, 75)
-LATERAL_ANGLES = (0, 30, 45, 60, 70)
+LATERAL_ANGLES = (0, 30, 45, 60, 70, 75)
 D4_SUBPIXEL = 0.08
 
 

@@ -219,7 +219,8 @@ class Sensor(ABC):
         the last window's are kept."""
         key = (corner, shape)
         if self._rays is not None and self._rays[0] == key:
-            return self._rays[1]
+            rx, ry, n2 = self._rays[1]
+            return rx, ry, n2
         (r, c), (h, w) = corner, shape
         rx = np.zeros((1, w + 1), np.float32)
         rx[0, :w] = self._ray_x[0, c : c + w]

@@ -16,20 +16,23 @@ A capture renders what the device's hardware sees and matches it as a stereo cam
    pair, with its left-right check and speckle filter: occlusions, low texture and the
    left border band (where the right imager sees nothing of the left's view) come out
    invalid, and depth edges fatten by the matching window, as on the device.
-3. **Depth** is f b / d at the device's baseline, d in SGBM's 1/16-pixel steps.
+3. **Depth** is f b / d at the device's baseline, d SGBM's disparity refined to sub-pixel
+   precision by a Lucas-Kanade step (see below).
 
 The pattern is a fixed pseudo-random dot field (the D4 series' emitter projects a static
 semi-random pattern: Grunnet-Jepsen, Sweetser and Woodfill 2018, "Projectors for Intel
 RealSense depth cameras D4xx"), generated at the depth image's angular resolution so that
 every image size is textured as the device is at its own. Its contrast and the noise are
-a camera's (a read noise of 1 DN and shot noise, at an auto-exposed mean of 60 DN); the
-matching precision they give on a lit plane is measured against the D4 series' published
-sub-pixel RMS (about 0.08 px: Grunnet-Jepsen et al. 2018, "Tuning depth cameras for best
-performance", which gives RMS depth error = z^2 sigma_d / (f b)) in docs/sensors.md.
-SGBM's sub-pixel step locks to whole pixels more than the D4's matcher, so the model's
-sigma_d is somewhat larger than the device's. Intrinsics: the depth image's own (focal
-length from its size and field of view), with the physical baseline, so the errors in
-metres follow f.
+a camera's (read noise and shot noise, at an auto-exposed mean of 60 DN). SGBM's sub-pixel
+step fits a parabola to three integer costs and so pulls its estimate towards whole pixels
+(pixel locking, Shimizu and Okutomi 2001), which the D4's matcher does not do to that
+degree: the disparity is refined by one Lucas-Kanade step on the matching window
+(:meth:`D435.refine`). The sensor noise is then the model's one calibrated figure, set so
+that the matching precision on a lit plane is the D4 series' published sub-pixel RMS (about
+0.08 px: Grunnet-Jepsen et al. 2018, "Tuning depth cameras for best performance", which
+gives RMS depth error = z^2 sigma_d / (f b)); docs/sensors.md has the measured curve.
+Intrinsics: the depth image's own (focal length from its size and field of view), with the
+physical baseline, so the errors in metres follow f.
 """
 
 from __future__ import annotations
@@ -70,23 +73,27 @@ EXPOSED_DN = 60.0
 """The mean emitter light the auto-exposure aims at (8-bit digital numbers); a dot's peak
 is then about twice as bright."""
 
-MAX_GAIN = 1600.0
+MAX_GAIN = 4000.0
 """The longest exposure, as a gain on a dot's peak at 1 m: a scene so far or dark that it
-needs more stays darker. It lets the auto-exposure reach a lit plane at 3 m (the D435's
+needs more stays darker. It lets the auto-exposure reach a lit plane beyond 3 m (the D435's
 rated range), so that the precision follows z^2 out to there (at 400 it capped from 2 m and
-sigma_d doubled at 3 m, measured)."""
+sigma_d doubled at 3 m; at 1600 it capped from 2 m and sigma_d grew a third by 3 m,
+measured)."""
 
 AMBIENT_DN = 20.0
 """Ambient infrared on a surface (digital numbers, at the exposure)."""
 
-READ_NOISE_DN = 1.0
-SHOT_NOISE_GAIN = 0.05
-"""Shot-noise variance per digital number of signal (DN^2 / DN)."""
+READ_NOISE_DN = 2.0
+SHOT_NOISE_GAIN = 0.5
+"""Shot-noise variance per digital number of signal (DN^2 / DN: 2 electrons a DN). With the
+read noise, the one calibrated figure of the model: set so that the matching precision on a
+lit plane is the D4 series' published sub-pixel RMS, about 0.08 px (Grunnet-Jepsen et al.
+2018); its growth with distance (z^2) and its fill rates are then predictions."""
 
-TEXTURE_MIN_DN = 3.0
+TEXTURE_MIN_DN = 6.0
 """The least spread (standard deviation, digital numbers) of a matching window's intensity
-that the device matches: above the sensor noise of an evenly lit surface (1-1.5 DN at these
-exposures), far below the dot pattern's contrast (tens of DN)."""
+that the device matches: above the sensor noise of a surface lit by ambient light alone
+(3.7 DN at ``AMBIENT_DN``), far below the dot pattern's contrast (tens of DN)."""
 
 MIN_SIDE = 32
 
@@ -104,7 +111,8 @@ class D435(Sensor):
         "Intel RealSense D400 series datasheet (baseline 50 mm); Grunnet-Jepsen et al. 2018, "
         "'Tuning depth cameras for best performance' (sub-pixel RMS ~0.08 px, RMS error "
         "z^2 sigma_d / (f b)) and 'Projectors for Intel RealSense depth cameras D4xx'; "
-        "Hirschmueller 2008 (semi-global matching, OpenCV StereoSGBM)"
+        "Hirschmueller 2008 (semi-global matching, OpenCV StereoSGBM); Lucas and Kanade "
+        "1981, Baker and Matthews 2004 (sub-pixel refinement)"
     )
 
     def __init__(self, intrinsics: Intrinsics) -> None:
@@ -157,6 +165,7 @@ class D435(Sensor):
         self._fb = np.float32(self.f * BASELINE)
         # each pixel's pattern coordinates before its parallax to the emitter (which only
         # moves x): f ray + the pattern's centre, at the pattern's sampling
+        self._rows_map = np.repeat(np.arange(h, dtype=np.float32)[:, None], w, axis=1)
         fo = np.float32(self.f * PATTERN_OVERSAMPLE)
         self._map_x = (self._ray_x * fo + self._pcx).astype(np.float32)
         self._map_y = (self._ray_y * fo + self._pcy).astype(np.float32)
@@ -184,8 +193,44 @@ class D435(Sensor):
         # SGBM's fixed point: 16 steps a pixel; invalid pixels are negative, and so are the
         # windows without texture (the device's texture threshold)
         disp[self.textureless(left_ir)] = -1
-        np.divide(self._fb * np.float32(16.0), disp, out=depth[win], where=disp > 0)
+        valid = disp > 0
+        sub = self.refine(disp, left_ir, right_ir)
+        np.divide(self._fb, sub, out=depth[win], where=valid)
         return Frame(depth=depth, segmentation=frame.segmentation)
+
+    def refine(self, disp: np.ndarray, left: np.ndarray, right: np.ndarray) -> np.ndarray:
+        """Float32 disparity (px): SGBM's (``disp``, in 1/16 px) refined by one Lucas-Kanade
+        step on the matching window (Lucas and Kanade 1981, in its inverse-compositional
+        form: Baker and Matthews 2004). SGBM's own sub-pixel step fits a parabola to three
+        integer costs, which pulls its estimate towards whole pixels ("pixel locking",
+        Shimizu and Okutomi 2001): on a lit plane half its error was that bias. The step
+        warps the right image by SGBM's disparity (linear interpolation) and solves, per
+        window, for the shift that best aligns it with the left one:
+        e = sum(g (R_w - L)) / sum(g^2), g the left image's horizontal gradient. A step
+        larger than a pixel (a window across a depth edge, or SGBM's match wrong) keeps
+        SGBM's value. Invalid pixels keep theirs (negative)."""
+        import cv2
+
+        h, w = disp.shape
+        d = np.multiply(disp, np.float32(1.0 / 16.0), dtype=np.float32)
+        mapx = np.subtract(self._cols[:, :w], d)
+        lf = left.astype(np.float32)
+        warped: np.ndarray = cv2.remap(
+            right.astype(np.float32), mapx, self._rows_map[:h, :w], cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_REPLICATE,
+        )  # fmt: skip
+        g: np.ndarray = cv2.Sobel(lf, cv2.CV_32F, 1, 0, ksize=1, scale=0.5)
+        warped -= lf
+        warped *= g
+        g *= g
+        k = (self._block, self._block)
+        num = cv2.boxFilter(warped, -1, k, normalize=False)
+        den = cv2.boxFilter(g, -1, k, normalize=False)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.divide(num, den, out=num)
+        ok = np.abs(step) < 1.0  # NaN (no gradient in the window) is not
+        d += np.where(ok, step, np.float32(0.0))
+        return d
 
     def _window(self, left: np.ndarray, right: np.ndarray) -> tuple[slice, slice] | None:
         """The part of the image that is matched: the rows and columns where either imager

@@ -46,6 +46,39 @@ def test_kinect_lateral_noise_follows_nguyens_curve(kinect_bench, angle) -> None
     assert measured == pytest.approx(expected, rel=0.10)
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="the model's edge jitter stays at 0.80-0.84 px from 0 to 75 degrees at 640x480 "
+    "(measured), where eq. 2 rises to 0.97 px: the growth beyond 60 degrees is not yet "
+    "reproduced (docs/sensors.md)",
+)
+def test_kinect_lateral_noise_grows_beyond_60_degrees(kinect_bench) -> None:
+    """Nguyen et al.'s eq. 2 is flat to about 60 degrees and then rises steeply (0.86 px at
+    60, 0.97 px at 75 at 585 px): the edge's jitter at 75 degrees is the curve's within
+    10%, and above the one at 45."""
+    rng = np.random.default_rng(12)
+    scale = kinect_bench.sensor.f / kin.NATIVE_FOCAL_PX
+    at = {a: kinect_bench.edge(1.0, a, rng, captures=12) for a in (45, 75)}
+    curve75 = float(kin.lateral_sigma_px(np.array(math.radians(75)))) * scale
+    assert at[75] == pytest.approx(curve75, rel=0.10)
+    assert at[75] > at[45]
+
+
+def test_kinect_depths_lie_on_eighth_pixel_disparity_steps(kinect_bench) -> None:
+    """Every returned depth is f b / d with d a whole number of 1/8 px at the device's
+    focal length and baseline (Konolige and Mihelich 2011); the Gaussian draws alone
+    would put almost none there."""
+    data = kinect_bench._plane()
+    T = kinect_bench.camera(1.3, 40)
+    depth = kinect_bench.sensor.capture(kinect_bench.renderer, data, T, np.random.default_rng(13))
+    z = depth.depth[depth.depth > 0].astype(np.float64)
+    assert z.size > 0.5 * depth.depth.size
+    steps = kin.NATIVE_FOCAL_PX * kin.BASELINE / kin.DISPARITY_STEP / z
+    off = np.abs(steps - np.rint(steps))
+    assert float(off.max()) < 2e-3  # float32 depth: steps ~ 400, relative error 1e-7
+    assert len(np.unique(np.rint(steps))) > 10  # many steps, not one value
+
+
 def test_kinect_returns_nothing_beyond_the_incidence_limit(kinect_bench) -> None:
     steep = kinect_bench.plane(1.0, 85, np.random.default_rng(3), captures=1)
     assert steep.fill < 0.01
@@ -67,15 +100,18 @@ def test_d435_fills_a_lit_plane_and_loses_returns_at_grazing_angles(d435_bench) 
 
 
 def test_d435_depth_error_grows_as_the_square_of_depth(d435_bench) -> None:
-    """RMS depth error = z^2 sigma_d / (f b): the ratio from 1 m to 2 m is 4, and sigma_d
-    lies near the D4 series' published 0.08 px (the model's own figure, 0.10-0.12 px, is
-    in docs/sensors.md)."""
+    """RMS depth error = z^2 sigma_d / (f b) with sigma_d within 25% of the D4 series'
+    published sub-pixel RMS, 0.08 px (Grunnet-Jepsen et al. 2018), at every distance.
+    Each capture's distance moves the disparity over +-1 px (as bench_sensors does), so
+    the figure averages over where it falls between whole pixels (pixel locking)."""
     rng = np.random.default_rng(6)
     s = d435_bench.sensor
-    rms = {z: d435_bench.plane(z, 0, rng, captures=6, spread=0.03).rms for z in (1.0, 2.0)}
-    assert 3.0 < rms[2.0] / rms[1.0] < 5.5
-    sigma_d = rms[1.0] * s.f * d435_mod.BASELINE / 1.0**2
-    assert 0.05 < sigma_d < 0.16
+    fb = s.f * d435_mod.BASELINE
+    sigma_d = {}
+    for z in (0.5, 1.0, 2.0, 3.0):
+        rms = d435_bench.plane(z, 0, rng, captures=6, spread=z / fb).rms
+        sigma_d[z] = rms * fb / z**2
+    assert all(0.06 <= x <= 0.10 for x in sigma_d.values()), sigma_d
 
 
 def test_d435_invalid_band_is_on_the_left_with_the_stereo_width(d435_bench) -> None:
