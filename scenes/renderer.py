@@ -183,6 +183,18 @@ class Renderer:
         self._update(data, cam_to_world, segment=True)
         mujoco.mjr_render(self._rect, self._scn, self._con)
         mujoco.mjr_readPixels(self._rgb, self._zbuf, self._rect, self._con)
+        return Frame(depth=self._depth(), segmentation=self._decode_labels())
+
+    def render_depth(self, data: Any, cam_to_world: Mat4) -> np.ndarray:
+        """:meth:`render`'s metric depth alone (the same values), without reading back or
+        decoding the labels: a sensor's second view (its right imager) needs no labels."""
+        self._update(data, cam_to_world, segment=True)
+        mujoco.mjr_render(self._rect, self._scn, self._con)
+        mujoco.mjr_readPixels(None, self._zbuf, self._rect, self._con)
+        return self._depth()
+
+    def _depth(self) -> np.ndarray:
+        """Metric depth from the depth buffer just read back."""
         # OpenGL rows run bottom-up: every read below goes through a flipped view.
         z = self._zbuf[::-1]
         # metric depth d / (z + c) in float32: two roundings instead of a float64 round trip's
@@ -192,7 +204,7 @@ class Renderer:
         np.add(z, self._c, out=self._zsum)
         depth = np.zeros((self._h, self._w), dtype=np.float32)
         np.divide(self._d, self._zsum, out=depth, where=self._hit)
-        return Frame(depth=depth, segmentation=self._decode_labels())
+        return depth
 
     def _decode_labels(self) -> np.ndarray:
         """Labels from the id colours (label + 1; 0 where nothing was drawn)."""

@@ -15,7 +15,9 @@ A capture renders what the device's hardware sees and matches it as a stereo cam
 2. **Matching.** OpenCV's StereoSGBM (semi-global matching, Hirschmueller 2008) matches the
    pair, with its left-right check and speckle filter: occlusions, low texture and the
    left border band (where the right imager sees nothing of the left's view) come out
-   invalid, and depth edges fatten by the matching window, as on the device.
+   invalid, and depth edges fatten by the matching window, as on the device. It searches
+   the disparities of the scene's own depth range (:meth:`D435._window`), as the device
+   does with its disparity shift set for the scene.
 3. **Depth** is f b / d at the device's baseline, d SGBM's disparity refined to sub-pixel
    precision by a Lucas-Kanade step (see below).
 
@@ -37,7 +39,10 @@ physical baseline, so the errors in metres follow f.
 
 from __future__ import annotations
 
+import copy
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -56,7 +61,8 @@ EMITTER_X = 0.5 * BASELINE
 MIN_Z = 0.32
 """The nearest depth the disparity search reaches (m): nearer than any suite's camera
 (isolated views 0.45-0.8 m from their object, tabletop cameras 0.7-1.1 m from the table's
-centre), so the search range never limits a suite; a nearer surface gets no depth."""
+centre), so the search range never limits a suite; a nearer surface gets no depth. Each
+capture searches the part of this range that its scene's depths span."""
 
 PATTERN_SEED = 435
 """The dot pattern is the device's, the same in every capture (a fixed seed)."""
@@ -96,6 +102,26 @@ that the device matches: above the sensor noise of a surface lit by ambient ligh
 (3.7 DN at ``AMBIENT_DN``), far below the dot pattern's contrast (tens of DN)."""
 
 MIN_SIDE = 32
+
+SEARCH_MARGIN_PX = 2
+"""Disparities searched beyond the scene's own, each way (px): SGBM's sub-pixel parabola
+needs the costs on both sides of a match, and a match may stray by a pixel or two."""
+
+
+PARALLEL_MIN_PIXELS = 65536
+"""The least window (pixels) whose two infrared images are made in parallel: on a smaller
+one a thread's hand-offs cost more than they save."""
+
+_POOL: tuple[int, ThreadPoolExecutor] | None = None
+
+
+def _pool() -> ThreadPoolExecutor:
+    """The worker thread that makes the right imager's image (one per process: a forked
+    child makes its own)."""
+    global _POOL
+    if _POOL is None or _POOL[0] != os.getpid():
+        _POOL = (os.getpid(), ThreadPoolExecutor(1, thread_name_prefix="d435"))
+    return _POOL[1]
 
 
 def _ceil16(x: float) -> int:
@@ -163,6 +189,7 @@ class D435(Sensor):
         pattern = cv2.GaussianBlur(dots, (0, 0), DOT_SIGMA_PX * o)
         self._pattern = (pattern / max(float(pattern.max()), 1e-6)).astype(np.float32)
         self._fb = np.float32(self.f * BASELINE)
+        self._twin: D435 | None = None
         # each pixel's pattern coordinates before its parallax to the emitter (which only
         # moves x): f ray + the pattern's centre, at the pattern's sampling
         self._rows_map = np.repeat(np.arange(h, dtype=np.float32)[:, None], w, axis=1)
@@ -174,29 +201,88 @@ class D435(Sensor):
         self, renderer: Renderer, data: Any, cam_to_world: Mat4, rng: np.random.Generator,
         frame: Frame,
     ) -> Frame:  # fmt: skip
+        import cv2
+
         T = np.asarray(cam_to_world, dtype=np.float64)
         right_pose = T.copy()
         right_pose[:3, 3] = T[:3, 3] + T[:3, 0] * BASELINE
-        right = renderer.render(data, right_pose).depth
+        right = renderer.render_depth(data, right_pose)
         depth = np.zeros(self.shape, dtype=np.float32)
-        win = self._window(frame.depth, right)
-        if win is None:  # nothing within the far clip: no light comes back
+        found = self._window(frame.depth, right)
+        if found is None:  # nothing within the far clip: no light comes back
             return Frame(depth=depth, segmentation=frame.segmentation)
+        win, (d0, nd) = found
         rows, cols = win
         corner = (rows.start, cols.start)
-        left = self.irradiance(frame.depth[win], 0.0, corner)
-        right_e = self.irradiance(right[win], BASELINE, corner)
+        zl, zr = frame.depth[win], right[win]
+        # the two imagers' images are independent: on a large window the right one is made
+        # by a worker thread (numpy and OpenCV release the GIL) while this thread makes the
+        # left one; the noise is drawn here, in one order, so the images are the same
+        twin = self._twin_sensor() if zl.size >= PARALLEL_MIN_PIXELS else None
+        noise_l = gaussian(rng, zl.size).reshape(zl.shape)
+        if twin is None:
+            noise_r = gaussian(rng, zr.size).reshape(zr.shape)
+            left = self.irradiance(zl, 0.0, corner)
+            right_e = self.irradiance(zr, BASELINE, corner)
+        else:
+            # the right image's noise is drawn after the left's, by the worker
+            job = _pool().submit(twin._right_irradiance, zr, corner, rng)
+            left = self.irradiance(zl, 0.0, corner)
+            right_e, noise_r = job.result()
         gain = self.exposure(left)
-        left_ir = self.expose(left, gain, rng)
-        right_ir = self.expose(right_e, gain, rng)
-        disp = self._matcher.compute(left_ir, right_ir)
-        # SGBM's fixed point: 16 steps a pixel; invalid pixels are negative, and so are the
-        # windows without texture (the device's texture threshold)
-        disp[self.textureless(left_ir)] = -1
-        valid = disp > 0
+        if twin is None:
+            left_ir = self._expose(left, gain, noise_l)
+            right_ir = self._expose(right_e, gain, noise_r)
+        else:
+            job_ir = _pool().submit(twin._expose, right_e, gain, noise_r)
+            left_ir = self._expose(left, gain, noise_l)
+            right_ir = job_ir.result()
+        self._matcher.setMinDisparity(d0)
+        self._matcher.setNumDisparities(nd)
+        if twin is None:
+            flat = self.textureless(left_ir)
+            disp = self._matcher.compute(left_ir, right_ir)
+        else:  # the texture test beside the matching (whose speckle filter is serial)
+            job_flat = _pool().submit(twin.textureless, left_ir)
+            disp = self._matcher.compute(left_ir, right_ir)
+            flat = job_flat.result()
+        # SGBM's fixed point: 16 steps a pixel. Its invalid pixels read (d0 - 1) 16, below
+        # every match: they read -16 here at any d0 (SGBM's value at d0 = 0). The windows
+        # without texture (the device's texture threshold) read -1.
+        shape = disp.shape
+        if d0 > 0:
+            invalid = np.equal(disp, 16 * (d0 - 1), out=self._buf("d_inv", bool, shape))
+            cv2.copyTo(self._const16("m16", -16, shape), invalid.view(np.uint8), disp)
+        cv2.copyTo(self._const16("m1", -1, shape), flat.view(np.uint8), disp)
+        valid = np.greater(disp, 0, out=self._buf("d_valid", bool, shape))
         sub = self.refine(disp, left_ir, right_ir)
         np.divide(self._fb, sub, out=depth[win], where=valid)
         return Frame(depth=depth, segmentation=frame.segmentation)
+
+    def _twin_sensor(self) -> D435:
+        """A copy of this sensor with scratch arrays of its own (its constants shared), that
+        makes the right imager's image in a worker thread."""
+        if self._twin is None:
+            twin = copy.copy(self)
+            twin._scratch = {}
+            twin._rays = None
+            self._twin = twin
+        return self._twin
+
+    def _right_irradiance(
+        self, depth: np.ndarray, corner: tuple[int, int], rng: np.random.Generator
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The right imager's :meth:`irradiance` and its image's noise (standard normal
+        draws, one a pixel, from ``rng``)."""
+        noise = gaussian(rng, depth.size).reshape(depth.shape)
+        return self.irradiance(depth, BASELINE, corner), noise
+
+    def _const16(self, name: str, value: int, shape: tuple[int, ...]) -> np.ndarray:
+        """An int16 array of ``shape`` holding ``value``, kept between captures."""
+        a = self._scratch.get(name)
+        if a is None or a.shape != shape:
+            a = self._scratch[name] = np.full(shape, value, dtype=np.int16)
+        return a
 
     def refine(self, disp: np.ndarray, left: np.ndarray, right: np.ndarray) -> np.ndarray:
         """Float32 disparity (px): SGBM's (``disp``, in 1/16 px) refined by one Lucas-Kanade
@@ -212,15 +298,15 @@ class D435(Sensor):
         import cv2
 
         h, w = disp.shape
-        d = np.multiply(disp, np.float32(1.0 / 16.0), dtype=np.float32)
-        mapx = np.subtract(self._cols[:, :w], d)
-        lf = left.astype(np.float32)
+        shape = disp.shape
+        d = np.multiply(disp, np.float32(1.0 / 16.0), out=self._buf("r_d", shape=shape))
+        mapx = np.subtract(self._cols[:, :w], d, out=self._buf("r_mapx", shape=shape))
+        rf = right.astype(np.float32)
         warped: np.ndarray = cv2.remap(
-            right.astype(np.float32), mapx, self._rows_map[:h, :w], cv2.INTER_LINEAR,
-            borderMode=cv2.BORDER_REPLICATE,
-        )  # fmt: skip
-        g: np.ndarray = cv2.Sobel(lf, cv2.CV_32F, 1, 0, ksize=1, scale=0.5)
-        warped -= lf
+            rf, mapx, self._rows_map[:h, :w], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+        )
+        g: np.ndarray = cv2.Sobel(left, cv2.CV_32F, 1, 0, ksize=1, scale=0.5)
+        cv2.subtract(warped, left, dst=warped, dtype=cv2.CV_32F)
         warped *= g
         g *= g
         k = (self._block, self._block)
@@ -228,30 +314,62 @@ class D435(Sensor):
         den = cv2.boxFilter(g, -1, k, normalize=False)
         with np.errstate(divide="ignore", invalid="ignore"):
             step = np.divide(num, den, out=num)
-        ok = np.abs(step) < 1.0  # NaN (no gradient in the window) is not
-        d += np.where(ok, step, np.float32(0.0))
+        # NaN (no gradient in the window) is not below 1
+        ok = np.less(np.abs(step, out=den), np.float32(1.0), out=self._buf("r_ok", bool, shape))
+        np.add(d, step, out=d, where=ok)
         return d
 
-    def _window(self, left: np.ndarray, right: np.ndarray) -> tuple[slice, slice] | None:
-        """The part of the image that is matched: the rows and columns where either imager
-        sees a surface, widened by the matching window and, to the left, by the disparity
-        search (where the left imager's pixels find their partners). Outside it both IR
-        images are dark, the matcher finds no texture there, and the depth is invalid
-        anyway; matching only inside makes an isolated object's capture 10x cheaper.
+    def _window(
+        self, left: np.ndarray, right: np.ndarray
+    ) -> tuple[tuple[slice, slice], tuple[int, int]] | None:
+        """The part of the image that is matched and the disparities searched there.
+
+        The window: the rows and columns where either imager sees a surface, widened by
+        the matching window and, to the left, by the disparity search (where the left
+        imager's pixels find their partners). Outside it both IR images are dark, the
+        matcher finds no texture there, and the depth is invalid anyway; matching only
+        inside makes an isolated object's capture 10x cheaper.
+
+        The search (first disparity, number of disparities): the disparities of the
+        scene's surfaces, from its farthest to its nearest (f b / z), widened by
+        ``SEARCH_MARGIN_PX`` each way and rounded up to SGBM's multiple of 16, within the
+        fixed range down to ``MIN_Z``. The D4 searches a fixed number of disparities from
+        a first one, its "disparity shift", that is set for the scene's depth range
+        (Grunnet-Jepsen et al. 2018, "Tuning depth cameras for best performance"); here the
+        number too is the scene's: a match outside the scene's disparities could only be
+        wrong, and SGBM's cost is proportional to the number it searches.
+
         None when neither imager sees a surface."""
-        seen = (left > 0) | (right > 0)
-        rows = np.flatnonzero(seen.any(axis=1))
-        if not rows.size:
+        import cv2
+
+        lseen = np.greater(left, 0, out=self._buf("w_l", bool, left.shape))
+        rseen = np.greater(right, 0, out=self._buf("w_r", bool, right.shape))
+        zmin, zmax = math.inf, 0.0
+        for z, m in ((left, lseen), (right, rseen)):
+            lo, hi, _, _ = cv2.minMaxLoc(z, m.view(np.uint8))
+            if hi > 0:
+                zmin, zmax = min(zmin, lo), max(zmax, hi)
+        if zmax <= 0:
             return None
+        seen = np.logical_or(lseen, rseen, out=lseen)
+        rows = np.flatnonzero(seen.any(axis=1))
         cols = np.flatnonzero(seen.any(axis=0))
+        fb = float(self._fb)
+        top = self.num_disparities
+        d1 = min(top, math.ceil(fb / zmin) + SEARCH_MARGIN_PX)
+        d0 = max(0, min(d1, math.floor(fb / zmax)) - SEARCH_MARGIN_PX)
+        nd = _ceil16(d1 - d0)
+        d0 = max(0, min(d0, top - nd))
         h, w = self.shape
         pad = self._block
-        c0 = max(0, int(cols[0]) - self.num_disparities - pad)
+        reach = d0 + nd  # the search's last disparity + 1
+        c0 = max(0, int(cols[0]) - reach - pad)
         c1 = min(w, int(cols[-1]) + 1 + pad)
-        if c1 - c0 <= self.num_disparities + pad:  # the matcher needs room for its search
-            c0 = max(0, c1 - self.num_disparities - 2 * pad - 1)
-            c1 = min(w, c0 + self.num_disparities + 2 * pad + 1)
-        return slice(max(0, int(rows[0]) - pad), min(h, int(rows[-1]) + 1 + pad)), slice(c0, c1)
+        if c1 - c0 <= reach + pad:  # the matcher needs room for its search
+            c0 = max(0, c1 - reach - 2 * pad - 1)
+            c1 = min(w, c0 + reach + 2 * pad + 1)
+        win = slice(max(0, int(rows[0]) - pad), min(h, int(rows[-1]) + 1 + pad)), slice(c0, c1)
+        return win, (d0, nd)
 
     def textureless(self, image: np.ndarray) -> np.ndarray:
         """Bool: the pixels whose matching window's intensity spreads less than
@@ -261,12 +379,24 @@ class D435(Sensor):
         beyond the far clip."""
         import cv2
 
-        im = image.astype(np.float32)
         k = (self._block, self._block)
-        mean = np.asarray(cv2.boxFilter(im, -1, k, borderType=cv2.BORDER_REPLICATE), np.float32)
-        sq = np.asarray(cv2.boxFilter(im * im, -1, k, borderType=cv2.BORDER_REPLICATE), np.float32)
-        # the window's variance E[I^2] - E[I]^2
-        return np.asarray(sq - mean * mean < np.float32(TEXTURE_MIN_DN**2))
+        n = self._block * self._block
+        # the window's variance E[I^2] - E[I]^2 times n^2, n S2 - S1^2 of the window's sums
+        # of intensities and of their squares: in integers, exactly (below 2^31 for 8-bit
+        # images and windows of up to 13 x 13 pixels)
+        rep = cv2.BORDER_REPLICATE
+        s1 = np.asarray(
+            cv2.boxFilter(image, cv2.CV_32S, k, normalize=False, borderType=rep), np.int32
+        )
+        s2 = np.asarray(
+            cv2.sqrBoxFilter(image, cv2.CV_32S, k, normalize=False, borderType=rep), np.int32
+        )
+        s2 *= n
+        s1 *= s1
+        s2 -= s1
+        return np.less(
+            s2, round(TEXTURE_MIN_DN**2) * n * n, out=self._buf("t_flat", bool, s2.shape)
+        )
 
     def irradiance(
         self, depth: np.ndarray, at_x: float, corner: tuple[int, int] = (0, 0)
@@ -279,28 +409,31 @@ class D435(Sensor):
         import cv2
 
         z = depth
-        win = (slice(corner[0], corner[0] + z.shape[0]), slice(corner[1], corner[1] + z.shape[1]))
-        invalid = z <= 0
+        shape = z.shape
+        win = (slice(corner[0], corner[0] + shape[0]), slice(corner[1], corner[1] + shape[1]))
+        invalid = np.less_equal(z, 0, out=self._buf("i_inv", bool, shape))
+        # which points the emitter lights (only points with depth are)
+        lit = self.lit_by(z, float(EMITTER_X - at_x), corner)
         # the surface point in the emitter's frame (same orientation, EMITTER_X - at_x to
         # the right of this imager): its pattern coordinates, x = f (ray_x - ex / z) + cx
         fex = np.float32((EMITTER_X - at_x) * self.f * PATTERN_OVERSAMPLE)
         with np.errstate(divide="ignore", invalid="ignore"):
-            mapx = np.divide(fex, z)
+            mapx = np.divide(fex, z, out=self._buf("i_mapx", shape=shape))
         np.subtract(self._map_x[win], mapx, out=mapx)
-        mapx[invalid] = -1.0  # outside the pattern: no dot light
+        # outside the pattern (no dot light) where the emitter lights no surface
+        unlit = np.logical_not(lit, out=self._buf("i_unlit", bool, shape))
+        cv2.copyTo(self._const("m1f", -1.0, shape), unlit.view(np.uint8), mapx)
         dots = cv2.remap(
             self._pattern, mapx, self._map_y[win], cv2.INTER_LINEAR,
             borderMode=cv2.BORDER_CONSTANT, borderValue=0.0,
         )  # fmt: skip
-        lit = self.lit_by(z, float(EMITTER_X - at_x), corner)
         light = self.incidence_cos2(z, corner=corner)
         np.sqrt(light, out=light)
         with np.errstate(divide="ignore", invalid="ignore"):
             light /= z
             light /= z
-        light *= lit
         light *= dots
-        light[invalid] = -1.0
+        cv2.copyTo(self._const("m1f", -1.0, shape), invalid.view(np.uint8), light)
         return light
 
     def exposure(self, irradiance: np.ndarray) -> float:
@@ -315,10 +448,22 @@ class D435(Sensor):
         """The 8-bit image: emitter light and ambient light on the surfaces, times the
         exposure, with shot and read noise; nothing (0 plus noise) where there is no
         surface within the far clip."""
-        g = np.float32(gain)
-        surface = irradiance >= 0
-        signal = np.maximum(irradiance, np.float32(0.0)) * g
-        signal += np.where(surface, np.float32(AMBIENT_DN), np.float32(0.0))
-        sigma = np.sqrt(signal * np.float32(SHOT_NOISE_GAIN) + np.float32(READ_NOISE_DN**2))
-        signal += sigma * gaussian(rng, signal.size).reshape(signal.shape)
-        return np.clip(np.rint(signal), 0, 255).astype(np.uint8)
+        return self._expose(irradiance, gain, gaussian(rng, irradiance.size))
+
+    def _expose(self, irradiance: np.ndarray, gain: float, noise: np.ndarray) -> np.ndarray:
+        """:meth:`expose` with its standard normal draws ``noise`` (one a pixel)."""
+        import cv2
+
+        shape = irradiance.shape
+        surface = np.greater_equal(irradiance, 0, out=self._buf("e_surf", bool, shape))
+        signal = np.maximum(irradiance, np.float32(0.0), out=self._buf("e_sig", shape=shape))
+        signal *= np.float32(gain)
+        np.add(signal, np.float32(AMBIENT_DN), out=signal, where=surface)
+        sigma = np.multiply(signal, np.float32(SHOT_NOISE_GAIN), out=self._buf("e_sd", shape=shape))
+        sigma += np.float32(READ_NOISE_DN**2)
+        np.sqrt(sigma, out=sigma)
+        sigma *= noise.reshape(shape)
+        signal += sigma
+        # rounded half to even and saturated to 0-255, as np.clip(np.rint(.)) would
+        out = cv2.add(signal, self._const("zero", 0.0, shape), dtype=cv2.CV_8U)
+        return np.asarray(out, dtype=np.uint8)
