@@ -124,6 +124,10 @@ def _pool() -> ThreadPoolExecutor:
     return _POOL[1]
 
 
+def _area(box: tuple[slice, slice]) -> int:
+    return int((box[0].stop - box[0].start) * (box[1].stop - box[1].start))
+
+
 def _ceil16(x: float) -> int:
     return 16 * max(1, math.ceil(x / 16.0))
 
@@ -206,6 +210,17 @@ class D435(Sensor):
         T = np.asarray(cam_to_world, dtype=np.float64)
         right_pose = T.copy()
         right_pose[:3, 3] = T[:3, 3] + T[:3, 0] * BASELINE
+        # The two imagers' images are independent: where the left imager sees a large area,
+        # a worker thread makes the left image while this thread renders the right view
+        # (MuJoCo, numpy and OpenCV release the GIL) and makes the right image. The left
+        # image is made over its own surfaces' bounding box: outside it there is no surface
+        # (no light, -1), and inside it every pixel reads as it would in a larger window.
+        box = self._box(frame.depth)
+        twin = None
+        if box is not None and _area(box) >= PARALLEL_MIN_PIXELS:
+            twin = self._twin_sensor()
+            at = (box[0].start, box[1].start)
+            job_l = _pool().submit(twin.irradiance, frame.depth[box], 0.0, at)
         right = renderer.render_depth(data, right_pose)
         depth = np.zeros(self.shape, dtype=np.float32)
         found = self._window(frame.depth, right)
@@ -215,20 +230,17 @@ class D435(Sensor):
         rows, cols = win
         corner = (rows.start, cols.start)
         zl, zr = frame.depth[win], right[win]
-        # the two imagers' images are independent: on a large window the right one is made
-        # by a worker thread (numpy and OpenCV release the GIL) while this thread makes the
-        # left one; the noise is drawn here, in one order, so the images are the same
-        twin = self._twin_sensor() if zl.size >= PARALLEL_MIN_PIXELS else None
+        # the noise is drawn here, in one order (left, right), whichever thread uses it
         noise_l = gaussian(rng, zl.size).reshape(zl.shape)
+        noise_r = gaussian(rng, zr.size).reshape(zr.shape)
+        right_e = self.irradiance(zr, BASELINE, corner)
         if twin is None:
-            noise_r = gaussian(rng, zr.size).reshape(zr.shape)
             left = self.irradiance(zl, 0.0, corner)
-            right_e = self.irradiance(zr, BASELINE, corner)
         else:
-            # the right image's noise is drawn after the left's, by the worker
-            job = _pool().submit(twin._right_irradiance, zr, corner, rng)
-            left = self.irradiance(zl, 0.0, corner)
-            right_e, noise_r = job.result()
+            left = np.full(zl.shape, -1.0, dtype=np.float32)
+            r0, c0 = at[0] - rows.start, at[1] - cols.start
+            part = job_l.result()
+            left[r0 : r0 + part.shape[0], c0 : c0 + part.shape[1]] = part
         gain = self.exposure(left)
         if twin is None:
             left_ir = self._expose(left, gain, noise_l)
@@ -240,12 +252,12 @@ class D435(Sensor):
         self._matcher.setMinDisparity(d0)
         self._matcher.setNumDisparities(nd)
         if twin is None:
-            flat = self.textureless(left_ir)
+            flat, prep = self._prepare(left_ir, right_ir)
             disp = self._matcher.compute(left_ir, right_ir)
-        else:  # the texture test beside the matching (whose speckle filter is serial)
-            job_flat = _pool().submit(twin.textureless, left_ir)
+        else:  # what does not need the disparity, beside the matching
+            job_prep = _pool().submit(twin._prepare, left_ir, right_ir)
             disp = self._matcher.compute(left_ir, right_ir)
-            flat = job_flat.result()
+            flat, prep = job_prep.result()
         # SGBM's fixed point: 16 steps a pixel. Its invalid pixels read (d0 - 1) 16, below
         # every match: they read -16 here at any d0 (SGBM's value at d0 = 0). The windows
         # without texture (the device's texture threshold) read -1.
@@ -255,9 +267,37 @@ class D435(Sensor):
             cv2.copyTo(self._const16("m16", -16, shape), invalid.view(np.uint8), disp)
         cv2.copyTo(self._const16("m1", -1, shape), flat.view(np.uint8), disp)
         valid = np.greater(disp, 0, out=self._buf("d_valid", bool, shape))
-        sub = self.refine(disp, left_ir, right_ir)
+        sub = self.refine(disp, left_ir, right_ir, prep)
         np.divide(self._fb, sub, out=depth[win], where=valid)
         return Frame(depth=depth, segmentation=frame.segmentation)
+
+    def _box(self, depth: np.ndarray) -> tuple[slice, slice] | None:
+        """The bounding box of the pixels of ``depth`` with a surface (None if none)."""
+        seen = np.greater(depth, 0, out=self._buf("b_seen", bool, depth.shape))
+        rows = np.flatnonzero(seen.any(axis=1))
+        if not rows.size:
+            return None
+        cols = np.flatnonzero(seen.any(axis=0))
+        return slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1)
+
+    def _prepare(
+        self, left: np.ndarray, right: np.ndarray
+    ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """What follows the matching but does not need its disparity: the texture test
+        (:meth:`textureless`) and :meth:`refine`'s images (see :meth:`_refine_images`)."""
+        return self.textureless(left), self._refine_images(left, right)
+
+    def _refine_images(
+        self, left: np.ndarray, right: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`refine`'s images that do not depend on the disparity: the left image's
+        horizontal gradient g, the window sums of g^2 and the right image in float32."""
+        import cv2
+
+        g: np.ndarray = cv2.Sobel(left, cv2.CV_32F, 1, 0, ksize=1, scale=0.5)
+        g2 = np.multiply(g, g)
+        den: np.ndarray = cv2.boxFilter(g2, -1, (self._block, self._block), normalize=False)
+        return g, den, right.astype(np.float32)
 
     def _twin_sensor(self) -> D435:
         """A copy of this sensor with scratch arrays of its own (its constants shared), that
@@ -269,14 +309,6 @@ class D435(Sensor):
             self._twin = twin
         return self._twin
 
-    def _right_irradiance(
-        self, depth: np.ndarray, corner: tuple[int, int], rng: np.random.Generator
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """The right imager's :meth:`irradiance` and its image's noise (standard normal
-        draws, one a pixel, from ``rng``)."""
-        noise = gaussian(rng, depth.size).reshape(depth.shape)
-        return self.irradiance(depth, BASELINE, corner), noise
-
     def _const16(self, name: str, value: int, shape: tuple[int, ...]) -> np.ndarray:
         """An int16 array of ``shape`` holding ``value``, kept between captures."""
         a = self._scratch.get(name)
@@ -284,7 +316,13 @@ class D435(Sensor):
             a = self._scratch[name] = np.full(shape, value, dtype=np.int16)
         return a
 
-    def refine(self, disp: np.ndarray, left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    def refine(
+        self,
+        disp: np.ndarray,
+        left: np.ndarray,
+        right: np.ndarray,
+        images: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    ) -> np.ndarray:
         """Float32 disparity (px): SGBM's (``disp``, in 1/16 px) refined by one Lucas-Kanade
         step on the matching window (Lucas and Kanade 1981, in its inverse-compositional
         form: Baker and Matthews 2004). SGBM's own sub-pixel step fits a parabola to three
@@ -294,28 +332,26 @@ class D435(Sensor):
         window, for the shift that best aligns it with the left one:
         e = sum(g (R_w - L)) / sum(g^2), g the left image's horizontal gradient. A step
         larger than a pixel (a window across a depth edge, or SGBM's match wrong) keeps
-        SGBM's value. Invalid pixels keep theirs (negative)."""
+        SGBM's value. Invalid pixels keep theirs (negative). ``images``: those of
+        :meth:`_refine_images` for ``left`` and ``right``, when they are already made."""
         import cv2
 
         h, w = disp.shape
         shape = disp.shape
+        g, den, rf = self._refine_images(left, right) if images is None else images
         d = np.multiply(disp, np.float32(1.0 / 16.0), out=self._buf("r_d", shape=shape))
         mapx = np.subtract(self._cols[:, :w], d, out=self._buf("r_mapx", shape=shape))
-        rf = right.astype(np.float32)
         warped: np.ndarray = cv2.remap(
             rf, mapx, self._rows_map[:h, :w], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
         )
-        g: np.ndarray = cv2.Sobel(left, cv2.CV_32F, 1, 0, ksize=1, scale=0.5)
         cv2.subtract(warped, left, dst=warped, dtype=cv2.CV_32F)
         warped *= g
-        g *= g
-        k = (self._block, self._block)
-        num = cv2.boxFilter(warped, -1, k, normalize=False)
-        den = cv2.boxFilter(g, -1, k, normalize=False)
+        num = cv2.boxFilter(warped, -1, (self._block, self._block), normalize=False)
         with np.errstate(divide="ignore", invalid="ignore"):
             step = np.divide(num, den, out=num)
         # NaN (no gradient in the window) is not below 1
-        ok = np.less(np.abs(step, out=den), np.float32(1.0), out=self._buf("r_ok", bool, shape))
+        ok = np.abs(step, out=self._buf("r_abs", shape=shape))
+        ok = np.less(ok, np.float32(1.0), out=self._buf("r_ok", bool, shape))
         np.add(d, step, out=d, where=ok)
         return d
 

@@ -78,3 +78,28 @@ def test_depth_only_render_is_the_renders_depth(bench) -> None:
     assert np.array_equal(
         bench.renderer.render_depth(data, T), bench.renderer.render(data, T).depth
     )
+
+
+def test_left_image_made_over_its_own_box_is_the_same(monkeypatch) -> None:
+    """An isolated object: the worker makes the left image over the object's bounding box
+    only, which is smaller than the matched window."""
+    from beo_bench.objects.dataset import ObjectSet
+    from beo_bench.scenes.isolated import IsolatedRenderer
+
+    iso = IsolatedRenderer(Intrinsics(128, 128, 45.0))
+    try:
+        inst = ObjectSet("test").get("chair", 0)
+        depths = []
+        for threshold in (1, 10**9):
+            monkeypatch.setattr(d435_mod, "PARALLEL_MIN_PIXELS", threshold)
+            sensor = make_sensor("d435", iso.intrinsics)
+            for v in range(3):
+                view = iso.rig.sample(np.random.default_rng(v), np.zeros(3))
+                iso.render(inst, view)
+                renderer, data = iso._renderer, iso._models[inst.key][1]
+                depths.append(sensor.capture(renderer, data, view, np.random.default_rng(v)).depth)
+    finally:
+        iso.close()
+    for a, b in zip(depths[:3], depths[3:], strict=True):
+        assert np.array_equal(a, b)
+        assert (a > 0).sum() > 100
