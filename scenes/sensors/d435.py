@@ -215,7 +215,8 @@ class D435(Sensor):
         # (MuJoCo, numpy and OpenCV release the GIL) and makes the right image. The left
         # image is made over its own surfaces' bounding box: outside it there is no surface
         # (no light, -1), and inside it every pixel reads as it would in a larger window.
-        box = self._box(frame.depth)
+        h, w = self.shape
+        box = self._box(frame.depth) if h * w >= PARALLEL_MIN_PIXELS else None
         twin = None
         if box is not None and _area(box) >= PARALLEL_MIN_PIXELS:
             twin = self._twin_sensor()
