@@ -42,6 +42,7 @@ from __future__ import annotations
 import copy
 import math
 import os
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -231,13 +232,18 @@ class D435(Sensor):
         rows, cols = win
         corner = (rows.start, cols.start)
         zl, zr = frame.depth[win], right[win]
-        # the noise is drawn here, in one order (left, right), whichever thread uses it
+        # the noise is drawn in one order (left, right), whichever thread draws or uses it
         noise_l = gaussian(rng, zl.size).reshape(zl.shape)
-        noise_r = gaussian(rng, zr.size).reshape(zr.shape)
-        right_e = self.irradiance(zr, BASELINE, corner)
         if twin is None:
+            noise_r = gaussian(rng, zr.size).reshape(zr.shape)
+            right_e = self.irradiance(zr, BASELINE, corner)
             left = self.irradiance(zl, 0.0, corner)
         else:
+            # the worker reads the right image's pattern term and draws its noise (after
+            # the left's, drawn above) while this thread computes the rest of its light
+            job_r = _pool().submit(twin._dots_and_noise, zr, corner, rng)
+            right_e = self._shade(zr, corner, lambda: job_r.result()[0])
+            noise_r = job_r.result()[1]
             left = np.full(zl.shape, -1.0, dtype=np.float32)
             r0, c0 = at[0] - rows.start, at[1] - cols.start
             part = job_l.result()
@@ -309,6 +315,14 @@ class D435(Sensor):
             twin._rays = None
             self._twin = twin
         return self._twin
+
+    def _dots_and_noise(
+        self, z: np.ndarray, corner: tuple[int, int], rng: np.random.Generator
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The right imager's :meth:`_dots` and its image's noise (standard normal draws,
+        one a pixel, from ``rng``)."""
+        dots = self._dots(z, BASELINE, corner)
+        return dots, gaussian(rng, z.size).reshape(z.shape)
 
     def _const16(self, name: str, value: int, shape: tuple[int, ...]) -> np.ndarray:
         """An int16 array of ``shape`` holding ``value``, kept between captures."""
@@ -443,12 +457,15 @@ class D435(Sensor):
         window of it with top-left pixel ``corner``): the pattern read where each surface
         point projects into the emitter, its visibility, Lambertian incidence and
         inverse-square falloff; -1 where there is no surface."""
+        return self._shade(depth, corner, self._dots(depth, at_x, corner))
+
+    def _dots(self, z: np.ndarray, at_x: float, corner: tuple[int, int]) -> np.ndarray:
+        """:meth:`irradiance`'s pattern term: the pattern read where each surface point
+        projects into the emitter, 0 where the emitter lights no surface."""
         import cv2
 
-        z = depth
         shape = z.shape
         win = (slice(corner[0], corner[0] + shape[0]), slice(corner[1], corner[1] + shape[1]))
-        invalid = np.less_equal(z, 0, out=self._buf("i_inv", bool, shape))
         # which points the emitter lights (only points with depth are)
         lit = self.lit_by(z, float(EMITTER_X - at_x), corner)
         # the surface point in the emitter's frame (same orientation, EMITTER_X - at_x to
@@ -460,16 +477,28 @@ class D435(Sensor):
         # outside the pattern (no dot light) where the emitter lights no surface
         unlit = np.logical_not(lit, out=self._buf("i_unlit", bool, shape))
         cv2.copyTo(self._const("m1f", -1.0, shape), unlit.view(np.uint8), mapx)
-        dots = cv2.remap(
+        dots: np.ndarray = cv2.remap(
             self._pattern, mapx, self._map_y[win], cv2.INTER_LINEAR,
             borderMode=cv2.BORDER_CONSTANT, borderValue=0.0,
         )  # fmt: skip
+        return dots
+
+    def _shade(
+        self, z: np.ndarray, corner: tuple[int, int], dots: np.ndarray | Callable[[], np.ndarray]
+    ) -> np.ndarray:
+        """:meth:`irradiance` from its pattern term ``dots`` (:meth:`_dots`; or a function
+        that returns it, called once the rest is done): Lambertian incidence and inverse-square
+        falloff times the pattern; -1 where there is no surface."""
+        import cv2
+
+        shape = z.shape
+        invalid = np.less_equal(z, 0, out=self._buf("i_inv", bool, shape))
         light = self.incidence_cos2(z, corner=corner)
         np.sqrt(light, out=light)
         with np.errstate(divide="ignore", invalid="ignore"):
             light /= z
             light /= z
-        light *= dots
+        light *= dots if isinstance(dots, np.ndarray) else dots()
         cv2.copyTo(self._const("m1f", -1.0, shape), invalid.view(np.uint8), light)
         return light
 
