@@ -46,12 +46,6 @@ def test_kinect_lateral_noise_follows_nguyens_curve(kinect_bench, angle) -> None
     assert measured == pytest.approx(expected, rel=0.10)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="the model's edge jitter stays at 0.80-0.84 px from 0 to 75 degrees at 640x480 "
-    "(measured), where eq. 2 rises to 0.97 px: the growth beyond 60 degrees is not yet "
-    "reproduced (docs/sensors.md)",
-)
 def test_kinect_lateral_noise_grows_beyond_60_degrees(kinect_bench) -> None:
     """Nguyen et al.'s eq. 2 is flat to about 60 degrees and then rises steeply (0.86 px at
     60, 0.97 px at 75 at 585 px): the edge's jitter at 75 degrees is the curve's within
