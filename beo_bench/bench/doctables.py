@@ -500,16 +500,16 @@ def modelnet10_viewpoints(b: Boards) -> str:
         ("modelnet10-known-pose", "known-pose+modelnet10"),
         ("modelnet10-1dof", "pose-1dof+modelnet10"),
     )
-    head = ["backend", *(f"`{s}`" for pair in pairs for s in pair)]
+    suites = [s for pair in pairs for s in pair]
+    missing = [s for s in suites if not (b.root / f"{s}.json").is_file()]
     rows = []
     for name in (*METHODS, "random"):
-        cells = [_acc_ci(b, s, name) if b.has(s, name) else "-" for pair in pairs for s in pair]
+        cells = [_acc_ci(b, s, name) if b.has(s, name) else "-" for s in suites]
         if any(c != "-" for c in cells):
             rows.append([f"`{name}`", *cells])
-    if not rows or any(not (b.root / f"{s}.json").is_file() for pair in pairs for s in pair):
-        missing = [s for pair in pairs for s in pair if not (b.root / f"{s}.json").is_file()]
+    if missing or not rows:
         raise PendingSuiteError(f"{', '.join(missing)} not in leaderboards/")
-    return _table(head, rows)
+    return _table(["backend", *(f"`{s}`" for s in suites)], rows)
 
 
 def _diff3(p: dict[str, Any]) -> str:

@@ -107,13 +107,15 @@ class Sensor(ABC):
         """Whether the sensor returns the render as it is (no draw from ``rng``)."""
         return False
 
-    def _const(self, name: str, value: float, shape: tuple[int, ...]) -> np.ndarray:
-        """A float32 array of ``shape`` holding ``value`` everywhere, kept between captures
-        (the source of a masked fill: ``cv2.copyTo`` from it is 5x faster than numpy's
-        masked ``copyto``)."""
+    def _const(
+        self, name: str, value: float, shape: tuple[int, ...], dtype: Any = np.float32
+    ) -> np.ndarray:
+        """An array of ``shape`` and ``dtype`` holding ``value`` everywhere, kept between
+        captures (the source of a masked fill: ``cv2.copyTo`` from it is 5x faster than
+        numpy's masked ``copyto``)."""
         a = self._scratch.get(name)
-        if a is None or a.shape != shape:
-            a = self._scratch[name] = np.full(shape, value, dtype=np.float32)
+        if a is None or a.shape != shape or a.dtype != dtype:
+            a = self._scratch[name] = np.full(shape, value, dtype=dtype)
         return a
 
     def _padded(self, z: np.ndarray) -> np.ndarray:

@@ -113,17 +113,6 @@ PARALLEL_MIN_PIXELS = 65536
 """The least window (pixels) whose two infrared images are made in parallel: on a smaller
 one a thread's hand-offs cost more than they save."""
 
-_POOL: tuple[int, ThreadPoolExecutor] | None = None
-
-
-def _pool() -> ThreadPoolExecutor:
-    """The worker thread that makes the right imager's image (one per process: a forked
-    child makes its own)."""
-    global _POOL
-    if _POOL is None or _POOL[0] != os.getpid():
-        _POOL = (os.getpid(), ThreadPoolExecutor(1, thread_name_prefix="d435"))
-    return _POOL[1]
-
 
 def _area(box: tuple[slice, slice]) -> int:
     return int((box[0].stop - box[0].start) * (box[1].stop - box[1].start))
@@ -195,6 +184,7 @@ class D435(Sensor):
         self._pattern = (pattern / max(float(pattern.max()), 1e-6)).astype(np.float32)
         self._fb = np.float32(self.f * BASELINE)
         self._twin: D435 | None = None
+        self._worker: tuple[int, ThreadPoolExecutor] | None = None
         # each pixel's pattern coordinates before its parallax to the emitter (which only
         # moves x): f ray + the pattern's centre, at the pattern's sampling
         self._rows_map = np.repeat(np.arange(h, dtype=np.float32)[:, None], w, axis=1)
@@ -222,7 +212,7 @@ class D435(Sensor):
         if box is not None and _area(box) >= PARALLEL_MIN_PIXELS:
             twin = self._twin_sensor()
             at = (box[0].start, box[1].start)
-            job_l = _pool().submit(twin.irradiance, frame.depth[box], 0.0, at)
+            job_l = self._pool().submit(twin.irradiance, frame.depth[box], 0.0, at)
         right = renderer.render_depth(data, right_pose)
         depth = np.zeros(self.shape, dtype=np.float32)
         found = self._window(frame.depth, right)
@@ -241,7 +231,7 @@ class D435(Sensor):
         else:
             # the worker reads the right image's pattern term and draws its noise (after
             # the left's, drawn above) while this thread computes the rest of its light
-            job_r = _pool().submit(twin._dots_and_noise, zr, corner, rng)
+            job_r = self._pool().submit(twin._dots_and_noise, zr, corner, rng)
             right_e = self._shade(zr, corner, lambda: job_r.result()[0])
             noise_r = job_r.result()[1]
             left = np.full(zl.shape, -1.0, dtype=np.float32)
@@ -253,7 +243,7 @@ class D435(Sensor):
             left_ir = self._expose(left, gain, noise_l)
             right_ir = self._expose(right_e, gain, noise_r)
         else:
-            job_ir = _pool().submit(twin._expose, right_e, gain, noise_r)
+            job_ir = self._pool().submit(twin._expose, right_e, gain, noise_r)
             left_ir = self._expose(left, gain, noise_l)
             right_ir = job_ir.result()
         self._matcher.setMinDisparity(d0)
@@ -262,7 +252,7 @@ class D435(Sensor):
             flat, prep = self._prepare(left_ir, right_ir)
             disp = self._matcher.compute(left_ir, right_ir)
         else:  # what does not need the disparity, beside the matching
-            job_prep = _pool().submit(twin._prepare, left_ir, right_ir)
+            job_prep = self._pool().submit(twin._prepare, left_ir, right_ir)
             disp = self._matcher.compute(left_ir, right_ir)
             flat, prep = job_prep.result()
         # SGBM's fixed point: 16 steps a pixel. Its invalid pixels read (d0 - 1) 16, below
@@ -271,8 +261,8 @@ class D435(Sensor):
         shape = disp.shape
         if d0 > 0:
             invalid = np.equal(disp, 16 * (d0 - 1), out=self._buf("d_inv", bool, shape))
-            cv2.copyTo(self._const16("m16", -16, shape), invalid.view(np.uint8), disp)
-        cv2.copyTo(self._const16("m1", -1, shape), flat.view(np.uint8), disp)
+            cv2.copyTo(self._const("m16", -16, shape, np.int16), invalid.view(np.uint8), disp)
+        cv2.copyTo(self._const("m1", -1, shape, np.int16), flat.view(np.uint8), disp)
         valid = np.greater(disp, 0, out=self._buf("d_valid", bool, shape))
         sub = self.refine(disp, left_ir, right_ir, prep)
         np.divide(self._fb, sub, out=depth[win], where=valid)
@@ -306,12 +296,20 @@ class D435(Sensor):
         den: np.ndarray = cv2.boxFilter(g2, -1, (self._block, self._block), normalize=False)
         return g, den, right.astype(np.float32)
 
+    def _pool(self) -> ThreadPoolExecutor:
+        """This sensor's worker thread, which makes the right imager's image (made on first
+        use, and again in a forked child, which does not inherit the parent's thread)."""
+        if self._worker is None or self._worker[0] != os.getpid():
+            self._worker = (os.getpid(), ThreadPoolExecutor(1, thread_name_prefix="d435"))
+        return self._worker[1]
+
     def _twin_sensor(self) -> D435:
         """A copy of this sensor with scratch arrays of its own (its constants shared), that
         makes the right imager's image in a worker thread."""
         if self._twin is None:
             twin = copy.copy(self)
             twin._scratch = {}
+            twin._worker = None
             twin._rays = None
             self._twin = twin
         return self._twin
@@ -323,13 +321,6 @@ class D435(Sensor):
         one a pixel, from ``rng``)."""
         dots = self._dots(z, BASELINE, corner)
         return dots, gaussian(rng, z.size).reshape(z.shape)
-
-    def _const16(self, name: str, value: int, shape: tuple[int, ...]) -> np.ndarray:
-        """An int16 array of ``shape`` holding ``value``, kept between captures."""
-        a = self._scratch.get(name)
-        if a is None or a.shape != shape:
-            a = self._scratch[name] = np.full(shape, value, dtype=np.int16)
-        return a
 
     def refine(
         self,
