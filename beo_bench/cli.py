@@ -541,6 +541,51 @@ def cmd_baseline(args: argparse.Namespace) -> int:
     return 0
 
 
+def _export_suite(args: argparse.Namespace) -> Any:
+    """The suite an ``export`` or ``score`` command means: ``--suite`` with ``--episodes``,
+    ``--seed``, ``--categories``, ``--objects`` and ``--sensor`` as ``run`` takes them."""
+    suite = _suite(args.suite).with_overrides(size=args.episodes, seed=args.seed)
+    if args.categories:
+        suite = suite.with_categories(args.categories)
+    dataset = _dataset(args)
+    _split_needs_dataset(args, dataset)
+    if dataset is not None:
+        suite = suite.with_dataset(dataset, args.split)
+    return suite.with_sensor(args.sensor)
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from beo_bench.bench.export import export_bop
+
+    suite = _export_suite(args)
+    train = suite.size if args.train_items is None else args.train_items
+    done = export_bop(suite, Path(args.dir), train_items=train, progress=True)
+    shown = ", ".join(f"{n} {split} images" for split, n in done.images.items())
+    print(
+        f"{done.root}: BOP dataset of {suite.name}"
+        f"{'' if suite.sensor_tag is None else '~' + suite.sensor_tag} ({shown}, "
+        f"{done.objects} object models, "
+        f"{done.targets} targets in test_targets_bop19.json)"
+    )
+    return 0
+
+
+def cmd_score(args: argparse.Namespace) -> int:
+    from beo_bench.bench.bopscore import method_name, score_results
+    from beo_bench.bench.runs import run_name
+
+    suite = _export_suite(args)
+    results = Path(args.bop_results)
+    method = args.method or method_name(results)
+    track = "class-given" if suite.class_hint else None
+    name = run_name(suite.name, method, {}, args.seed, track, suite.sensor_tag)
+    out = Path(args.out) if args.out else Path("runs") / name
+    summary = score_results(suite, results, out, method=method, progress=True)
+    print(format_runs([summary]))
+    print(f"\nresults: {out / 'results.jsonl'}\nsummary: {out / 'summary.json'}")
+    return 0
+
+
 def cmd_leaderboard(args: argparse.Namespace) -> int:
     from beo_bench.bench.leaderboard import regenerate
 
@@ -1172,6 +1217,68 @@ def _add_all(sub: Any, data: argparse.ArgumentParser) -> None:
     al.set_defaults(func=cmd_all)
 
 
+def _export_parents(data: argparse.ArgumentParser, what: str) -> list[argparse.ArgumentParser]:
+    return [
+        data,
+        split_parent(SPLITS_ALL, None, "with --objects: the dataset's split (default: test)"),
+        episodes_parent(None, f"{what} the suite's first N items (default: all of them)"),
+        seed_parent(None, "replace the suite's base seed"),
+        categories_parent("isolated suites: only these classes or sets (suite SUITE+SET)"),
+        sensor_parent(
+            f"the depth sensor the depth images are captured by ({SENSOR_NAMES}; "
+            "docs/sensors.md; default: the suite's own)"
+        ),
+    ]
+
+
+def _add_export(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``export`` command."""
+    ex = sub.add_parser(
+        "export",
+        help="write a suite's items as a BOP-format dataset (docs/bop.md)",
+        description="Write a suite's items as a BOP dataset (models, test scenes with rgb, "
+        "depth, masks and ground truth, test_targets_bop19.json, and training scenes), for "
+        "methods that read BOP datasets; `beo-bench score` scores their results file.",
+        parents=_export_parents(data, "export"),
+    )
+    ex.add_argument("--suite", required=True)
+    ex.add_argument("--format", choices=["bop"], default="bop", help="the format (bop)")
+    ex.add_argument(
+        "--train-items",
+        type=nonneg_int,
+        default=None,
+        metavar="N",
+        help="training images drawn from the split's training instances (default: as many as "
+        "the test images; 0: none)",
+    )
+    ex.add_argument("dir", metavar="DIR", help="a new or empty folder (or an earlier export's)")
+    ex.set_defaults(func=cmd_export)
+
+
+def _add_score(sub: Any, data: argparse.ArgumentParser) -> None:
+    """The ``score`` command."""
+    sc = sub.add_parser(
+        "score",
+        help="score a BOP results CSV on a suite as a run (docs/bop.md)",
+        description="Score a BOP results file (scene_id,im_id,obj_id,score,R,t,time) written "
+        "for `beo-bench export` of the same suite into a run directory: a leaderboard row "
+        "that compare and gate pair with any other run of the suite.",
+        parents=[
+            *_export_parents(data, "score on"),
+            out_parent(None, "default: runs/SUITE[@TRACK][~SENSOR]__METHOD"),
+        ],
+    )
+    sc.add_argument("--suite", required=True)
+    sc.add_argument("--bop-results", required=True, metavar="FILE.csv", help="the BOP results CSV")
+    sc.add_argument(
+        "--method",
+        default=None,
+        help="the name of the method's row (default: the file name up to its first _, as "
+        "BOP names results files METHOD_DATASET-SPLIT.csv)",
+    )
+    sc.set_defaults(func=cmd_score)
+
+
 def _add_compare(sub: Any, data: argparse.ArgumentParser) -> None:
     """The ``compare`` command."""
     cp = sub.add_parser(
@@ -1427,6 +1534,8 @@ _COMMANDS = (
     _add_pick_check,
     _add_run,
     _add_all,
+    _add_export,
+    _add_score,
     _add_compare,
     _add_gate,
     _add_baseline,

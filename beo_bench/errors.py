@@ -116,6 +116,11 @@ class BadObjectsError(UserDataError, ValueError):
     message lists each with what is wrong and the flag that fixes it."""
 
 
+class BopFormatError(UserDataError, ValueError):
+    """A BOP-format file (results CSV, dataset JSON, image) given to beo-bench that does not
+    follow the format: the message names the file, the line or key, and what is wrong."""
+
+
 class CacheDirError(UserDataError):
     """An asset cache (``$BEO_BENCH_CACHE``) that is not a directory, is not writable or has
     too little free space: found when a command starts, or when an entry cannot be written."""

@@ -97,6 +97,7 @@ ELEVATION_BINS: tuple[int, ...] = (4, 6, 12)
 NOCS_THRESHOLDS: dict[str, tuple[float, float]] = {
     "5deg2cm": (5.0, 2.0),
     "5deg5cm": (5.0, 5.0),
+    "10deg2cm": (10.0, 2.0),
     "10deg5cm": (10.0, 5.0),
 }
 """NOCS accuracy names -> (degrees, centimetres)."""

@@ -538,6 +538,13 @@ class BEOPickEnv(gym.Env):
             return np.array(self._image["depth"], dtype=np.float32, copy=True)
         return self._tabletop.render_rgb()
 
+    def rgb(self) -> np.ndarray:
+        """(H, W, 3) uint8 colour image of the current scene from the camera, whatever the
+        render mode (a BOP export's ``rgb``; never part of the observation)."""
+        if self._scene is None or self._image is None:
+            raise EnvStateError("call reset() before rgb()")
+        return self._tabletop.render_rgb()
+
     def close(self) -> None:
         self._tabletop.close()  # the renderer and the scene; a later reset makes new ones
         self._image = None

@@ -191,6 +191,12 @@ class IsolatedRenderer:
             category=instance.category,
         )
 
+    def render_rgb(self, instance: ObjectInstance, cam_to_world: Mat4) -> np.ndarray:
+        """(H, W, 3) uint8 colour image of ``instance`` from ``cam_to_world`` (OpenCV axes):
+        what a BOP export writes as the view's ``rgb`` (no backend sees it)."""
+        data = self._bind(instance)
+        return self._renderer.render_rgb(data, np.asarray(cam_to_world, dtype=np.float64))
+
     def sample_views(
         self, instance: ObjectInstance, rng: np.random.Generator, n: int
     ) -> list[IsolatedView]:

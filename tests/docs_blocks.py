@@ -182,7 +182,8 @@ def makefile_targets() -> set[str]:
 
 def capped(argv: list[str]) -> list[str]:
     """``argv`` with the sizes a test can afford: 2 items a run and 1 worker for ``run`` and
-    ``pick-check``, 2 instances a category for ``objects``. Raises ``ValueError`` for
+    ``pick-check``, 2 items (and 2 training items) for ``export`` and ``score``, 2 instances
+    a category for ``objects``. Raises ``ValueError`` for
     commands that must be in a ``check`` block."""
     if not argv:
         raise ValueError("beo-bench without a command")
@@ -207,6 +208,10 @@ def capped(argv: list[str]) -> list[str]:
     out = list(argv)
     if cmd in ("run", "pick-check"):
         out = set_opt(out, "--episodes", "2")
+    if cmd in ("export", "score"):  # the same first items: a score reads the export's
+        out = set_opt(out, "--episodes", "2")
+    if cmd == "export":
+        out = set_opt(out, "--train-items", "2")
     if cmd == "run":
         out = set_opt(out, "--workers", "1")
     if cmd == "objects":

@@ -101,6 +101,10 @@ LAYERS = [
     ("beo_bench.perception", ("beo_bench.envs", "beo_bench.bench", "beo_bench.cli")),
     ("beo_bench.scenes", ("beo_bench.envs", "beo_bench.bench", "beo_bench.perception")),
     ("beo_bench.objects", ("beo_bench.scenes", "beo_bench.envs", "beo_bench.bench")),
+    (
+        "beo_bench.bop",
+        ("beo_bench.bench", "beo_bench.perception", "beo_bench.envs", "beo_bench.cli"),
+    ),
     ("beo_bench.metrics", ("beo_bench.bench", "beo_bench.perception", "beo_bench.envs")),
     ("beo_bench.types", ("beo_bench.bench", "beo_bench.perception", "beo_bench.envs")),
     ("beo_bench.envs", ("beo_bench.bench", "beo_bench.perception", "beo_bench.cli")),

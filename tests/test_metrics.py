@@ -158,7 +158,9 @@ def test_gross_error_rate_and_nocs_accuracies() -> None:
     trans = [1.0, 3.0, 1.0, 4.0, 1.0]
     assert M.pose_accuracy(rot, trans, 5, 5) == pytest.approx(2 / 5)
     acc = M.nocs_accuracies(rot, trans)
-    assert acc == pytest.approx({"5deg2cm": 1 / 5, "5deg5cm": 2 / 5, "10deg5cm": 4 / 5})
+    assert acc == pytest.approx(
+        {"5deg2cm": 1 / 5, "5deg5cm": 2 / 5, "10deg2cm": 2 / 5, "10deg5cm": 4 / 5}
+    )
     assert M.pose_accuracy([5.0], [2.0], 5, 2) == 1.0  # thresholds inclusive, as NOCS
     with pytest.raises(ValueError, match="equal lengths"):
         M.pose_accuracy([1.0, 2.0], [1.0], 5, 5)

@@ -61,6 +61,17 @@ METRICS: tuple[MetricSpec, ...] = (
                paired=False),
     MetricSpec("gross_err_rate", "> 15 deg", ">15deg", 100, "{:.1f}%", False, brief=True),
     MetricSpec("acc_10deg5cm", "10deg5cm", "10deg5cm", 100, "{:.1f}%", True),
+    # the field's figures (bench.fieldscores): BOP 2019's average recalls, NOCS's report
+    MetricSpec("ar_bop", "BOP AR", "BOP AR", 1, "{:.3f}", True),
+    MetricSpec("ar_vsd", "AR_VSD", "AR_VSD", 1, "{:.3f}", True, board=False),
+    MetricSpec("ar_mssd", "AR_MSSD", "AR_MSSD", 1, "{:.3f}", True, board=False),
+    MetricSpec("ar_mspd", "AR_MSPD", "AR_MSPD", 1, "{:.3f}", True, board=False),
+    MetricSpec("acc_5deg2cm", "5deg2cm", "5deg2cm", 100, "{:.1f}%", True, board=False),
+    MetricSpec("acc_5deg5cm", "5deg5cm", "5deg5cm", 100, "{:.1f}%", True, board=False),
+    MetricSpec("acc_10deg2cm", "10deg2cm", "10deg2cm", 100, "{:.1f}%", True, board=False),
+    MetricSpec("iou3d_25", "3D IoU25", "IoU25", 100, "{:.1f}%", True, board=False),
+    MetricSpec("iou3d_50", "3D IoU50", "IoU50", 100, "{:.1f}%", True, board=False),
+    MetricSpec("iou3d_75", "3D IoU75", "IoU75", 100, "{:.1f}%", True, board=False),
     MetricSpec("trans_err_cm_mean", "transl. (cm)", "trans cm", 1, "{:.2f}", False, brief=True),
     MetricSpec("size_err_pct_mean", "size error (%)", "size %", 1, "{:.1f}", False, board=False),
     MetricSpec("mssd_cm_mean", "MSSD (cm)", "MSSD cm", 1, "{:.2f}", False),
@@ -106,7 +117,9 @@ def _keys(*keys: str) -> tuple[str, ...]:
 
 SUMMARY_PER_CATEGORY: tuple[str, ...] = _keys(
     "pick_success", "class_acc", "rot_err_deg_mean", "rot_err_deg_median", "gross_err_rate",
-    "iou_mean", "fscore_mean", "failure_rate",
+    "iou_mean", "fscore_mean", "failure_rate", *(
+        "ar_bop", "acc_5deg2cm", "acc_5deg5cm", "acc_10deg2cm", "acc_10deg5cm",
+        "iou3d_25", "iou3d_50", "iou3d_75"),
 )  # fmt: skip
 """The metrics of a summary's per-category entries (``summary["per_category"]``)."""
 BOARD_PER_CATEGORY: dict[str, tuple[str, ...]] = {
@@ -118,6 +131,14 @@ BOARD_PER_CATEGORY: dict[str, tuple[str, ...]] = {
 :data:`BOARD_PER_CATEGORY_DEFAULT`)."""
 BOARD_PER_CATEGORY_DEFAULT: tuple[str, ...] = _keys("rot_err_deg_mean", "gross_err_rate")
 """Mean rotation error and the gross error rate, as the dissertation's Tables 5.1 and 5.2."""
+FIELD_KEYS: tuple[str, ...] = _keys(
+    "ar_vsd", "ar_mssd", "ar_mspd", "ar_bop", "acc_5deg2cm", "acc_5deg5cm", "acc_10deg2cm",
+    "acc_10deg5cm", "iou3d_25", "iou3d_50", "iou3d_75",
+)  # fmt: skip
+"""The field's figures of a pose suite's page: BOP 2019's average recalls and the NOCS
+report (pose accuracies and 3D box IoU), per run and per class."""
+NOCS_PER_CATEGORY: tuple[str, ...] = FIELD_KEYS[4:]
+"""The NOCS report's per-class columns."""
 VERDICT_KEYS: tuple[str, ...] = _keys("rot_err_deg_mean", "gross_err_rate")
 """The metrics of the leaderboard's paired-verdicts tables."""
 DEGRADATION_KEYS: tuple[str, ...] = _keys(

@@ -53,6 +53,8 @@ from beo_bench.bench.columns import (
     BOARD_PER_CATEGORY,
     BOARD_PER_CATEGORY_DEFAULT,
     DEGRADATION_KEYS,
+    FIELD_KEYS,
+    NOCS_PER_CATEGORY,
     ROBUSTNESS_KEYS,
     VERDICT_KEYS,
     MetricSpec,
@@ -266,6 +268,51 @@ def category_table(suite: str, rows: list[Row] | list[dict[str, Any]]) -> str:
     if not tables:
         tables.append(_category_table(summaries, spec("iou_mean")))
     return "\n\n".join(tables)
+
+
+def field_table(rows: list[Row] | list[dict[str, Any]]) -> str:
+    """The field's own figures of a section (docs/bop.md): BOP 2019's average recalls
+    (AR_VSD, AR_MSSD, AR_MSPD and their mean) and the NOCS report (pose accuracies, 3D box
+    IoU as NOCS's reference code computes it), a row per backend; "" when no run has them
+    (runs made before they were scored)."""
+    ordered = _ordered([r if isinstance(r, Row) else Row(r) for r in rows])
+    have = [r for r in ordered if "ar_bop" in r.summary["metrics"]]
+    if not have:
+        return ""
+    cols = [spec(k) for k in FIELD_KEYS]
+    lines = [
+        "The field's figures (docs/bop.md): BOP 2019's average recalls and the NOCS report:",
+        "",
+        "| backend | " + " | ".join(m.label for m in cols) + " |",
+        "|---|" + "---:|" * len(cols),
+    ]
+    for r in have:
+        cells = [m.format(r.summary["metrics"].get(m.key)) for m in cols]
+        lines.append(f"| {_name(r)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def nocs_class_tables(rows: list[Row] | list[dict[str, Any]]) -> str:
+    """Per method (bounds left out), the NOCS report per class: the pose accuracies and
+    the 3D box IoU hits, folded (``<details>``); "" without such runs."""
+    ordered = _ordered([r if isinstance(r, Row) else Row(r) for r in rows])
+    cols = [spec(k) for k in NOCS_PER_CATEGORY]
+    out = []
+    for r in ordered:
+        per = r.summary.get("per_category", {})
+        if is_bound(r.summary) or not any("iou3d_50" in d for d in per.values()):
+            continue
+        lines = [
+            f"<details><summary>NOCS report per class: {_name(r)}</summary>",
+            "",
+            "| category | n | " + " | ".join(m.label for m in cols) + " |",
+            "|---|---:|" + "---:|" * len(cols),
+        ]
+        for c in sorted(per):
+            cells = [m.format(per[c].get(m.key)) for m in cols]
+            lines.append(f"| {c} | {per[c].get('n', 0)} | " + " | ".join(cells) + " |")
+        out.append("\n".join([*lines, "", "</details>"]))
+    return "\n\n".join(out)
 
 
 def table_5_1(rows: list[Row]) -> str:
@@ -1091,6 +1138,8 @@ def _track_part(
         t51 = table_5_1(sec.rows) if suite in TABLE_5_1_SUITES else ""
         page.md += [t51, ""] if t51 else []
         for extra_table in (
+            field_table(sec.rows),
+            nocs_class_tables(sec.rows),
             modelnet10_table(suite, sec.rows),
             confused_pairs_table(sec.rows),
             confusion_counts(suite, sec.rows),

@@ -542,6 +542,23 @@ def git_state(where: Path | None = None) -> dict[str, Any]:
 
 
 def provenance(ctx: RunContext) -> dict[str, Any]:
+    """Where and from what a run was made (the summary's ``provenance``)."""
+    return {
+        **machine_provenance(),
+        "suite": ctx.suite.record(),
+        "backend_kwargs": ctx.backend.kwargs,
+        **({"dataset_root": ctx.dataset.root} if ctx.dataset else {}),
+        # files --skip-bad left out, with why (the paths are also in the suite's identity)
+        **(
+            {"dataset_skipped": [{"path": p, "why": w} for p, w in ctx.dataset.skipped]}
+            if ctx.dataset and ctx.dataset.skipped
+            else {}
+        ),
+    }
+
+
+def machine_provenance() -> dict[str, Any]:
+    """The git state, package versions, Python and machine a summary was made with."""
     import importlib.metadata as md
 
     def version(name: str) -> str | None:
@@ -562,15 +579,6 @@ def provenance(ctx: RunContext) -> dict[str, Any]:
             "processor": platform.machine(),
             "cpus": os.cpu_count(),
         },
-        "suite": ctx.suite.record(),
-        "backend_kwargs": ctx.backend.kwargs,
-        **({"dataset_root": ctx.dataset.root} if ctx.dataset else {}),
-        # files --skip-bad left out, with why (the paths are also in the suite's identity)
-        **(
-            {"dataset_skipped": [{"path": p, "why": w} for p, w in ctx.dataset.skipped]}
-            if ctx.dataset and ctx.dataset.skipped
-            else {}
-        ),
     }
 
 

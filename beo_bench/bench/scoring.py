@@ -273,6 +273,10 @@ def view_row(
     viewpoints, then the completion metrics at ``resolution``."""
     est, seconds, failure = answer
     row.update(ms=1000 * seconds, failure=failure)
+    if scores_pose:  # the field's figures (BOP, NOCS): a failure's row counts as a target
+        from beo_bench.bench.fieldscores import score_bop
+
+        row.update(score_bop(est, gt, view, dataset))
     if est is None:
         row.update(pred_class=-1, correct=False)
         return row

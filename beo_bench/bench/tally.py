@@ -123,8 +123,19 @@ def estimate_values(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, np.nd
         out["size_err_pct_mean"] = col("size_err_pct")
         out["mssd_cm_mean"] = col("mssd_cm")
         out["mspd_px_mean"] = col("mspd_px")
+        if any("bop_diameter_mm" in r for r in rows):
+            # the field's figures (BOP 2019's average recalls, NOCS's box IoU): rows of runs
+            # older than them have none, and get none (a failure alone is no figure)
+            from beo_bench.bench.fieldscores import recall_values
+
+            out.update(recall_values(rows, suite.image_size[0]))
+    # a run scored from a BOP results file has poses only: its shape columns are left out
+    # (NaN), not scored at the worst case as a failure's would be
+    posed_only = np.array([bool(r.get("pose_only")) for r in rows], dtype=bool)
     for key in ("iou", "iou_cam", "edt_err", "fscore", "chamfer_l1"):
-        out[f"{key}_mean"] = col(key)
+        v = col(key)
+        v[posed_only] = np.nan
+        out[f"{key}_mean"] = v
     if any(SAMPLE_FIELDS[0] in r for r in rows):
         # a sampling backend's samples (scoring.score_samples): measured on the views it
         # answered, NaN on failures (a failure has no samples to rank; it counts in the

@@ -90,6 +90,13 @@ class IsolatedItems(Items):
         inst = self._objects.get(cat, int(rng.integers(self._objects.count(cat))))
         return rng, inst, self.renderer.rig.sample(rng, np.zeros(3))
 
+    def scene(self, index: int) -> tuple[Any, np.ndarray]:
+        """Item ``index``'s instance and its camera's ``cam_to_world`` in the object's frame
+        (the object at the origin, as the renderer places it): what a BOP export renders
+        its colour image and silhouette from."""
+        _, inst, T = self._draw(index)
+        return inst, T
+
     def isolated_view_only(self, index: int) -> View:
         """The view of item ``index``: exactly what its protocol reveals."""
         protocol = self.suite.protocol

@@ -1,0 +1,272 @@
+"""``beo-bench score --suite S --bop-results FILE.csv``: a BOP results file scored as a run.
+
+A method that reads the BOP export of a suite (``beo-bench export``) and writes the BOP
+challenge's results CSV is scored here on the very views the suite's runs score, into a
+normal run directory (``run.json``, ``results.jsonl``, ``summary.json``): a leaderboard row
+that ``compare`` and the gate pair with any other run of the suite, item by item.
+
+- **Which estimate scores a view.** A view is one target (``test_targets_bop19.json``: the
+  export lists the scored views). BOP's figures match the file's estimates as the BOP 2019
+  evaluation does (:func:`beo_bench.bop.protocol.match_and_recall`: per image and object,
+  the ``inst_count`` highest-scored estimates, matched greedily per threshold); a view's
+  row holds its share of those matches (``bop_recall``), so the run's mean is BOP's average
+  recall. Our own pose metrics (rotation, translation, MSSD, MSPD, NOCS accuracies and box
+  IoU) take the highest-scored estimate of the view's object (with several instances, the
+  estimates go by score to the instance nearest by MSSD).
+- **What it cannot fill is left out.** A BOP method is told the object (its ``obj_id``),
+  so a pose suite's run is in the ``class-given`` track and has no class figures; it
+  estimates no shape or size, so its rows have no completion metrics and no size error
+  (``pose_only``), and NOCS's box IoU uses the true model's box at the estimated pose.
+- **A view without an estimate** is a failed view (``no estimate in the results file``),
+  counted at its worst case in our means and as not found in BOP's recalls.
+- **Time**: BOP's ``time`` is per image; a view gets its image's time over the image's
+  targets (none where the file says -1).
+
+The scores depend on the suite's items, which the suite's seed fixes: the items are drawn
+again here (the export is not read), so a results file written for an export made with
+``--episodes N`` scores against the suite's first N items (``--episodes N`` here too).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from beo_bench import metrics
+from beo_bench.bench.export import image_of, object_ids, open_items
+from beo_bench.bench.fieldscores import bop_model, score_bop
+from beo_bench.bench.scoring import base_row
+from beo_bench.bench.suites import Suite
+from beo_bench.bop import protocol
+from beo_bench.bop.results import BopEstimate, read_results
+from beo_bench.errors import UsageError
+from beo_bench.names import check_name
+from beo_bench.types import Estimate, GroundTruth, View
+
+if TYPE_CHECKING:
+    from beo_bench.bench.runs import Summary
+
+NO_ESTIMATE = "no estimate in the results file"
+"""A view's failure when the results file has no estimate of its object in its image."""
+
+
+def method_name(path: Path) -> str:
+    """The method a results file is named after: BOP names them ``METHOD_DATASET-SPLIT.csv``,
+    so the part before the first ``_`` (the whole stem without one)."""
+    return path.stem.split("_", 1)[0]
+
+
+@dataclass
+class _Target:
+    """One scored view of an image: its truth and what the file's estimates did."""
+
+    view: View
+    gt: GroundTruth
+    obj_id: int
+    best: BopEstimate | None = None
+    shares: dict[str, float] | None = None
+
+
+def _estimate(e: BopEstimate, gt: GroundTruth) -> Estimate:
+    """A BOP estimate as the scoring functions take it: its pose; the true size (a BOP
+    method is given the model); no class or shape (never scored: ``pose_only``)."""
+    return Estimate(
+        class_probs=np.ones(1),
+        rotation=np.asarray(e.R, dtype=np.float64),
+        translation=np.asarray(e.t_mm, dtype=np.float64) / 1000.0,
+        size=np.asarray(gt.size, dtype=np.float64),
+        shape=np.zeros((1, 1, 1)),
+    )
+
+
+def _errors(
+    e: BopEstimate, view: View, gt: GroundTruth, suite: Suite
+) -> tuple[np.ndarray, float, float]:
+    """(VSD per tau, MSSD / diameter, MSPD brought to 640 px) of ``e`` against ``gt``."""
+    fields = score_bop(_estimate(e, gt), gt, view, suite.dataset)
+    diameter = fields["bop_diameter_mm"]
+    px = fields["bop_mspd_px"]
+    return (
+        np.asarray(fields["bop_vsd"], dtype=np.float64),
+        float(protocol.normalize_mssd(fields["bop_mssd_mm"], diameter)),
+        np.inf if px is None else float(protocol.normalize_mspd(px, suite.image_size[0])),
+    )
+
+
+def _match(
+    targets: list[_Target], ests: list[BopEstimate], suite: Suite, scene_id: int, im_id: int
+) -> None:
+    """Fill each target's BOP shares and best estimate from the estimates of its object
+    (``targets`` share one image and obj_id)."""
+    ranked = sorted(ests, key=lambda e: -e.score)[: len(targets)]  # stable: file order on ties
+    gts = [
+        protocol.GtInstance(scene_id, im_id, j, targets[0].obj_id, 1.0) for j in range(len(targets))
+    ]
+    errs = [[_errors(e, t.view, t.gt, suite) for t in targets] for e in ranked]
+    thresholds = {
+        "vsd": protocol.VSD_THRESHOLDS,
+        "mssd": protocol.MSSD_THRESHOLDS,
+        "mspd": protocol.MSPD_THRESHOLDS_PX,
+    }
+    key = (scene_id, im_id, targets[0].obj_id)
+    shares = {}
+    for k, (name, th) in enumerate(thresholds.items()):
+        estimates = [
+            protocol.EstimateErrors(
+                scene_id,
+                im_id,
+                targets[0].obj_id,
+                e.score,
+                {j: np.atleast_1d(errs[i][j][k]) for j in range(len(targets))},
+            )
+            for i, e in enumerate(ranked)
+        ]
+        rec = protocol.match_and_recall(gts, estimates, th, inst_counts={key: len(targets)})
+        shares[name] = rec.average  # found / (targets x thresholds): each target's share
+    free = list(range(len(ranked)))
+    for j, t in enumerate(targets):  # our metrics: by score, each to its nearest instance
+        t.shares = shares
+        if free:
+            i = min(free, key=lambda i: (errs[i][j][1], i))
+            t.best = ranked[i]
+            free.remove(i)
+
+
+def _row(index: int, j: int, t: _Target, suite: Suite, image_targets: int) -> dict[str, Any]:
+    row = base_row(index, j, t.view, t.gt, True)
+    row["pose_only"] = True
+    if t.best is None:
+        row.update(score_bop(None, t.gt, t.view, suite.dataset))
+        row.update(failure=NO_ESTIMATE, ms=None)
+        return row
+    e, gt = t.best, t.gt
+    est = _estimate(e, gt)
+    ms = None if e.time < 0 else 1000.0 * e.time / image_targets
+    row.update(ms=ms, failure=None)
+    args = (est.rotation, est.translation, gt.R_cam, gt.t_cam)
+    truth = bop_model(gt.key, suite.dataset)
+    row["rot_err_deg"] = metrics.rotation_error(est.rotation, gt.R_cam, gt.symmetry)
+    row["trans_err_cm"] = metrics.translation_error(
+        est.translation, gt.t_cam, gt.R_cam, gt.symmetry
+    )
+    row["mssd_cm"] = 100.0 * metrics.mssd(*args, truth.vertices, gt.symmetry)
+    px = metrics.mspd(*args, np.asarray(t.view.K), truth.vertices, gt.symmetry)
+    row["mspd_px"] = px if np.isfinite(px) else None
+    R_sym = metrics.closest_symmetric_pose(est.rotation, gt.R_cam, gt.symmetry)
+    row["viewpoint_est"] = list(metrics.viewpoint(est.rotation))
+    row["viewpoint_gt"] = list(metrics.viewpoint(R_sym))
+    row.update(score_bop(est, gt, t.view, suite.dataset))
+    row["bop_recall"] = t.shares
+    return row
+
+
+def score_rows(
+    suite: Suite, estimates: list[BopEstimate], ids: Any, items: Any, progress: bool = False
+) -> list[dict[str, Any]]:
+    """The result rows of ``estimates`` on ``suite``'s items (see the module docstring)."""
+    from tqdm import tqdm
+
+    by_image: dict[tuple[int, int, int], list[BopEstimate]] = {}
+    for e in estimates:
+        by_image.setdefault((e.scene_id, e.im_id, e.obj_id), []).append(e)
+    rows: list[dict[str, Any]] = []
+    for index in tqdm(range(suite.size), disable=not progress, desc=f"score {suite.label}"):
+        scene_id, im_id = image_of(index)
+        views = items.views(index)
+        truths = items.truths(index, views)
+        targets = [_Target(v, g, ids.ids[g.key]) for v, g in zip(views, truths, strict=True)]
+        groups: dict[int, list[_Target]] = {}
+        for t in targets:
+            groups.setdefault(t.obj_id, []).append(t)
+        for obj_id, group in groups.items():
+            ests = by_image.get((scene_id, im_id, obj_id), [])
+            if ests:
+                _match(group, ests, suite, scene_id, im_id)
+        rows += [_row(index, j, t, suite, len(targets)) for j, t in enumerate(targets)]
+    return rows
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def score_results(
+    suite: Suite,
+    results: Path | str,
+    out: Path | str,
+    method: str | None = None,
+    progress: bool = False,
+) -> Summary:
+    """Score the BOP results CSV ``results`` on ``suite`` into the run directory ``out``
+    (new, empty, or an earlier score of the same file's: rewritten); returns the summary."""
+    from beo_bench.bench.runner import (
+        RECORD_NAME,
+        RESULTS_NAME,
+        SUMMARY_NAME,
+        _identity,
+        _run_dir,
+        lock_run_dir,
+        machine_provenance,
+        write_json_atomic,
+    )
+    from beo_bench.bench.runs import RunConfig
+    from beo_bench.bench.summary import summarise
+    from beo_bench.objects import LIBRARY_VERSION
+
+    path = Path(results)
+    if not path.is_file():
+        raise UsageError(f"--bop-results {path}: no such file: give the results CSV to score")
+    name = check_name(method or method_name(path), "method name (--method)")
+    if suite.class_hint:
+        suite = suite.with_overrides(track="class-given")  # the object is given
+    items = open_items(suite)
+    try:
+        ids = object_ids(suite, items)
+        known_images = {image_of(i) for i in range(suite.size)}
+        estimates = read_results(path, set(ids.info), known_images)
+        rows = score_rows(suite, estimates, ids, items, progress)
+    finally:
+        items.close()
+    digest = _sha256(path)
+    out = _run_dir(Path(out))
+    with lock_run_dir(out):
+        record = {
+            **_identity(RunConfig(suite, name, {}, False)),
+            "model_digest": digest,
+            "library_version": LIBRARY_VERSION,
+            "uses_class_hint": False,
+            "privileged": False,
+            "bop_results": {"file": path.name, "sha256": digest, "estimates": len(estimates)},
+        }
+        write_json_atomic(out / RECORD_NAME, record)
+        text = "".join(json.dumps(r, sort_keys=True) + "\n" for r in rows)
+        from beo_bench.atomic import atomic_write_bytes
+
+        atomic_write_bytes(out / RESULTS_NAME, text)
+        summary = summarise(
+            suite,
+            name,
+            rows,
+            uses_class_hint=False,
+            model_digest=digest,
+            provenance={
+                **machine_provenance(),
+                "suite": suite.record(),
+                "backend_kwargs": {},
+                "bop_results": record["bop_results"],
+                "library_version": LIBRARY_VERSION,
+                "model_digest": digest,
+                "privileged": False,
+            },
+        )
+        write_json_atomic(out / SUMMARY_NAME, summary.to_json())
+    return summary

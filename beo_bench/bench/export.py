@@ -1,0 +1,338 @@
+"""``beo-bench export --suite S --format bop DIR``: a suite's items as a BOP dataset.
+
+Every item is one BOP image (an isolated view; a tabletop or pick scene): its colour image,
+its depth as the suite's sensor (or ``--sensor``) captures it, and each object's pose,
+silhouette (``mask``: the true model rendered alone, ``beo_bench.bop.render``, joined with
+its visible pixels) and visible pixels (``mask_visib``: the renderer's segmentation, the one
+the views are cut from). Item ``i`` is image ``im_id = i % 1000`` of scene ``scene_id = i //
+1000`` (:func:`image_of`), and the objects of an image are listed in the order of the item's
+scored views (view ``j`` is ground truth ``j``), then its other objects (a tabletop object
+with fewer than the suite's ``min_pixels``): a target list (``test_targets_bop19.json``)
+names the scored views only, so a results file scores the very views a run does.
+
+Object ids are given in the order instances first appear (the test items in order, then
+the training items): the ids of a shorter export (``--episodes``) are those of the full one,
+and ``beo-bench score`` finds them again from the suite alone (:func:`object_ids`). The
+training split (``train/``) has ``--train-items`` items of the same protocol drawn from the
+split's training instances, with another seed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from beo_bench.bench.kinds import get_kind
+from beo_bench.bench.kinds.common import Items
+from beo_bench.bench.suites import Kind, Suite
+from beo_bench.objects import instance_from_key
+
+if TYPE_CHECKING:
+    from beo_bench.objects.dataset import Dataset
+
+IMAGES_PER_SCENE = 1000
+"""Images per BOP scene folder: item ``i`` is image ``i % 1000`` of scene ``i // 1000``."""
+TRAIN_SEED_OFFSET = 7_000_003
+"""Added to a suite's seed for its training items: draws unrelated to its test items'."""
+
+
+def image_of(item: int) -> tuple[int, int]:
+    """``(scene_id, im_id)`` of item ``item``."""
+    return item // IMAGES_PER_SCENE, item % IMAGES_PER_SCENE
+
+
+def item_of(scene_id: int, im_id: int) -> int | None:
+    """The item of image ``(scene_id, im_id)`` (None: no item is that image)."""
+    if scene_id < 0 or not 0 <= im_id < IMAGES_PER_SCENE:
+        return None
+    return scene_id * IMAGES_PER_SCENE + im_id
+
+
+@dataclass(frozen=True)
+class ExportObject:
+    """One object of an exported image."""
+
+    key: str
+    category: str
+    R_cam: np.ndarray
+    """(3, 3) model -> camera rotation (OpenCV axes)."""
+    t_cam: np.ndarray
+    """(3,) model -> camera translation, metres."""
+    mask_visib: np.ndarray
+    """(H, W) bool: its visible pixels."""
+    view: int | None
+    """The item's scored view that shows it (None: not scored, no target)."""
+
+
+@dataclass(frozen=True)
+class ExportImage:
+    """One item as a BOP image."""
+
+    item: int
+    rgb: np.ndarray
+    depth: np.ndarray
+    """(H, W) metres as the sensor measures it; 0 = no return."""
+    K: np.ndarray
+    cam_to_world: np.ndarray
+    objects: list[ExportObject]
+
+
+def training_suite(suite: Suite, items: int) -> Suite:
+    """The suite's protocol on ``items`` items of its split's training instances."""
+    return replace(suite, split="train", seed=suite.seed + TRAIN_SEED_OFFSET, size=items)
+
+
+def _isolated(items: Any, index: int) -> ExportImage:
+    view = items.isolated_view_only(index)
+    gt = items.isolated_truth(index)
+    inst, T = items.scene(index)
+    renderer = items.renderer
+    ideal = renderer.render(inst, T, sensor="ideal")  # the silhouette, whatever the sensor
+    obj = ExportObject(gt.key, gt.category, gt.R_cam, gt.t_cam, ideal.mask, 0)
+    return ExportImage(
+        index, renderer.render_rgb(inst, T), view.depth, view.K, view.cam_to_world, [obj]
+    )
+
+
+def _scene(items: Any, index: int, min_pixels: int) -> ExportImage:
+    obs = items.reset(index)
+    env = items.env
+    seg = np.asarray(obs["segmentation"])
+    states = env.ground_truth()
+    scored = [g for g in states if g.pixels >= min_pixels]
+    others = [g for g in states if g.pixels < min_pixels]
+    objects = [
+        ExportObject(
+            g.key,
+            g.category,
+            np.asarray(g.R_cam),
+            np.asarray(g.t_cam),
+            seg == g.label,
+            j if j < len(scored) else None,
+        )
+        for j, g in enumerate([*scored, *others])
+    ]
+    return ExportImage(
+        index,
+        env.rgb(),
+        np.asarray(obs["depth"], dtype=np.float64),
+        np.asarray(obs["intrinsics"], dtype=np.float64),
+        np.asarray(obs["cam_to_world"], dtype=np.float64),
+        objects,
+    )
+
+
+def open_items(suite: Suite) -> Items:
+    """The suite's items (no class given: an export shows no backend anything)."""
+    return get_kind(suite.kind).open(suite, False)
+
+
+def images(suite: Suite, items: Items, indices: range) -> Iterator[ExportImage]:
+    """The items ``indices`` of ``suite`` as BOP images."""
+    for i in indices:
+        if suite.kind is Kind.ISOLATED:
+            yield _isolated(items, i)
+        else:
+            yield _scene(items, i, suite.min_pixels)
+
+
+def scene_keys(suite: Suite, items: Items, index: int) -> list[tuple[str, str]]:
+    """``(key, category)`` of each object of item ``index`` in export order, without
+    rendering more than the item's own draw needs."""
+    if suite.kind is Kind.ISOLATED:
+        gt = items.isolated_truth(index)  # type: ignore[attr-defined]
+        return [(gt.key, gt.category)]
+    items.reset(index)  # type: ignore[attr-defined]
+    states = items.env.ground_truth()  # type: ignore[attr-defined]
+    scored = [g for g in states if g.pixels >= suite.min_pixels]
+    others = [g for g in states if g.pixels < suite.min_pixels]
+    return [(g.key, g.category) for g in [*scored, *others]]
+
+
+class ObjectIds:
+    """Object ids in order of first appearance (see the module docstring), with each
+    object's category and split."""
+
+    def __init__(self) -> None:
+        self.ids: dict[str, int] = {}
+        self.info: dict[int, dict[str, str]] = {}
+
+    def get(self, key: str, category: str, split: str) -> int:
+        if key not in self.ids:
+            obj_id = len(self.ids) + 1
+            self.ids[key] = obj_id
+            self.info[obj_id] = {"category": category, "split": split, "key": key}
+        return self.ids[key]
+
+    def key_of(self, obj_id: int) -> str | None:
+        info = self.info.get(obj_id)
+        return None if info is None else info["key"]
+
+
+def object_ids(suite: Suite, items: Items | None = None) -> ObjectIds:
+    """The object ids of the suite's test items as its export numbers them."""
+    own = items is None
+    items = open_items(suite) if items is None else items
+    try:
+        ids = ObjectIds()
+        for i in range(suite.size):
+            for key, cat in scene_keys(suite, items, i):
+                ids.get(key, cat, suite.split)
+        return ids
+    finally:
+        if own:
+            items.close()
+
+
+def model_mesh(key: str, dataset: Dataset | None) -> Any:
+    """The mesh of instance ``key`` in its canonical frame (metres)."""
+    return instance_from_key(key, dataset).mesh
+
+
+# -- writing ---------------------------------------------------------------------------------
+EXPORT_RECORD_NAME = "beo_bench_export.json"
+"""beo-bench's record of an export (not a BOP file): the suite, sensor, item counts and
+library version it was made from; written last, so a folder without it is unfinished."""
+DEPTH_SCALE = 0.1
+"""mm per depth unit of the exported depth PNGs: 0.1 mm steps up to 6.55 m (every suite's
+scenes lie within 2 m; BOP's own datasets use 0.1-1)."""
+
+
+@dataclass(frozen=True)
+class ExportSummary:
+    """What an export wrote."""
+
+    root: Any
+    images: dict[str, int]
+    """Images per split folder (``test``, ``train``)."""
+    objects: int
+    targets: int
+
+
+def _w2c(cam_to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    T = np.linalg.inv(np.asarray(cam_to_world, dtype=np.float64))
+    return T[:3, :3], T[:3, 3]
+
+
+def _write_split(
+    root: Any,
+    folder: str,
+    suite: Suite,
+    ids: ObjectIds,
+    targets: list[Any] | None,
+    progress: bool,
+) -> int:
+    """Write ``suite``'s items into ``ROOT/folder``; the scored views' targets go to
+    ``targets`` (None: a training split has none). Returns the images written."""
+    from tqdm import tqdm
+
+    from beo_bench.bench.fieldscores import bop_model
+    from beo_bench.bop.files import BopTarget, GtInstance, SceneWriter
+
+    items = open_items(suite)
+    writer: SceneWriter | None = None
+    n = 0
+    try:
+        bar = tqdm(
+            images(suite, items, range(suite.size)),
+            total=suite.size,
+            disable=not progress,
+            desc=f"export {suite.label} ({folder})",
+            unit="image",
+        )
+        for img in bar:
+            scene_id, im_id = image_of(img.item)
+            if writer is None or writer.scene_id != scene_id:
+                if writer is not None:
+                    writer.close()
+                writer = SceneWriter(root, folder, scene_id, depth_scale=DEPTH_SCALE)
+            h, w = img.depth.shape
+            gts: list[GtInstance] = []
+            counts: dict[int, int] = {}
+            for o in img.objects:
+                obj_id = ids.get(o.key, o.category, suite.split)
+                silhouette = bop_model(o.key, suite.dataset).renderer.depth(
+                    o.R_cam, o.t_cam, img.K, w, h
+                )
+                # a visible pixel is part of the silhouette even where the renderer's raster
+                # and the ray cast disagree on an edge pixel: mask_visib within mask
+                full = (silhouette > 0) | o.mask_visib
+                gts.append(GtInstance(obj_id, o.R_cam, o.t_cam, full, o.mask_visib))
+                if o.view is not None:
+                    counts[obj_id] = counts.get(obj_id, 0) + 1
+            R_w2c, t_w2c = _w2c(img.cam_to_world)
+            writer.add_image(
+                im_id, rgb=img.rgb, depth_m=img.depth, K=img.K, gts=gts, R_w2c=R_w2c, t_w2c_m=t_w2c
+            )
+            if targets is not None:
+                targets += [BopTarget(scene_id, im_id, o, c) for o, c in sorted(counts.items())]
+            n += 1
+        if writer is not None:
+            writer.close()
+    finally:
+        items.close()
+    return n
+
+
+def export_bop(
+    suite: Suite, out: Any, train_items: int = 0, progress: bool = False
+) -> ExportSummary:
+    """Write ``suite``'s items (test split) and ``train_items`` training items as a BOP
+    dataset in ``out`` (a new or empty folder, or an earlier export's: see
+    ``beo_bench.bop.files.claim_dataset_dir``); the module docstring says what goes where."""
+    import json
+
+    from beo_bench.atomic import atomic_write_bytes
+    from beo_bench.bop.files import (
+        CATEGORY_MAP_NAME,
+        MODELS_DIR,
+        MODELS_INFO_NAME,
+        TARGETS_NAME,
+        ObjectEntry,
+        claim_dataset_dir,
+        model_info,
+        model_path,
+        write_category_map,
+        write_model_ply,
+        write_models_info,
+        write_targets,
+    )
+    from beo_bench.objects import LIBRARY_VERSION
+
+    root = claim_dataset_dir(out)
+    record = root / EXPORT_RECORD_NAME
+    if record.exists():
+        record.unlink()  # ours (the folder carries the marker): rewritten when complete
+    ids = ObjectIds()
+    targets: list[Any] = []
+    written = {"test": _write_split(root, "test", suite, ids, targets, progress)}
+    if train_items > 0:
+        train = training_suite(suite, train_items)
+        written["train"] = _write_split(root, "train", train, ids, None, progress)
+    infos, entries = {}, {}
+    for obj_id, info in ids.info.items():
+        inst = instance_from_key(info["key"], suite.dataset)
+        mesh = inst.mesh
+        write_model_ply(model_path(root, obj_id), np.asarray(mesh.vertices), np.asarray(mesh.faces))
+        infos[obj_id] = model_info(np.asarray(mesh.vertices), inst.symmetry)
+        entries[obj_id] = ObjectEntry(info["category"], info["split"], info["key"])
+    write_models_info(root / MODELS_DIR / MODELS_INFO_NAME, infos)
+    write_category_map(root / MODELS_DIR / CATEGORY_MAP_NAME, entries)
+    write_targets(root / TARGETS_NAME, targets)
+    meta = {
+        "suite": suite.name,
+        "suite_version": suite.version,
+        "sensor": suite.sensor,
+        "seed": suite.seed,
+        "items": {"test": suite.size, "train": train_items},
+        "image_size": list(suite.image_size),
+        "depth_scale": DEPTH_SCALE,
+        "library_version": LIBRARY_VERSION,
+        "images": "item i is image i % 1000 of scene i // 1000; ground truth j of an image is "
+        "the item's scored view j (the targets); later ones are objects no view scores",
+    }
+    atomic_write_bytes(record, json.dumps(meta, indent=2, sort_keys=True) + "\n")
+    return ExportSummary(root, written, len(ids.info), len(targets))

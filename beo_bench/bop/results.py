@@ -1,0 +1,271 @@
+"""BOP results CSVs: the pose estimates a method submits to the BOP Challenge.
+
+The format is the BOP Challenge's (``bop.felk.cvut.cz/challenges``, "Format of results",
+since 2019; the toolkit's ``inout.load_bop_results`` / ``save_bop_results``): a header line
+``scene_id,im_id,obj_id,score,R,t,time``, then one estimate a line:
+
+- ``scene_id``, ``im_id``, ``obj_id``: the image (scene and image ids) and the object;
+- ``score``: the confidence of the estimate;
+- ``R``: the 3x3 rotation from the model to the camera frame, 9 numbers saved row-wise,
+  separated by spaces;
+- ``t``: the 3x1 translation, 3 numbers in mm separated by spaces;
+- ``time``: the seconds the method took for the whole image, the same for every estimate
+  of one image; ``-1`` when unknown.
+
+Several estimates of one object in one image are legal (an image may show several
+instances of it). :func:`read_results` checks each line and raises
+:class:`~beo_bench.errors.BopFormatError` with the file and line number for anything that
+breaks the format or cannot be scored.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Collection, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from beo_bench.atomic import atomic_write_bytes
+from beo_bench.bop.files import ForeignOutputError
+from beo_bench.errors import BopFormatError
+from beo_bench.types import Mat3, Vec3
+
+__all__ = [
+    "HEADER",
+    "ROTATION_TOL",
+    "TIME_TOL",
+    "BopEstimate",
+    "read_results",
+    "write_results",
+]
+
+HEADER = "scene_id,im_id,obj_id,score,R,t,time"
+"""The first line of a BOP results CSV."""
+ROTATION_TOL = 1e-3
+"""How far ``R`` may be from a rotation: every entry of ``R R^T - I`` and ``det R - 1``
+within this."""
+TIME_TOL = 1e-3
+"""How far (s) the times of one image's estimates may differ (the toolkit's
+``check_consistent_timings``)."""
+_FIELDS = HEADER.split(",")
+
+
+@dataclass(frozen=True)
+class BopEstimate:
+    """One line of a results CSV: object ``obj_id`` in image ``im_id`` of scene
+    ``scene_id`` at pose (``R``, ``t_mm``), model to camera frame."""
+
+    scene_id: int
+    im_id: int
+    obj_id: int
+    score: float
+    R: Mat3
+    """(3, 3) rotation, model to camera."""
+    t_mm: Vec3
+    """(3,) translation in mm."""
+    time: float = -1.0
+    """Seconds for the whole image; -1: unknown."""
+    line: int = 0
+    """The line of the file it was read from (0: not read from a file)."""
+
+
+def _fail(path: Path, line: int, what: str) -> BopFormatError:
+    return BopFormatError(f"{path}:{line}: {what}")
+
+
+def _int(path: Path, line: int, name: str, text: str) -> int:
+    s = text.strip()
+    if not (s.isascii() and s.isdigit()):
+        raise _fail(path, line, f"{name} {text!r} is not a non-negative integer")
+    return int(s)
+
+
+def _floats(path: Path, line: int, name: str, text: str, n: int, what: str) -> list[float]:
+    parts = text.split()
+    if len(parts) != n and n == 1:
+        raise _fail(path, line, f"{name} {text.strip()!r} is not a number ({what})")
+    if len(parts) != n:
+        raise _fail(
+            path, line, f"{name} has {len(parts)} numbers, must be {n} ({what}, space-separated)"
+        )
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        kind = "a number" if n == 1 else f"{n} numbers"
+        raise _fail(path, line, f"{name} {text.strip()!r} is not {kind} ({what})") from None
+    if not all(math.isfinite(v) for v in values):
+        raise _fail(path, line, f"{name} {text.strip()!r} has a NaN or infinite number")
+    return values
+
+
+def _rotation_problem(R: np.ndarray) -> str | None:
+    off = float(np.abs(R @ R.T - np.eye(3)).max())
+    det = float(np.linalg.det(R))
+    if off > ROTATION_TOL:
+        return f"|R R^T - I| = {off:.3g} > {ROTATION_TOL:g}"
+    if abs(det - 1.0) > ROTATION_TOL:
+        return f"det R = {det:.6g}, not +1 within {ROTATION_TOL:g}"
+    return None
+
+
+def read_results(
+    path: Path | str,
+    known_obj_ids: Collection[int] | None = None,
+    known_images: Collection[tuple[int, int]] | None = None,
+) -> list[BopEstimate]:
+    """The estimates of a BOP results CSV, in file order.
+
+    A :class:`BopFormatError` naming the file and line for: a first line that is not
+    :data:`HEADER`; a line without 7 comma-separated fields; an id that is not a
+    non-negative integer; a score, ``R``, ``t`` or time that is not a (finite) number, or
+    ``R``/``t`` of the wrong count; ``R`` that is not a rotation (:data:`ROTATION_TOL`); a
+    negative time other than -1, or times of one image that differ (:data:`TIME_TOL`,
+    both lines named); an ``obj_id`` not in ``known_obj_ids`` or an image (``scene_id``,
+    ``im_id``) not in ``known_images`` (when given); a line repeating an earlier one's
+    image, object, ``R`` and ``t`` (both lines named). Empty lines are skipped."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise BopFormatError(f"{path}: results file missing") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise BopFormatError(f"{path}: cannot be read as a UTF-8 CSV ({e})") from None
+    reader = csv.reader(io.StringIO(text, newline=""))
+    estimates: list[BopEstimate] = []
+    header_seen = False
+    seen: dict[tuple[object, ...], int] = {}
+    times: dict[tuple[int, int], tuple[float, int]] = {}
+    obj_ids = None if known_obj_ids is None else set(known_obj_ids)
+    images = None if known_images is None else set(known_images)
+    try:
+        for row in reader:
+            line = reader.line_num
+            if not row or all(not f.strip() for f in row):
+                continue
+            if not header_seen:
+                if [f.strip() for f in row] != _FIELDS:
+                    raise _fail(
+                        path,
+                        line,
+                        f"header {','.join(row)!r}: the first line of a BOP results CSV must "
+                        f"be {HEADER!r}",
+                    )
+                header_seen = True
+                continue
+            if len(row) != len(_FIELDS):
+                raise _fail(
+                    path,
+                    line,
+                    f"{len(row)} comma-separated fields, must be {len(_FIELDS)} ({HEADER})",
+                )
+            scene_id = _int(path, line, "scene_id", row[0])
+            im_id = _int(path, line, "im_id", row[1])
+            obj_id = _int(path, line, "obj_id", row[2])
+            (score,) = _floats(path, line, "score", row[3], 1, "a confidence")
+            R = np.array(_floats(path, line, "R", row[4], 9, "a 3x3 rotation row-wise"))
+            t = np.array(_floats(path, line, "t", row[5], 3, "a translation in mm"))
+            (time,) = _floats(path, line, "time", row[6], 1, "seconds, or -1 for unknown")
+            R = R.reshape(3, 3)
+            problem = _rotation_problem(R)
+            if problem is not None:
+                raise _fail(path, line, f"R is not a rotation matrix: {problem}")
+            if time < 0 and time != -1:
+                raise _fail(path, line, f"time {time:g}: must be seconds >= 0, or -1 for unknown")
+            if obj_ids is not None and obj_id not in obj_ids:
+                raise _fail(
+                    path,
+                    line,
+                    f"obj_id {obj_id} is not an object of the dataset (its obj_ids: "
+                    f"{_shown(sorted(obj_ids))})",
+                )
+            if images is not None and (scene_id, im_id) not in images:
+                raise _fail(
+                    path,
+                    line,
+                    f"scene_id {scene_id}, im_id {im_id} is not an image of the dataset's test "
+                    "targets",
+                )
+            key = (scene_id, im_id, obj_id, *R.reshape(-1).tolist(), *t.tolist())
+            if key in seen:
+                raise _fail(
+                    path,
+                    line,
+                    f"duplicate of line {seen[key]} (same scene_id, im_id, obj_id, R and t): "
+                    "remove one of them",
+                )
+            seen[key] = line
+            first = times.setdefault((scene_id, im_id), (time, line))
+            if abs(first[0] - time) > TIME_TOL:
+                raise _fail(
+                    path,
+                    line,
+                    f"time {time:g} differs from {first[0]:g} on line {first[1]} for the same "
+                    f"image (scene_id {scene_id}, im_id {im_id}): the time is the image's, the "
+                    "same on each of its lines",
+                )
+            estimates.append(
+                BopEstimate(scene_id, im_id, obj_id, score, R, t, time=time, line=line)
+            )
+    except csv.Error as e:
+        raise _fail(path, reader.line_num, f"not a valid CSV line ({e})") from None
+    if not header_seen:
+        raise BopFormatError(f"{path}: empty file; a BOP results CSV starts with {HEADER!r}")
+    return estimates
+
+
+def _shown(ids: list[int]) -> str:
+    return ", ".join(map(str, ids[:5])) + (", ..." if len(ids) > 5 else "")
+
+
+def _number(x: float) -> str:
+    """The shortest text that reads back as the same float."""
+    return repr(float(x))
+
+
+def write_results(
+    path: Path | str, estimates: Iterable[BopEstimate], *, overwrite: bool = False
+) -> None:
+    """Write ``estimates`` as a BOP results CSV (atomically), in the order given; every
+    number printed so that it reads back exactly. A ValueError for an estimate that
+    :func:`read_results` would refuse (non-finite numbers, ``R`` not a rotation, a
+    negative time other than -1). An existing file is replaced only with ``overwrite``
+    (pass it only for a file beo-bench wrote); otherwise :class:`ForeignOutputError`."""
+    path = Path(path)
+    if not overwrite and (path.exists() or path.is_symlink()):
+        raise ForeignOutputError(
+            f"{path} exists: choose a new file name for the results (an existing file is "
+            "replaced only when beo-bench wrote it)"
+        )
+    lines = [HEADER]
+    for e in estimates:
+        R = np.asarray(e.R, dtype=np.float64)
+        t = np.asarray(e.t_mm, dtype=np.float64).reshape(-1)
+        if R.shape != (3, 3) or t.shape != (3,):
+            raise ValueError(f"estimate {e.scene_id}/{e.im_id}/{e.obj_id}: R (3, 3), t (3,)")
+        values = [e.score, e.time, *R.reshape(-1), *t]
+        if not all(math.isfinite(float(v)) for v in values):
+            raise ValueError(f"estimate {e.scene_id}/{e.im_id}/{e.obj_id}: non-finite number")
+        problem = _rotation_problem(R)
+        if problem is not None:
+            raise ValueError(f"estimate {e.scene_id}/{e.im_id}/{e.obj_id}: R: {problem}")
+        if e.time < 0 and e.time != -1:
+            raise ValueError(f"estimate {e.scene_id}/{e.im_id}/{e.obj_id}: time {e.time}")
+        ids = [int(e.scene_id), int(e.im_id), int(e.obj_id)]
+        if min(ids) < 0:
+            raise ValueError(f"estimate {ids}: ids must be non-negative")
+        lines.append(
+            ",".join(
+                [
+                    *map(str, ids),
+                    _number(e.score),
+                    " ".join(_number(x) for x in R.reshape(-1)),
+                    " ".join(_number(x) for x in t),
+                    _number(e.time),
+                ]
+            )
+        )
+    atomic_write_bytes(path, "\n".join(lines) + "\n")
