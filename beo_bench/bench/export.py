@@ -196,9 +196,11 @@ def model_mesh(key: str, dataset: Dataset | None) -> Any:
 EXPORT_RECORD_NAME = "beo_bench_export.json"
 """beo-bench's record of an export (not a BOP file): the suite, sensor, item counts and
 library version it was made from; written last, so a folder without it is unfinished."""
-DEPTH_SCALE = 0.1
-"""mm per depth unit of the exported depth PNGs: 0.1 mm steps up to 6.55 m (every suite's
-scenes lie within 2 m; BOP's own datasets use 0.1-1)."""
+DEPTH_SCALES = {Kind.ISOLATED: 0.1, Kind.TABLETOP: 1.0, Kind.PICK: 1.0}
+"""mm per depth unit of the exported depth PNGs, per item kind (BOP's own datasets use 0.1 to
+1): an isolated object lies within 1.2 m, so 0.1 mm steps (up to 6.55 m); a tabletop scene's
+far floor reaches beyond 6.55 m, so 1 mm steps (up to 65.5 m, as the BOP datasets of real
+sensors)."""
 
 
 @dataclass(frozen=True)
@@ -248,7 +250,7 @@ def _write_split(
             if writer is None or writer.scene_id != scene_id:
                 if writer is not None:
                     writer.close()
-                writer = SceneWriter(root, folder, scene_id, depth_scale=DEPTH_SCALE)
+                writer = SceneWriter(root, folder, scene_id, depth_scale=DEPTH_SCALES[suite.kind])
             h, w = img.depth.shape
             gts: list[GtInstance] = []
             counts: dict[int, int] = {}
@@ -329,7 +331,7 @@ def export_bop(
         "seed": suite.seed,
         "items": {"test": suite.size, "train": train_items},
         "image_size": list(suite.image_size),
-        "depth_scale": DEPTH_SCALE,
+        "depth_scale": DEPTH_SCALES[suite.kind],
         "library_version": LIBRARY_VERSION,
         "images": "item i is image i % 1000 of scene i // 1000; ground truth j of an image is "
         "the item's scored view j (the targets); later ones are objects no view scores",

@@ -240,6 +240,7 @@ def write_results(
             f"{path} exists: choose a new file name for the results (an existing file is "
             "replaced only when beo-bench wrote it)"
         )
+    path.parent.mkdir(parents=True, exist_ok=True)  # a new folder for the results is fine
     lines = [HEADER]
     for e in estimates:
         R = np.asarray(e.R, dtype=np.float64)
