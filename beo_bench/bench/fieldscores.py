@@ -87,6 +87,25 @@ def visible_fraction(view: View, full: np.ndarray) -> float:
     return float(np.count_nonzero(visible)) / n_all if n_all else 0.0
 
 
+def _crop(
+    d_est: np.ndarray, d_gt: np.ndarray, K: np.ndarray
+) -> tuple[tuple[slice, slice], np.ndarray]:
+    """The window of the image where either rendering has the object, and the intrinsics of
+    that window (the principal point moved by its corner): VSD counts no pixel outside it
+    (its visibility masks need the model there), so VSD on the window is VSD on the image,
+    at a fraction of a 640x480 image's cost. One pixel when neither has the object (the
+    union is empty: VSD is 1)."""
+    rows = np.flatnonzero((d_est > 0).any(axis=1) | (d_gt > 0).any(axis=1))
+    cols = np.flatnonzero((d_est > 0).any(axis=0) | (d_gt > 0).any(axis=0))
+    if not len(rows):
+        return (slice(0, 1), slice(0, 1)), K
+    v0, v1, u0, u1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+    Kc = K.copy()
+    Kc[0, 2] -= u0
+    Kc[1, 2] -= v0
+    return (slice(int(v0), int(v1)), slice(int(u0), int(u1))), Kc
+
+
 def score_bop(
     est: Estimate | None, gt: GroundTruth, view: View, dataset: Dataset | None = None
 ) -> dict[str, Any]:
@@ -105,13 +124,14 @@ def score_bop(
         return out
     R, t = np.asarray(est.rotation), np.asarray(est.translation)
     d_est = model.renderer.depth(R, t, K, w, h)
+    crop, Kc = _crop(d_est, d_gt, K)
     out["bop_vsd"] = [
         float(e)
         for e in protocol.vsd_errors(
-            1000.0 * np.asarray(view.depth, dtype=np.float64),
-            1000.0 * d_est,
-            1000.0 * d_gt,
-            K,
+            1000.0 * np.asarray(view.depth, dtype=np.float64)[crop],
+            1000.0 * d_est[crop],
+            1000.0 * d_gt[crop],
+            Kc,
             protocol.VSD_DELTA_MM,
             protocol.VSD_TAUS,
             1000.0 * model.diameter,

@@ -1303,7 +1303,10 @@ def regenerate(
         "`oracle` returns the truth, `random` guesses, and a backend marked *privileged* was "
         "handed the truth (listed with the bounds, never ranked or paired). `class acc.` "
         "reads *given* where the "
-        "backend was told the class. F-score@1%: tau = 1% of the canonical cube's side.",
+        "backend was told the class. F-score@1%: tau = 1% of the canonical cube's side. "
+        "`BOP AR`: the mean of BOP 2019's average recalls (AR_VSD, AR_MSSD, AR_MSPD), which "
+        "each pose section's page lists beside the NOCS report (docs/bop.md); runs made "
+        "before these were scored show `-`.",
         "",
     ]
     for suite, (version, older, parts) in plan.items():
