@@ -560,7 +560,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     suite = _export_suite(args)
     train = suite.size if args.train_items is None else args.train_items
     done = export_bop(suite, Path(args.dir), train_items=train, progress=True)
-    shown = ", ".join(f"{n} {split} images" for split, n in done.images.items())
+    shown = ", ".join(
+        f"{n} {split} image{'' if n == 1 else 's'}" for split, n in done.images.items()
+    )
     print(
         f"{done.root}: BOP dataset of {suite.name}"
         f"{'' if suite.sensor_tag is None else '~' + suite.sensor_tag} ({shown}, "

@@ -41,7 +41,7 @@ from beo_bench import metrics
 from beo_bench.bench.export import image_of, object_ids, open_items
 from beo_bench.bench.fieldscores import bop_model, score_bop
 from beo_bench.bench.scoring import base_row
-from beo_bench.bench.suites import Suite
+from beo_bench.bench.suites import Kind, Suite
 from beo_bench.bop import protocol
 from beo_bench.bop.results import BopEstimate, read_results
 from beo_bench.errors import UsageError
@@ -222,6 +222,12 @@ def score_results(
     from beo_bench.bench.summary import summarise
     from beo_bench.objects import LIBRARY_VERSION
 
+    if suite.kind is Kind.PICK or not suite.protocol.scores_pose:
+        raise UsageError(
+            f"--suite {suite.name}: a BOP results file holds poses, and {suite.name} does not "
+            "score poses (it gives them, or scores grasps): score it on a pose suite "
+            "(pose-1dof, pose-3dof, ..., or tabletop: the pick suite's kind of scenes)"
+        )
     path = Path(results)
     if not path.is_file():
         raise UsageError(f"--bop-results {path}: no such file: give the results CSV to score")

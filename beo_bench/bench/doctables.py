@@ -702,7 +702,84 @@ def interval_widths(boards: Boards) -> str:
     return "\n".join(lines) + "\n"
 
 
+ROBUSTNESS_CELLS = (
+    ("known-pose", None, "class_acc", "`known-pose` class acc."),
+    ("pose-1dof", "class-free", "gross_err_rate", "`pose-1dof` > 15 deg (class-free)"),
+    ("pick", None, "pick_success", "`pick` success"),
+)
+"""The robustness headline's columns: (suite, track, metric, header)."""
+SENSOR_ORDER = ("kinect-v1", "d435")
+
+
+def _sensor_pairs(
+    b: Boards, suite: str, track: str | None, metric: str
+) -> dict[tuple[str, str], dict[str, Any]]:
+    """``{(backend, sensor): entry}`` of the page's robustness pairs (each sensor's run
+    against the backend's ``ideal`` run, paired on the same items) for one metric."""
+    out = {}
+    for p in b.paired(suite):
+        if p.get("baseline_sensor") == "ideal" and p["metric"] == metric:
+            if p.get("track") == track:
+                out[(p["method"], p["sensor"])] = p
+    return out
+
+
+def robustness(b: Boards) -> str:
+    """docs/sensors.md's headline: each backend's figure ideal -> kinect-v1 -> d435 on the
+    suites run under all three, each step marked where its paired interval excludes 0."""
+    head = ["backend", *(h for *_, h in ROBUSTNESS_CELLS)]
+    pairs = {(s, m): _sensor_pairs(b, s, t, m) for s, t, m, _ in ROBUSTNESS_CELLS}
+    rows = []
+    for name in (*METHODS, "oracle", "random"):
+        cells = []
+        for suite, _, metric, _ in ROBUSTNESS_CELLS:
+            found = pairs[(suite, metric)]
+            if any((name, tag) not in found for tag in SENSOR_ORDER):
+                raise MissingFigureError(
+                    f"leaderboards/{suite}_paired.json has no {name} {metric} under every sensor"
+                )
+            got = [found[(name, tag)] for tag in SENSOR_ORDER]
+            steps = [pct(got[0]["baseline_value"])]
+            for g in got:
+                v = pct(g["method_value"])
+                steps.append(f"**{v}**" if g["verdict"] == "worse" else v)
+            cells.append(" -> ".join(steps))
+        rows.append([f"`{name}`", *cells])
+    return _table(head, rows)
+
+
+BOP_SUITE = "pose-1dof"
+BOP_SENSORS = ("ideal", "kinect-v1", "d435")
+
+
+def bop_figures(b: Boards) -> str:
+    """docs/bop.md's table: BOP 2019's AR and its parts, and NOCS's 10deg5cm and IoU50, of
+    every backend on ``pose-1dof`` (class-free) under each sensor."""
+    rows_by = {
+        (r["backend"], r.get("sensor") or "ideal", r.get("track")): r
+        for r in b.rows(BOP_SUITE)
+        if not r.get("provenance", {}).get("backend_kwargs")
+    }
+    head = ["backend", *(f"BOP AR `{t}`" for t in BOP_SENSORS), "AR_VSD / AR_MSSD / AR_MSPD "
+            "`ideal`", "10deg5cm, 3D IoU50 `ideal`"]  # fmt: skip
+    rows = []
+    for name in (*METHODS, "oracle", "random"):
+        keys = [(name, t, "class-free") for t in BOP_SENSORS]
+        if any(k not in rows_by or "ar_bop" not in rows_by[k]["metrics"] for k in keys):
+            raise PendingSuiteError(
+                f"leaderboards/{BOP_SUITE}.json has no BOP figures of {name} under every sensor"
+            )
+        got = [rows_by[k] for k in keys]
+        m = got[0]["metrics"]
+        parts = " / ".join(num(m[k]) for k in ("ar_vsd", "ar_mssd", "ar_mspd"))
+        nocs = f"{pct(m['acc_10deg5cm'])}, {pct(m['iou3d_50'])}"
+        rows.append([f"`{name}`", *(num(g["metrics"]["ar_bop"]) for g in got), parts, nocs])
+    return _table(head, rows)
+
+
 TABLES: dict[str, Callable[[Boards], str]] = {
+    "robustness": robustness,
+    "bop-figures": bop_figures,
     "ref-accuracy": ref_accuracy,
     "pick-models": pick_models,
     "beo-figures": beo_figures,

@@ -113,6 +113,9 @@ def estimate_values(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, np.nd
     def col(key: str) -> np.ndarray:
         return field_values(rows, key, worst[key])
 
+    # a run scored from a BOP results file estimates poses only: its size and shape columns
+    # are left out (NaN), not scored at the worst case as a failure's would be
+    posed_only = np.array([bool(r.get("pose_only")) for r in rows], dtype=bool)
     if suite.protocol.scores_pose:
         rot, trans = col("rot_err_deg"), col("trans_err_cm")
         out["rot_err_deg_mean"] = rot
@@ -120,7 +123,9 @@ def estimate_values(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, np.nd
         for name, (deg, cm) in metrics.NOCS_THRESHOLDS.items():
             out[f"acc_{name}"] = where_measured(metrics.pose_hits(rot, trans, deg, cm), rot, trans)
         out["trans_err_cm_mean"] = trans
-        out["size_err_pct_mean"] = col("size_err_pct")
+        size = col("size_err_pct")
+        size[posed_only] = np.nan
+        out["size_err_pct_mean"] = size
         out["mssd_cm_mean"] = col("mssd_cm")
         out["mspd_px_mean"] = col("mspd_px")
         if any("bop_diameter_mm" in r for r in rows):
@@ -129,9 +134,6 @@ def estimate_values(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, np.nd
             from beo_bench.bench.fieldscores import recall_values
 
             out.update(recall_values(rows, suite.image_size[0]))
-    # a run scored from a BOP results file has poses only: its shape columns are left out
-    # (NaN), not scored at the worst case as a failure's would be
-    posed_only = np.array([bool(r.get("pose_only")) for r in rows], dtype=bool)
     for key in ("iou", "iou_cam", "edt_err", "fscore", "chamfer_l1"):
         v = col(key)
         v[posed_only] = np.nan
