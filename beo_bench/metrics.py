@@ -531,9 +531,11 @@ def _max_symmetric_distance(
     symmetry: Symmetry | None,
     K: np.ndarray | None,
     max_sym_disc_step: float,
+    refine: bool = True,
 ) -> float:
     """MSSD (``K`` None) or MSPD: the minimum over BOP's discretised group, with each
-    continuous family's best angle then refined (never above BOP's value)."""
+    continuous family's best angle then refined (never above BOP's value; ``refine``
+    False: BOP's sampled value itself)."""
     Re, Rg = _rotation(R_est, "R_est"), _rotation(R_gt, "R_gt")
     te, tg = _array(t_est, "t_est", (3,)), _array(t_gt, "t_gt", (3,))
     P = _array(points, "points", (None, 3))
@@ -556,7 +558,8 @@ def _max_symmetric_distance(
             errors = dist.family(Rd, td, a, o, grid)
             k = int(np.argmin(errors))
             centre, half = grid[k], step
-            for _ in range(REFINE_PASSES):  # the minimum lies within a step of the best sample
+            # the minimum lies within a step of the best sample
+            for _ in range(REFINE_PASSES if refine else 0):
                 local = centre + np.linspace(-half, half, 33)  # holds the centre: never worse
                 centre, half = local[int(np.argmin(dist.family(Rd, td, a, o, local)))], half / 16
             best = min(best, float(dist.family(Rd, td, a, o, np.array([centre]), True)[0]))
@@ -571,6 +574,7 @@ def mssd(
     points: ArrayLike,
     symmetry: Symmetry | None = None,
     max_sym_disc_step: float = MAX_SYM_DISC_STEP,
+    refine: bool = True,
 ) -> float:
     """Maximum Symmetry-aware Surface Distance [BOP ``mssd``]: ``min over S of max over x of
     ||(R_est x + t_est) - (R_gt S_R x + R_gt S_t + t_gt)||``, ``x`` the model ``points``
@@ -579,12 +583,14 @@ def mssd(
     The group is BOP's (:func:`symmetry_transforms`, continuous axes sampled with
     ``max_sym_disc_step``); on a continuous axis the best sample is then refined (a zoom
     within one step either side, :data:`REFINE_PASSES`), so a pose anywhere on the axis
-    scores ~0 and the result is never above BOP's. The maximum over a surface of a distance
-    that is affine in ``x`` is reached at a vertex of its convex hull, so the hull's
-    vertices give the maximum over the whole surface.
+    scores ~0 and the result is never above BOP's. ``refine`` False leaves that out: the
+    toolkit's own value on its sampled group (what BOP's recalls threshold; a pose between
+    two samples scores up to a few per cent of the diameter above the true minimum). The
+    maximum over a surface of a distance that is affine in ``x`` is reached at a vertex of
+    its convex hull, so the hull's vertices give the maximum over the whole surface.
     """
     return _max_symmetric_distance(
-        R_est, t_est, R_gt, t_gt, points, symmetry, None, max_sym_disc_step
+        R_est, t_est, R_gt, t_gt, points, symmetry, None, max_sym_disc_step, refine
     )
 
 
@@ -597,16 +603,17 @@ def mspd(
     points: ArrayLike,
     symmetry: Symmetry | None = None,
     max_sym_disc_step: float = MAX_SYM_DISC_STEP,
+    refine: bool = True,
 ) -> float:
     """Maximum Symmetry-aware Projection Distance [BOP ``mspd``], in pixels: as
     :func:`mssd`, with each point replaced by its projection ``(K p)[:2] / (K p)[2]``
-    through the (3, 3) intrinsics ``K``. ``inf`` when the estimate puts a model point at or
-    behind the camera's plane (it has no projection)."""
+    through the (3, 3) intrinsics ``K`` (``refine`` as there). ``inf`` when the estimate
+    puts a model point at or behind the camera's plane (it has no projection)."""
     Km = _array(K, "K", (3, 3))
     if not np.isfinite(Km).all():
         raise ValueError("K must be a finite (3, 3) intrinsics matrix")
     return _max_symmetric_distance(
-        R_est, t_est, R_gt, t_gt, points, symmetry, Km, max_sym_disc_step
+        R_est, t_est, R_gt, t_gt, points, symmetry, Km, max_sym_disc_step, refine
     )
 
 

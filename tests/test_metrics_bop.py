@@ -209,3 +209,22 @@ def test_translation_error_of_equivalent_poses_of_library_objects_is_zero() -> N
         assert M.rotation_error(Re, Rg, inst.symmetry) == pytest.approx(0, abs=1e-6)
         assert M.mssd(Re, te, Rg, tg, pts, inst.symmetry) == pytest.approx(0, abs=1e-9)
     assert M.translation_error(tg + Rg @ ts[1], tg) == pytest.approx(0.71, abs=0.01)  # te alone
+
+
+def test_unrefined_values_are_bops_own() -> None:
+    """``refine=False`` (what BOP's recalls threshold: bench.fieldscores) is the toolkit's
+    value on its sampled group, to rounding, where the refined one is below it."""
+    flip = Rotation.from_euler("x", 180, degrees=True).as_matrix()
+    sym = continuous_symmetry(axis=(0.0, 0.3, 1.0), offset=(0.01, -0.02, 0.03), flips=[flip])
+    syms = _bop_symmetries(sym, M.MAX_SYM_DISC_STEP)
+    rng = np.random.default_rng(5)
+    tg = np.array([0.0, 0.05, 0.6])
+    below = 0
+    for Re, Rg in zip(RANDOM[:6], RANDOM[6:12], strict=True):
+        te = tg + rng.normal(scale=0.01, size=3)
+        want = _bop_mssd(Re, te, Rg, tg, PTS, syms)
+        assert M.mssd(Re, te, Rg, tg, PTS, sym, refine=False) == pytest.approx(want, rel=1e-9)
+        below += M.mssd(Re, te, Rg, tg, PTS, sym) < want - 1e-9
+        want = _bop_mspd(Re, te, Rg, tg, K, PTS, syms)
+        assert M.mspd(Re, te, Rg, tg, K, PTS, sym, refine=False) == pytest.approx(want, rel=1e-9)
+    assert below  # the two differ: the flag is what makes the unrefined value BOP's

@@ -21,6 +21,9 @@ that ``compare`` and the gate pair with any other run of the suite, item by item
   counted at its worst case in our means and as not found in BOP's recalls.
 - **Time**: BOP's ``time`` is per image; a view gets its image's time over the image's
   targets (none where the file says -1).
+- **Depth**: VSD compares with the depth as the export stores it (rounded to its PNG's
+  step, :func:`as_exported`), the depth the method read: the toolkit's VSD on the export
+  gives the same errors.
 
 The scores depend on the suite's items, which the suite's seed fixes: the items are drawn
 again here (the export is not read), so a results file written for an export made with
@@ -70,6 +73,20 @@ class _Target:
     obj_id: int
     best: BopEstimate | None = None
     shares: dict[str, float] | None = None
+
+
+def as_exported(view: View, suite: Suite) -> View:
+    """``view`` with its depth as the export stores it (rounded to the depth PNG's step,
+    ``export.DEPTH_SCALES``): the depth the method read, and the toolkit's VSD would."""
+    from dataclasses import replace
+
+    from beo_bench.bench.export import DEPTH_SCALES
+
+    step = DEPTH_SCALES[suite.kind] / 1000.0
+    d = np.asarray(view.depth, dtype=np.float64)
+    ok = np.isfinite(d) & (d > 0)
+    q = np.where(ok, np.round(np.where(ok, d, 0.0) / step) * step, 0.0)
+    return replace(view, depth=q.astype(np.asarray(view.depth).dtype))
 
 
 def _estimate(e: BopEstimate, gt: GroundTruth) -> Estimate:
@@ -179,6 +196,7 @@ def score_rows(
         scene_id, im_id = image_of(index)
         views = items.views(index)
         truths = items.truths(index, views)
+        views = [as_exported(v, suite) for v in views]
         targets = [_Target(v, g, ids.ids[g.key]) for v, g in zip(views, truths, strict=True)]
         groups: dict[int, list[_Target]] = {}
         for t in targets:

@@ -8,7 +8,9 @@ A view row of a pose suite gets, besides the pose metrics of :mod:`.scoring`:
   object's diameter), delta 15 mm, the estimate rendered (``beo_bench.bop.render``) at the
   estimated pose with the true model, as BOP renders the object model it is given;
 - ``bop_mssd_mm`` and ``bop_mspd_px``: MSSD and MSPD over every vertex of the true model
-  (the model BOP evaluates with), under its symmetry group;
+  (the model BOP evaluates with), under its symmetry group as the toolkit samples it
+  (``metrics.mssd`` with ``refine=False``: our own MSSD and MSPD columns refine the
+  minimum on a continuous axis, BOP's recalls threshold the sampled one);
 - ``bop_diameter_mm``: the model's diameter, which MSSD's thresholds scale with;
 - ``bop_visib_fract``: the visible fraction of the object (``visib_gt_min`` leaves a view
   below 0.1 out of the average recalls, as BOP does); an isolated view's object is never
@@ -139,8 +141,10 @@ def score_bop(
     ]
     sym = gt.symmetry
     args = (R, t, gt.R_cam, gt.t_cam)
-    out["bop_mssd_mm"] = 1000.0 * metrics.mssd(*args, model.vertices, sym)
-    px = metrics.mspd(*args, K, model.vertices, sym)
+    # BOP's own values: its sampled symmetry group, not refined (metrics.mssd), so that the
+    # recalls are the toolkit's to the threshold
+    out["bop_mssd_mm"] = 1000.0 * metrics.mssd(*args, model.vertices, sym, refine=False)
+    px = metrics.mspd(*args, K, model.vertices, sym, refine=False)
     out["bop_mspd_px"] = px if np.isfinite(px) else None
     out["iou3d"] = nocs.box_iou(gt.size, gt.R_cam, gt.t_cam, est.size, R, t, sym)
     return out

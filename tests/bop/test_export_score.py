@@ -634,3 +634,24 @@ def test_method_name_is_the_file_name_up_to_its_first_underscore() -> None:
     assert method_name(Path("mymethod_beo-pose-3dof-test.csv")) == "mymethod"
     assert method_name(Path("/x/y/mymethod_a_b.csv")) == "mymethod"
     assert method_name(Path("plain.csv")) == "plain"
+
+
+def test_score_compares_with_the_depth_as_exported() -> None:
+    """VSD in ``score`` reads the depth as the export's PNG holds it (the method's, and the
+    toolkit's, depth): rounded to the PNG's step, 0 kept."""
+    from beo_bench.bench.bopscore import as_exported
+    from beo_bench.bench.export import DEPTH_SCALES
+
+    suite = get_suite("tabletop").with_overrides(size=1)
+    items = open_items(suite)
+    try:
+        view = items.views(0)[0]
+    finally:
+        items.close()
+    q = np.asarray(as_exported(view, suite).depth, dtype=np.float64)
+    d = np.asarray(view.depth, dtype=np.float64)
+    step = DEPTH_SCALES[suite.kind] / 1000.0
+    assert q.dtype == np.float64 and q.shape == d.shape
+    np.testing.assert_allclose(q / step, np.round(q / step), atol=1e-3)
+    assert np.abs(q - d).max() <= step / 2 + 1e-6 and ((q == 0) == (d <= 0)).all()
+    assert (q != d).any()
