@@ -256,7 +256,11 @@ def score_results(
     try:
         ids = object_ids(suite, items)
         known_images = {image_of(i) for i in range(suite.size)}
-        estimates = read_results(path, set(ids.info), known_images)
+        scope = (
+            f"{suite.name}'s first {suite.size} items (score with the --episodes, --seed, "
+            "--categories and --objects the export was made with)"
+        )
+        estimates = read_results(path, set(ids.info), known_images, scope)
         rows = score_rows(suite, estimates, ids, items, progress)
     finally:
         items.close()

@@ -116,6 +116,7 @@ def read_results(
     path: Path | str,
     known_obj_ids: Collection[int] | None = None,
     known_images: Collection[tuple[int, int]] | None = None,
+    scope: str = "the dataset's test targets",
 ) -> list[BopEstimate]:
     """The estimates of a BOP results CSV, in file order.
 
@@ -179,15 +180,14 @@ def read_results(
                 raise _fail(
                     path,
                     line,
-                    f"obj_id {obj_id} is not an object of the dataset (its obj_ids: "
+                    f"obj_id {obj_id} is not an object of {scope} (its obj_ids: "
                     f"{_shown(sorted(obj_ids))})",
                 )
             if images is not None and (scene_id, im_id) not in images:
                 raise _fail(
                     path,
                     line,
-                    f"scene_id {scene_id}, im_id {im_id} is not an image of the dataset's test "
-                    "targets",
+                    f"scene_id {scene_id}, im_id {im_id} is not an image of {scope}",
                 )
             key = (scene_id, im_id, obj_id, *R.reshape(-1).tolist(), *t.tolist())
             if key in seen:

@@ -538,6 +538,8 @@ def test_a_broken_results_file_is_refused_with_its_line(three, tmp_path, capsys,
     assert err[0].startswith("beo-bench: error:") and f"{csv}:{line}:" in err[0], err[0]
     if case == "duplicate row":
         assert "line 3" in err[0]  # the earlier line is named too
+    if case in ("missing image", "unknown obj_id"):  # the flags that make them agree
+        assert "first 3 items" in err[0] and "--episodes" in err[0], err[0]
     assert not out.exists()
 
 
