@@ -71,6 +71,9 @@ class _Target:
     view: View
     gt: GroundTruth
     obj_id: int
+    visib: float
+    """Its visible fraction (BOP's ``visib_fract``): below ``visib_gt_min`` it is no
+    target of BOP's matching."""
     best: BopEstimate | None = None
     shares: dict[str, float] | None = None
 
@@ -120,9 +123,13 @@ def _match(
 ) -> None:
     """Fill each target's BOP shares and best estimate from the estimates of its object
     (``targets`` share one image and obj_id)."""
-    ranked = sorted(ests, key=lambda e: -e.score)[: len(targets)]  # stable: file order on ties
+    # our own metrics score every view, so they take as many estimates as there are views
+    # (highest scored first, stable: file order on ties); BOP's matching keeps the inst_count
+    # highest of them, inst_count being the views at least visib_gt_min visible (the
+    # export's test_targets_bop19.json), and matches those to the visible ones
+    ranked = sorted(ests, key=lambda e: -e.score)[: len(targets)]
     gts = [
-        protocol.GtInstance(scene_id, im_id, j, targets[0].obj_id, 1.0) for j in range(len(targets))
+        protocol.GtInstance(scene_id, im_id, j, t.obj_id, t.visib) for j, t in enumerate(targets)
     ]
     errs = [[_errors(e, t.view, t.gt, suite) for t in targets] for e in ranked]
     thresholds = {
@@ -130,8 +137,9 @@ def _match(
         "mssd": protocol.MSSD_THRESHOLDS,
         "mspd": protocol.MSPD_THRESHOLDS_PX,
     }
-    key = (scene_id, im_id, targets[0].obj_id)
-    shares = {}
+    shares = {name: 0.0 for name in thresholds}
+    if not any(t.visib >= protocol.VISIB_GT_MIN for t in targets):
+        thresholds = {}  # no target: the views are left out of BOP's recalls (bop_visib_fract)
     for k, (name, th) in enumerate(thresholds.items()):
         estimates = [
             protocol.EstimateErrors(
@@ -143,8 +151,10 @@ def _match(
             )
             for i, e in enumerate(ranked)
         ]
-        rec = protocol.match_and_recall(gts, estimates, th, inst_counts={key: len(targets)})
-        shares[name] = rec.average  # found / (targets x thresholds): each target's share
+        rec = protocol.match_and_recall(gts, estimates, th)
+        # found / (targets x thresholds): each visible target's share (a view below
+        # visib_gt_min is left out of the mean by its bop_visib_fract, as out of rec's)
+        shares[name] = rec.average
     free = list(range(len(ranked)))
     for j, t in enumerate(targets):  # our metrics: by score, each to its nearest instance
         t.shares = shares
@@ -197,7 +207,10 @@ def score_rows(
         views = items.views(index)
         truths = items.truths(index, views)
         views = [as_exported(v, suite) for v in views]
-        targets = [_Target(v, g, ids.ids[g.key]) for v, g in zip(views, truths, strict=True)]
+        targets = [
+            _Target(v, g, ids.ids[g.key], score_bop(None, g, v, suite.dataset)["bop_visib_fract"])
+            for v, g in zip(views, truths, strict=True)
+        ]
         groups: dict[int, list[_Target]] = {}
         for t in targets:
             groups.setdefault(t.obj_id, []).append(t)

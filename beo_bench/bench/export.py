@@ -8,7 +8,8 @@ the views are cut from). Item ``i`` is image ``im_id = i % 1000`` of scene ``sce
 1000`` (:func:`image_of`), and the objects of an image are listed in the order of the item's
 scored views (view ``j`` is ground truth ``j``), then its other objects (a tabletop object
 with fewer than the suite's ``min_pixels``): a target list (``test_targets_bop19.json``)
-names the scored views only, so a results file scores the very views a run does.
+names the scored views only (those at least ``visib_gt_min`` = 10% visible, as BOP's), so
+a results file scores the very views a run does.
 
 Object ids are given in the order instances first appear (the test items in order, then
 the training items): the ids of a shorter export (``--episodes``) are those of the full one,
@@ -233,6 +234,7 @@ def _write_split(
 
     from beo_bench.bench.fieldscores import bop_model
     from beo_bench.bop.files import BopTarget, GtInstance, SceneWriter
+    from beo_bench.bop.protocol import VISIB_GT_MIN
 
     items = open_items(suite)
     writer: SceneWriter | None = None
@@ -263,7 +265,10 @@ def _write_split(
                 # and the ray cast disagree on an edge pixel: mask_visib within mask
                 full = (silhouette > 0) | o.mask_visib
                 gts.append(GtInstance(obj_id, o.R_cam, o.t_cam, full, o.mask_visib))
-                if o.view is not None:
+                # a target is a scored view's object at least VISIB_GT_MIN visible (BOP 2019's
+                # visib_gt_min; the same fraction scene_gt_info.json records)
+                visib = int(np.count_nonzero(o.mask_visib)) / max(int(np.count_nonzero(full)), 1)
+                if o.view is not None and visib >= VISIB_GT_MIN:
                     counts[obj_id] = counts.get(obj_id, 0) + 1
             R_w2c, t_w2c = _w2c(img.cam_to_world)
             writer.add_image(

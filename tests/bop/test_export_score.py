@@ -657,3 +657,26 @@ def test_score_compares_with_the_depth_as_exported() -> None:
     np.testing.assert_allclose(q / step, np.round(q / step), atol=1e-3)
     assert np.abs(q - d).max() <= step / 2 + 1e-6 and ((q == 0) == (d <= 0)).all()
     assert (q != d).any()
+
+
+def test_score_leaves_a_barely_visible_instance_out_of_bops_matching(monkeypatch) -> None:
+    """Two views of one object in an image, one below visib_gt_min (10%): BOP's matching
+    never gives an estimate to it (``match_poses``' valid instances), so an estimate that
+    fits only it finds nothing, and the visible view's share is 0; our own metrics still
+    score the hidden view with that estimate (nearest by MSSD)."""
+    from beo_bench.bench import bopscore
+
+    # (VSD per tau, MSSD / diameter, MSPD at 640 px) of estimate 0 against views 0 and 1
+    errors = {0: (np.full(10, 0.01), 0.01, 1.0), 1: (np.full(10, 0.9), 0.9, 90.0)}
+    monkeypatch.setattr(bopscore, "_errors", lambda e, view, gt, suite: errors[view])
+    est = BopEstimate(0, 0, 7, 1.0, np.eye(3), np.zeros(3))
+    hidden = bopscore._Target(0, None, 7, 0.05)  # type: ignore[arg-type]
+    seen = bopscore._Target(1, None, 7, 0.9)  # type: ignore[arg-type]
+    bopscore._match([hidden, seen], [est], get_suite("tabletop"), 0, 0)
+    assert seen.shares == {"vsd": 0.0, "mssd": 0.0, "mspd": 0.0}
+    assert hidden.best is est and seen.best is None
+    # with the hidden view visible, the same estimate is found at every threshold
+    hidden = bopscore._Target(0, None, 7, 0.5)  # type: ignore[arg-type]
+    seen = bopscore._Target(1, None, 7, 0.9)  # type: ignore[arg-type]
+    bopscore._match([hidden, seen], [est], get_suite("tabletop"), 0, 0)
+    assert hidden.shares == {"vsd": 0.5, "mssd": 0.5, "mspd": 0.5}  # 1 of 2 targets found
