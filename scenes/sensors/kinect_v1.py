@@ -262,6 +262,9 @@ class KinectV1(Sensor):
         cv2.resize(noise, (bw * B, bh * B), dst=t, interpolation=cv2.INTER_NEAREST)
         t = t[:h, :w]
         t += z
+        # a pixel the render has no surface at returns nothing, whatever its block's noise
+        # (version 3 added the noise to its 0 and returned a depth of a few mm there)
+        cv2.copyTo(self._const("nan", np.nan, (h, w)), np.less_equal(z, 0).view(np.uint8), t)
         nolit = self._buf("k_nolit", bool, (bh, B, w))
         np.logical_not(lit[:, None, :], out=nolit)
         cv2.copyTo(
