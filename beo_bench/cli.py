@@ -355,17 +355,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from beo_bench.bench.runner import run
     from beo_bench.bench.runs import RunConfig, RunContext, parse_option_pairs, run_name
 
-    suite = _suite(args.suite).with_overrides(
-        size=args.episodes, seed=args.seed, track=args.track
-    )  # --track on a suite without tracks is a usage error here
-    if args.categories:
-        # a class subset is its own suite (pose-3dof+modelnet10): its own runs and page
-        suite = suite.with_categories(args.categories)
-    dataset = _dataset(args)
-    _split_needs_dataset(args, dataset)
-    if dataset is not None:
-        suite = suite.with_dataset(dataset, args.split)
-    suite = suite.with_sensor(args.sensor)  # None: the suite's own
+    suite, dataset = _run_suite(args, args.track)
     kwargs = parse_option_pairs(args.opt)
     cfg = RunConfig(suite, args.backend, kwargs, args.allow_privileged)
     # resolved once: a bad option, a privileged plugin without leave or a track the backend
@@ -541,23 +531,26 @@ def cmd_baseline(args: argparse.Namespace) -> int:
     return 0
 
 
-def _export_suite(args: argparse.Namespace) -> Any:
-    """The suite an ``export`` or ``score`` command means: ``--suite`` with ``--episodes``,
-    ``--seed``, ``--categories``, ``--objects`` and ``--sensor`` as ``run`` takes them."""
-    suite = _suite(args.suite).with_overrides(size=args.episodes, seed=args.seed)
+def _run_suite(args: argparse.Namespace, track: str | None = None) -> tuple[Any, Any]:
+    """The suite a ``run``, ``export`` or ``score`` command means, and the user's dataset
+    (None: the library): ``--suite`` with ``--episodes``, ``--seed``, ``track``,
+    ``--categories``, ``--objects`` and ``--sensor``."""
+    # --track on a suite without tracks is a usage error here
+    suite = _suite(args.suite).with_overrides(size=args.episodes, seed=args.seed, track=track)
     if args.categories:
+        # a class subset is its own suite (pose-3dof+modelnet10): its own runs and page
         suite = suite.with_categories(args.categories)
     dataset = _dataset(args)
     _split_needs_dataset(args, dataset)
     if dataset is not None:
         suite = suite.with_dataset(dataset, args.split)
-    return suite.with_sensor(args.sensor)
+    return suite.with_sensor(args.sensor), dataset  # None: the suite's own sensor
 
 
 def cmd_export(args: argparse.Namespace) -> int:
     from beo_bench.bench.export import export_bop
 
-    suite = _export_suite(args)
+    suite, _ = _run_suite(args)
     train = suite.size if args.train_items is None else args.train_items
     done = export_bop(suite, Path(args.dir), train_items=train, progress=True)
     shown = ", ".join(
@@ -576,7 +569,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     from beo_bench.bench.bopscore import method_name, score_results
     from beo_bench.bench.runs import run_name
 
-    suite = _export_suite(args)
+    suite, _ = _run_suite(args)
     results = Path(args.bop_results)
     method = args.method or method_name(results)
     track = "class-given" if suite.class_hint else None

@@ -40,10 +40,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from beo_bench import metrics
 from beo_bench.bench.export import image_of, object_ids, open_items
 from beo_bench.bench.fieldscores import bop_model, score_bop
-from beo_bench.bench.scoring import base_row
+from beo_bench.bench.scoring import base_row, pose_metrics, viewpoints
 from beo_bench.bench.suites import Kind, Suite
 from beo_bench.bop import protocol
 from beo_bench.bop.results import BopEstimate, read_results
@@ -175,18 +174,12 @@ def _row(index: int, j: int, t: _Target, suite: Suite, image_targets: int) -> di
     est = _estimate(e, gt)
     ms = None if e.time < 0 else 1000.0 * e.time / image_targets
     row.update(ms=ms, failure=None)
-    args = (est.rotation, est.translation, gt.R_cam, gt.t_cam)
-    truth = bop_model(gt.key, suite.dataset)
-    row["rot_err_deg"] = metrics.rotation_error(est.rotation, gt.R_cam, gt.symmetry)
-    row["trans_err_cm"] = metrics.translation_error(
-        est.translation, gt.t_cam, gt.R_cam, gt.symmetry
-    )
-    row["mssd_cm"] = 100.0 * metrics.mssd(*args, truth.vertices, gt.symmetry)
-    px = metrics.mspd(*args, np.asarray(t.view.K), truth.vertices, gt.symmetry)
-    row["mspd_px"] = px if np.isfinite(px) else None
-    R_sym = metrics.closest_symmetric_pose(est.rotation, gt.R_cam, gt.symmetry)
-    row["viewpoint_est"] = list(metrics.viewpoint(est.rotation))
-    row["viewpoint_gt"] = list(metrics.viewpoint(R_sym))
+    # our pose metrics as a run scores them (the same model points: the pair compares),
+    # without the size error: the estimate's size is the truth's, not the method's
+    hull = bop_model(gt.key, suite.dataset).hull
+    row.update(pose_metrics(est, gt, hull, t.view.K))
+    del row["size_err_pct"]
+    row.update(viewpoints(est, gt))
     row.update(score_bop(est, gt, t.view, suite.dataset))
     row["bop_recall"] = t.shares
     return row

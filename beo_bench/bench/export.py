@@ -32,7 +32,7 @@ from beo_bench.bench.suites import Kind, Suite
 from beo_bench.objects import instance_from_key
 
 if TYPE_CHECKING:
-    from beo_bench.objects.dataset import Dataset
+    pass
 
 IMAGES_PER_SCENE = 1000
 """Images per BOP scene folder: item ``i`` is image ``i % 1000`` of scene ``i // 1000``."""
@@ -43,13 +43,6 @@ TRAIN_SEED_OFFSET = 7_000_003
 def image_of(item: int) -> tuple[int, int]:
     """``(scene_id, im_id)`` of item ``item``."""
     return item // IMAGES_PER_SCENE, item % IMAGES_PER_SCENE
-
-
-def item_of(scene_id: int, im_id: int) -> int | None:
-    """The item of image ``(scene_id, im_id)`` (None: no item is that image)."""
-    if scene_id < 0 or not 0 <= im_id < IMAGES_PER_SCENE:
-        return None
-    return scene_id * IMAGES_PER_SCENE + im_id
 
 
 @dataclass(frozen=True)
@@ -98,13 +91,19 @@ def _isolated(items: Any, index: int) -> ExportImage:
     )
 
 
+def _scene_objects(items: Any, min_pixels: int) -> tuple[list[Any], int]:
+    """The objects of the env's scene in export order, and how many of them the item
+    scores: its scored views' first (``min_pixels`` visible, as ``SceneItems`` cuts them),
+    then the others."""
+    states = items.env.ground_truth()
+    scored = [g for g in states if g.pixels >= min_pixels]
+    return scored + [g for g in states if g.pixels < min_pixels], len(scored)
+
+
 def _scene(items: Any, index: int, min_pixels: int) -> ExportImage:
     obs = items.reset(index)
-    env = items.env
     seg = np.asarray(obs["segmentation"])
-    states = env.ground_truth()
-    scored = [g for g in states if g.pixels >= min_pixels]
-    others = [g for g in states if g.pixels < min_pixels]
+    states, n_scored = _scene_objects(items, min_pixels)
     objects = [
         ExportObject(
             g.key,
@@ -112,13 +111,13 @@ def _scene(items: Any, index: int, min_pixels: int) -> ExportImage:
             np.asarray(g.R_cam),
             np.asarray(g.t_cam),
             seg == g.label,
-            j if j < len(scored) else None,
+            j if j < n_scored else None,
         )
-        for j, g in enumerate([*scored, *others])
+        for j, g in enumerate(states)
     ]
     return ExportImage(
         index,
-        env.rgb(),
+        items.env.rgb(),
         np.asarray(obs["depth"], dtype=np.float64),
         np.asarray(obs["intrinsics"], dtype=np.float64),
         np.asarray(obs["cam_to_world"], dtype=np.float64),
@@ -147,10 +146,7 @@ def scene_keys(suite: Suite, items: Items, index: int) -> list[tuple[str, str]]:
         gt = items.isolated_truth(index)  # type: ignore[attr-defined]
         return [(gt.key, gt.category)]
     items.reset(index)  # type: ignore[attr-defined]
-    states = items.env.ground_truth()  # type: ignore[attr-defined]
-    scored = [g for g in states if g.pixels >= suite.min_pixels]
-    others = [g for g in states if g.pixels < suite.min_pixels]
-    return [(g.key, g.category) for g in [*scored, *others]]
+    return [(g.key, g.category) for g in _scene_objects(items, suite.min_pixels)[0]]
 
 
 class ObjectIds:
@@ -168,10 +164,6 @@ class ObjectIds:
             self.info[obj_id] = {"category": category, "split": split, "key": key}
         return self.ids[key]
 
-    def key_of(self, obj_id: int) -> str | None:
-        info = self.info.get(obj_id)
-        return None if info is None else info["key"]
-
 
 def object_ids(suite: Suite, items: Items | None = None) -> ObjectIds:
     """The object ids of the suite's test items as its export numbers them."""
@@ -186,11 +178,6 @@ def object_ids(suite: Suite, items: Items | None = None) -> ObjectIds:
     finally:
         if own:
             items.close()
-
-
-def model_mesh(key: str, dataset: Dataset | None) -> Any:
-    """The mesh of instance ``key`` in its canonical frame (metres)."""
-    return instance_from_key(key, dataset).mesh
 
 
 # -- writing ---------------------------------------------------------------------------------

@@ -50,6 +50,9 @@ class BopModel:
 
     vertices: np.ndarray
     """(N, 3) the model's vertices (canonical frame, metres): BOP's model points."""
+    hull: np.ndarray
+    """(H, 3) its convex hull's vertices: our own MSSD and MSPD's model points, as
+    ``scoring.TruthShape.model_points``."""
     diameter: float
     """The largest distance between two of its points (metres), as ``models_info`` has it."""
     renderer: ModelRenderer
@@ -66,7 +69,8 @@ def bop_model(key: str, dataset: Dataset | None = None) -> BopModel:
     hull = np.asarray(mesh.convex_hull.vertices, dtype=np.float64)
     diameter = float(pdist(hull).max()) if len(hull) > 1 else 0.0
     V.setflags(write=False)
-    return BopModel(V, diameter, ModelRenderer(V, np.asarray(mesh.faces)))
+    hull.setflags(write=False)
+    return BopModel(V, hull, diameter, ModelRenderer(V, np.asarray(mesh.faces)))
 
 
 def _label(view: View) -> int | None:

@@ -154,20 +154,37 @@ def score_pose(
     error (deg), translation error (cm; at the symmetric pose nearest in translation), size
     error (%), MSSD (cm) and, where the camera ``K`` is known, MSPD (pixels; None when the
     estimate puts the object behind the camera) over the true model's hull vertices."""
+    return pose_metrics(est, gt, truth.model_points, K)
+
+
+def pose_metrics(
+    est: Estimate, gt: GroundTruth, model_points: np.ndarray, K: np.ndarray | None
+) -> dict[str, Any]:
+    """:func:`score_pose` given the true model's hull vertices ``model_points`` (what a
+    scored results file has of the truth: ``bopscore``)."""
     sym = gt.symmetry
     args = (est.rotation, est.translation, gt.R_cam, gt.t_cam)
     out: dict[str, Any] = {
         "rot_err_deg": metrics.rotation_error(est.rotation, gt.R_cam, sym),
         "trans_err_cm": metrics.translation_error(est.translation, gt.t_cam, gt.R_cam, sym),
         "size_err_pct": metrics.size_error(est.size, gt.size),
-        "mssd_cm": 100.0 * metrics.mssd(*args, truth.model_points, sym),
+        "mssd_cm": 100.0 * metrics.mssd(*args, model_points, sym),
     }
     if K is not None:
-        px = metrics.mspd(*args, np.asarray(K, dtype=np.float64), truth.model_points, sym)
+        px = metrics.mspd(*args, np.asarray(K, dtype=np.float64), model_points, sym)
         out["mspd_px"] = px if np.isfinite(px) else None
     if est.pose_samples is not None and len(est.pose_samples):
         out.update(score_samples(est, gt))
     return out
+
+
+def viewpoints(est: Estimate, gt: GroundTruth) -> dict[str, list[float]]:
+    """Pix3D's viewpoints of the estimate and of the symmetric truth nearest to it."""
+    R_sym = metrics.closest_symmetric_pose(est.rotation, gt.R_cam, gt.symmetry)
+    return {
+        "viewpoint_est": list(metrics.viewpoint(est.rotation)),
+        "viewpoint_gt": list(metrics.viewpoint(R_sym)),
+    }
 
 
 def score_samples(est: Estimate, gt: GroundTruth) -> dict[str, float]:
@@ -286,9 +303,6 @@ def view_row(
     truth = truth_shape(gt.key, resolution, dataset)
     if scores_pose:
         row.update(score_pose(est, gt, truth, view.K))
-        # Pix3D viewpoints, against the symmetric truth nearest to the estimate
-        R_sym = metrics.closest_symmetric_pose(est.rotation, gt.R_cam, gt.symmetry)
-        row["viewpoint_est"] = list(metrics.viewpoint(est.rotation))
-        row["viewpoint_gt"] = list(metrics.viewpoint(R_sym))
+        row.update(viewpoints(est, gt))
     row.update(score_shape(est, gt, truth))
     return row

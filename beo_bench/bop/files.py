@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
@@ -455,17 +455,23 @@ class ModelInfo:
         return {"continuous": continuous, "discrete": discrete}
 
 
+def _model_entries(root: Path | str, name: str) -> Iterator[tuple[int, _Where, dict[str, Any]]]:
+    """Each entry of the models folder's JSON file ``name`` (``root`` itself when it names a
+    .json file, else ``ROOT/models/NAME``): ``(obj_id, where, entry)``, the entry an object."""
+    path = Path(root)
+    if path.suffix != ".json":  # a dataset root
+        path = path / MODELS_DIR / name
+    w = _Where(path)
+    for obj_id, entry in _id_keyed(w, _load_json(path)).items():
+        we = w.at(str(obj_id))
+        yield obj_id, we, we.mapping(entry)
+
+
 def read_models_info(root: Path | str) -> dict[int, ModelInfo]:
     """``ROOT/models/models_info.json`` (or ``root`` itself when it names a .json file), by
     obj_id; a :class:`BopFormatError` naming the file and key for a damaged entry."""
-    path = Path(root)
-    if path.suffix != ".json":  # a dataset root
-        path = path / MODELS_DIR / MODELS_INFO_NAME
-    w = _Where(path)
     out = {}
-    for obj_id, entry in _id_keyed(w, _load_json(path)).items():
-        we = w.at(str(obj_id))
-        e = we.mapping(entry)
+    for obj_id, we, e in _model_entries(root, MODELS_INFO_NAME):
         wd = we.at("symmetries_discrete")
         discrete = tuple(
             wd.at(i).numbers(T, 16, "a 4x4 transform saved row-wise").reshape(4, 4)
@@ -529,14 +535,8 @@ def write_category_map(path: Path | str, entries: Mapping[int, ObjectEntry]) -> 
 def read_category_map(path: Path | str) -> dict[int, ObjectEntry]:
     """``beo_bench_objects.json`` (or ``ROOT/models/beo_bench_objects.json`` for a dataset
     root), by obj_id."""
-    path = Path(path)
-    if path.suffix != ".json":  # a dataset root
-        path = path / MODELS_DIR / CATEGORY_MAP_NAME
-    w = _Where(path)
     out = {}
-    for obj_id, entry in _id_keyed(w, _load_json(path)).items():
-        we = w.at(str(obj_id))
-        e = we.mapping(entry)
+    for obj_id, we, e in _model_entries(path, CATEGORY_MAP_NAME):
         fields = {}
         for name in ("category", "split", "key"):
             value = we.get(e, name)

@@ -507,6 +507,12 @@ def _cases(root: Path) -> dict[str, tuple[str, int]]:
     }
 
 
+def _score(csv: Path, out: Path) -> int:
+    """``beo-bench score`` of ``csv`` on pose-3dof's first 3 items into ``out``."""
+    argv = ["score", "--suite", "pose-3dof", "--episodes", "3", "--bop-results", str(csv)]
+    return main([*argv, "--out", str(out)])
+
+
 @pytest.mark.parametrize(
     "case", ["wrong header", "unknown obj_id", "missing image", "not a rotation", "duplicate row"]
 )
@@ -519,19 +525,7 @@ def test_a_broken_results_file_is_refused_with_its_line(three, tmp_path, capsys,
     csv.write_text(text)
     out = tmp_path / "run"
     capsys.readouterr()
-    rc = main(
-        [
-            "score",
-            "--suite",
-            "pose-3dof",
-            "--episodes",
-            "3",
-            "--bop-results",
-            str(csv),
-            "--out",
-            str(out),
-        ]
-    )
+    rc = _score(csv, out)
     err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
     assert rc == 2, err
     assert len(err) == 1, err
@@ -557,19 +551,7 @@ def test_a_suite_that_scores_no_pose_is_refused(suite, tmp_path, capsys) -> None
 def test_a_missing_results_file_is_a_usage_error(tmp_path, capsys) -> None:
     out = tmp_path / "run"
     csv = tmp_path / "nothing_here.csv"
-    rc = main(
-        [
-            "score",
-            "--suite",
-            "pose-3dof",
-            "--episodes",
-            "3",
-            "--bop-results",
-            str(csv),
-            "--out",
-            str(out),
-        ]
-    )
+    rc = _score(csv, out)
     err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
     assert rc == 2 and len(err) == 1 and err[0].startswith("beo-bench: error:")
     assert str(csv) in err[0]
@@ -583,19 +565,7 @@ def test_a_scored_run_pairs_with_an_icp_run(three, tmp_path, capsys) -> None:
     csv = tmp_path / "oracle_beo-pose-3dof-test.csv"
     write_results(csv, oracle_estimates(root))
     bop, icp = tmp_path / "bop", tmp_path / "icp"
-    rc = main(
-        [
-            "score",
-            "--suite",
-            "pose-3dof",
-            "--episodes",
-            "3",
-            "--bop-results",
-            str(csv),
-            "--out",
-            str(bop),
-        ]
-    )
+    rc = _score(csv, bop)
     assert rc == 0
     rc = main(
         [
