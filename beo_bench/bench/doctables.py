@@ -706,6 +706,7 @@ ROBUSTNESS_CELLS = (
     ("known-pose", None, "class_acc", "`known-pose` class acc."),
     ("pose-1dof", "class-free", "gross_err_rate", "`pose-1dof` > 15 deg (class-free)"),
     ("pose-3dof", "class-free", "gross_err_rate", "`pose-3dof` > 15 deg (class-free)"),
+    ("tabletop", None, "class_acc", "`tabletop` class acc."),
     ("pick", None, "pick_success", "`pick` success"),
 )
 """The robustness headline's columns: (suite, track, metric, header)."""
