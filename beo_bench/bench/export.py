@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -30,9 +30,6 @@ from beo_bench.bench.kinds import get_kind
 from beo_bench.bench.kinds.common import Items
 from beo_bench.bench.suites import Kind, Suite
 from beo_bench.objects import instance_from_key
-
-if TYPE_CHECKING:
-    pass
 
 IMAGES_PER_SCENE = 1000
 """Images per BOP scene folder: item ``i`` is image ``i % 1000`` of scene ``i // 1000``."""
