@@ -720,7 +720,7 @@ ROBUSTNESS_MORE_CELLS: tuple[RobustnessCell, ...] = (
      "`pose-1dof+modelnet10` > 15 deg (class-free)"),
     ("modelnet10-3dof", "class-free", "gross_err_rate", "`modelnet10-3dof` > 15 deg (class-free)"),
 )  # fmt: skip
-"""The second robustness table's columns: the unseen-instance and ModelNet10 suites."""
+"""The second robustness table's columns: the out-of-distribution and ModelNet10 suites."""
 SENSOR_ORDER = ("kinect-v1", "d435")
 
 
