@@ -371,6 +371,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         use_ray=args.ray,
         item_timeout=args.item_timeout,
         report_views=args.report_views,
+        force_rerun=args.force_rerun,
     )
     print(format_runs([summary]))
     print(f"\nresults: {out / 'results.jsonl'}\nsummary: {out / 'summary.json'}")
@@ -643,6 +644,7 @@ def cmd_all(args: argparse.Namespace) -> int:
         sensors=tuple(dict.fromkeys(args.sensor)) if args.sensor else (None,),
         max_failure_rate=args.max_failure_rate,
         report_views=args.report_views,
+        force_rerun=args.force_rerun,
         after_run=_print_run_end,
     )
     print(leaderboard_text(run_campaign(c), c.leaderboards))
@@ -741,7 +743,11 @@ def cmd_publish(args: argparse.Namespace) -> int:
     from beo_bench.perception import published
 
     out = Path(args.out) if args.out else published.PUBLISHED_DIR
-    if args.model == "beo":
+    if args.model == "rest-prior":  # fitted here: a minute of the training split's scenes
+        from beo_bench.perception.means import publish_rest_prior
+
+        sha = publish_rest_prior(out, progress=True)
+    elif args.model == "beo":
         from beo_bench.perception.beo_model import BEOModel, model_dir
         from beo_bench.training import library_categories
 
@@ -1138,6 +1144,7 @@ def _add_run(sub: Any, data: argparse.ArgumentParser) -> None:
         "(default: class-free; suites without tracks refuse it)",
     )
     r.add_argument("--resume", action="store_true", help="continue a killed run in --out")
+    r.add_argument("--force-rerun", action="store_true", help=FORCE_RERUN_HELP)
     r.add_argument(
         "--max-failure-rate",
         type=rate,
@@ -1209,6 +1216,7 @@ def _add_all(sub: Any, data: argparse.ArgumentParser) -> None:
         metavar="NAME[:K=V,...]",
         help="default: every registered backend; options after a colon",
     )
+    al.add_argument("--force-rerun", action="store_true", help=FORCE_RERUN_HELP)
     al.set_defaults(func=cmd_all)
 
 
@@ -1304,6 +1312,13 @@ MAX_FAILURE_HELP = (
 )
 
 
+FORCE_RERUN_HELP = (
+    "discard and run again a run whose results a plugin backend scored with other code or "
+    "options than it has now (its recorded code digest differs); without it such a run is "
+    "refused"
+)
+
+
 def _add_gate(sub: Any, data: argparse.ArgumentParser) -> None:
     """The ``gate`` command."""
     from beo_bench.bench.gate import DEFAULT_ALPHA, DEFAULT_PERMUTATIONS
@@ -1312,9 +1327,11 @@ def _add_gate(sub: Any, data: argparse.ArgumentParser) -> None:
         "gate",
         help="fail (exit 3) when runs got worse than a baseline, item by item",
         description="Each run against the baseline run of the same suite, track and sensor, "
-        "on the same items: per metric, a paired sign-flip permutation test over items, "
-        "Holm-corrected over every test; a regression is a difference the wrong way whose "
-        "adjusted p is at most --alpha (docs/benchmark.md, 'A regression gate').",
+        "on the same items: per metric, pooled over the suites that measure it, a one-sided "
+        "paired sign-flip permutation test over items of the worsening less the metric's "
+        "margin, Holm-corrected over every test; a regression is a metric worse than the "
+        "baseline by more than its margin with adjusted p at most --alpha (docs/benchmark.md, "
+        "'A regression gate').",
         epilog="exit status: 0 no regression, 3 a regression (the reports are written "
         "first), 2 a usage error (runs that do not pair with the baseline: another suite, "
         "version, seed, track, sensor or items), 1 a failure (a damaged results file)",
@@ -1337,9 +1354,9 @@ def _add_gate(sub: Any, data: argparse.ArgumentParser) -> None:
         nargs="+",
         default=None,
         metavar="METRIC",
-        help="summary metrics to gate every suite on, e.g. gross_err_rate class_acc iou_mean "
-        "(default: each suite's primary metric: class_acc for known-pose and tabletop, "
-        "gross_err_rate for the other pose suites, pick_success for pick)",
+        help="summary metrics to gate, each pooled over the suites that measure it (a suite "
+        "that does not is skipped, and the reports say so), e.g. gross_err_rate iou_mean "
+        "(default: rot_err_deg_mean trans_err_cm_mean class_acc pick_success)",
     )
     g.add_argument(
         "--alpha",
@@ -1363,7 +1380,7 @@ def _add_gate(sub: Any, data: argparse.ArgumentParser) -> None:
         type=Path,
         default=None,
         metavar="FILE",
-        help="JUnit XML: a test suite per suite, a test case per metric",
+        help="JUnit XML: a test suite per backend, a test case per metric",
     )
     g.add_argument(
         "--markdown",
@@ -1471,9 +1488,10 @@ def _add_publish(sub: Any, data: argparse.ArgumentParser) -> None:
     """The ``publish`` command."""
     pb = sub.add_parser(
         "publish",
-        help="write a trained model into the published models the backends load",
+        help="write a trained model into the published models the backends load "
+        "(rest-prior: fit the training split's rest prior and publish it)",
         parents=[
-            model_parent(),
+            _option_parent("model", choices=[*MODELS, "rest-prior"]),
             model_name_parent("the trained model (beo: default model)"),
             categories_parent("classes or sets (beo default: library)"),
             out_parent(None, "default: the package's perception/published"),

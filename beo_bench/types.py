@@ -182,6 +182,145 @@ class ViewpointPrior:
         in_roll = np.abs(roll) <= roll_sigmas * self.roll_sigma_deg + margin_deg
         return np.asarray(in_el & in_roll, dtype=bool)
 
+    def frame(self) -> Mat3:
+        """The rotation that takes this prior's reference frame to the camera's: the
+        identity (the rig's angles are the camera's own)."""
+        return np.eye(3)
+
+    def canonical(self) -> ViewpointPrior:
+        """This prior in its reference frame (:meth:`frame` the identity): itself."""
+        return self
+
+
+@dataclass(frozen=True)
+class RestPrior:
+    """How objects rest on a table: the distribution of the angle (tilt) between an
+    object's canonical up (+z) and the world's up, learned from the training split's own
+    tabletop scenes (:func:`beo_bench.perception.means.fit_rest_prior`, published as
+    ``perception/published/rest-prior``). Where a view carries the world's up
+    (``View.world_up``: the tabletop and pick suites, whose protocol reveals the table
+    plane), :meth:`in_view` places it in the camera frame and it is a pose prior P(R) as
+    :class:`ViewpointPrior` is: ``beo`` adds log P(R) to eq. 3.22 and searches its support,
+    ``icp`` starts from rotations drawn from it. It is the prior the learned backends absorb
+    from their tabletop training crops, given to the search-based ones explicitly.
+
+    The density is a kernel estimate in the polar chart of the sphere about the up (tilt t,
+    azimuth a; coordinates t cos a, t sin a): each training tilt ``tilt_deg[i]`` at a
+    uniformly random azimuth (a scene's yaw is uniform) smoothed by an isotropic Gaussian of
+    ``bandwidth_deg``. Averaged over the azimuth, a sample's kernel is the Rice density,
+    ``exp(-(t^2 + t_i^2) / 2h^2) I0(t t_i / h^2) / (2 pi h^2)`` per unit chart area, times
+    ``t / sin t`` per steradian; uniform over SO(3) the up is uniform on the sphere (1 / 4 pi
+    per steradian), so :meth:`log_prob` is ``log 4 pi + log f(t)`` relative to uniform.
+    ``up``: the world's up in the frame rotations are given in (camera axes after
+    :meth:`in_view`)."""
+
+    tilt_deg: tuple[float, ...]
+    bandwidth_deg: float
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+
+    def __post_init__(self) -> None:
+        from beo_bench.errors import ViewError
+
+        t = np.asarray(self.tilt_deg, dtype=np.float64)
+        u = np.asarray(self.up, dtype=np.float64)
+        if (
+            t.ndim != 1
+            or not len(t)
+            or not np.all(np.isfinite(t))
+            or np.any((t < 0) | (t > 180))
+            or not 0.0 < self.bandwidth_deg < 45.0
+            or u.shape != (3,)
+            or not np.all(np.isfinite(u))
+            or abs(np.linalg.norm(u) - 1.0) > 1e-6
+        ):
+            raise ViewError(
+                f"RestPrior(tilt_deg of {len(t)} values, bandwidth_deg={self.bandwidth_deg}, "
+                f"up={self.up}): give at least one tilt in [0, 180] degrees, a bandwidth in "
+                "(0, 45) degrees and a unit up vector"
+            )
+
+    def in_view(self, world_up: Vec3) -> RestPrior:
+        """This prior with the world's up at ``world_up`` (the camera frame's
+        ``View.world_up``)."""
+        u = np.asarray(world_up, dtype=np.float64).reshape(3)
+        u = u / np.linalg.norm(u)
+        return RestPrior(self.tilt_deg, self.bandwidth_deg, (float(u[0]), float(u[1]), float(u[2])))
+
+    def canonical(self) -> RestPrior:
+        """This prior with the up at +z: its reference frame (a search's candidate set,
+        cached once, is turned into a view's camera frame by :meth:`frame`)."""
+        return RestPrior(self.tilt_deg, self.bandwidth_deg)
+
+    def frame(self) -> Mat3:
+        """The rotation taking +z to ``up`` (the reference frame to the camera's)."""
+        from scipy.spatial.transform import Rotation
+
+        u = np.asarray(self.up, dtype=np.float64)
+        if u[2] < -1.0 + 1e-12:  # straight down: any half-turn about a horizontal axis
+            return np.diag([1.0, -1.0, -1.0])
+        # the smallest rotation (scipy's for one pair of vectors); no import of geometry,
+        # which imports this module
+        return Rotation.align_vectors(u[None], np.array([[0.0, 0.0, 1.0]]))[0].as_matrix()
+
+    def tilt(self, R: FloatArray) -> FloatArray:
+        """(...,) degrees between each rotation's canonical up ``R[..., :, 2]`` and ``up``."""
+        u = np.asarray(R, dtype=np.float64)[..., :, 2] @ np.asarray(self.up, dtype=np.float64)
+        return np.degrees(np.arccos(np.clip(u, -1.0, 1.0)))
+
+    def log_prob(self, R: FloatArray, soft_deg: float = 0.0) -> FloatArray:
+        """log P(R) (...,) relative to uniform over SO(3) (the class docstring). The kernel
+        estimate is smooth already: ``soft_deg`` (:meth:`ViewpointPrior.log_prob`'s edge
+        softening) changes nothing."""
+        from scipy.special import i0e, logsumexp
+
+        t = np.radians(self.tilt(R))[..., None]
+        ti = np.radians(np.asarray(self.tilt_deg, dtype=np.float64))
+        h2 = np.radians(self.bandwidth_deg) ** 2
+        # log of exp(-(t^2 + ti^2) / 2h^2) I0(t ti / h^2), with I0(x) = i0e(x) e^x (x >= 0)
+        x = t * ti / h2
+        terms = -((t - ti) ** 2) / (2 * h2) + np.log(i0e(x))
+        log_f = logsumexp(terms, axis=-1) - np.log(len(ti)) - np.log(2 * np.pi * h2)
+        # the chart's area element is t dt da, the sphere's sin(t) dt da: per steradian the
+        # density is t / sin(t) times the chart's (1 at the pole, 1.6 at 95 degrees)
+        t = t[..., 0]
+        jac = np.where(t < 1e-6, 1.0, t / np.maximum(np.sin(t), 1e-6))
+        return np.log(4 * np.pi) + log_f + np.log(jac)
+
+    def max_tilt_deg(self, sigmas: float = 3.0) -> float:
+        """The tilt beyond which the density is negligible: the largest training tilt plus
+        ``sigmas`` bandwidths."""
+        return float(max(self.tilt_deg)) + sigmas * self.bandwidth_deg
+
+    def support(
+        self, R: FloatArray, margin_deg: float = 0.0, roll_sigmas: float = 3.0
+    ) -> NDArray[np.bool_]:
+        """(...,) bool: rotations tilted at most :meth:`max_tilt_deg` (``roll_sigmas``
+        bandwidths) plus ``margin_deg``: where a search need look."""
+        return np.asarray(self.tilt(R) <= self.max_tilt_deg(roll_sigmas) + margin_deg, dtype=bool)
+
+    def sample(self, n: int, rng: np.random.Generator) -> FloatArray:
+        """(n, 3, 3) rotations drawn from the prior: a yaw about the up (stratified over the
+        circle), then a tilt, a training sample's at a uniform azimuth plus the kernel's
+        Gaussian; built about +z and turned by :meth:`frame`."""
+        from scipy.spatial.transform import Rotation
+
+        ti = np.radians(np.asarray(self.tilt_deg, dtype=np.float64))
+        base = ti[rng.integers(len(ti), size=n)]
+        az = rng.uniform(0.0, 2 * np.pi, n)
+        # the tangent-plane tilt vector: the sample's at its azimuth, plus the kernel
+        w = base[:, None] * np.stack([np.cos(az), np.sin(az)], 1)
+        w = w + rng.normal(0.0, np.radians(self.bandwidth_deg), (n, 2))
+        tilt = Rotation.from_rotvec(np.concatenate([w, np.zeros((n, 1))], 1))
+        # stratified yaws (one in each n-th of the circle): drawn, and spread as starts need
+        psi = 2 * np.pi * (np.arange(n) + rng.uniform(0.0, 1.0, n)) / n
+        yaw = Rotation.from_rotvec(psi[:, None] * np.array([0.0, 0.0, 1.0]))
+        return self.frame() @ (tilt * yaw).as_matrix()
+
+
+PosePrior = ViewpointPrior | RestPrior
+"""A pose prior P(R) a view may come with: the isolated suites' rig, or how objects rest
+on a table placed by the world's up."""
+
 
 @dataclass(frozen=True)
 class View:
@@ -210,6 +349,12 @@ class View:
       drew this view's camera pose from (the isolated suites' rig), for backends that use
       a pose prior; None where no such distribution is published (tabletop scenes, views
       a user makes);
+    - ``world_up``: optional (3,) unit vector, the world's up (against gravity) in the
+      camera frame, where the protocol reveals the table plane (``tabletop`` and ``pick``:
+      ``cam_to_world``'s +z, which :meth:`from_observation` gives); None where the world
+      frame is a random rigid frame that says nothing (the isolated suites). Objects rest
+      on a table in poses a backend may learn from the training split
+      (:class:`RestPrior`);
     - ``ground_truth``: filled only for privileged backends (see ``GroundTruth``).
 
     Making one: :meth:`from_observation` for an object of a BEOPick-v0 observation,
@@ -227,6 +372,7 @@ class View:
     pose_hint: tuple[Mat3, Vec3, Vec3] | None = None
     ground_truth: GroundTruth | None = None
     viewpoint_prior: ViewpointPrior | None = None
+    world_up: Vec3 | None = None
 
     def __post_init__(self) -> None:
         from beo_bench.errors import ViewError
@@ -288,13 +434,16 @@ class View:
                 f"label {label} shows no pixel in this observation (hidden or out of view); "
                 f"the objects in the image are {present()}"
             )
+        cam_to_world = np.asarray(obs["cam_to_world"], dtype=np.float64)
         return cls(
             depth=np.asarray(obs["depth"]),
             mask=mask,
             K=np.asarray(obs["intrinsics"], dtype=np.float64),
-            cam_to_world=np.asarray(obs["cam_to_world"], dtype=np.float64),
+            cam_to_world=cam_to_world,
             categories=tuple(categories),
             segmentation=seg,
+            # the env's world is the robot's: +z is up, the table plane's normal
+            world_up=cam_to_world[2, :3].copy(),
         )
 
     def unit_up(self) -> Vec3 | None:

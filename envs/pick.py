@@ -145,7 +145,12 @@ class BEOPickEnv(gym.Env):
 
     Drawn from ``np_random`` (``reset(seed=...)`` makes it reproducible): how many objects,
     their categories, instances, positions and yaws, the camera pose from ``camera``, and
-    the target among the placed objects. The target always shows at least
+    the target among the placed objects. ``reset(options={"target_class": c})`` asks for the
+    target's class (``c`` an index into ``categories`` or a category name): every scene
+    then holds an object of that class and it is the target, the rest drawn as without the
+    option given that target class; without it (or with ``options=None`` or ``{}``) the seed
+    gives the scene it always gave. Any other option is an
+    :class:`~beo_bench.errors.EnvConfigError`. The target always shows at least
     ``min_target_pixels`` pixels: ``reset`` draws another camera pose (up to
     :data:`CAMERA_DRAWS`), then another scene (up to :data:`SCENE_DRAWS`), and otherwise
     raises :class:`NoVisibleTargetError`; an object too large for the table raises
@@ -193,7 +198,8 @@ class BEOPickEnv(gym.Env):
       default, the visible-target guarantee, ``info["is_success"]``, ``depth_array``
       rendering, ``obs_mode="pointcloud"``, uint8 segmentation, ``max_attempts`` tied to
       ``max_episode_steps``); ``sensor=`` in place of ``noise=`` (the default, ideal
-      depth, observes as before).
+      depth, observes as before); the ``target_class`` reset option (a reset without it
+      draws as before).
     """
 
     # gymnasium annotates Env.metadata as an instance attribute, but it is the class's (read
@@ -435,9 +441,9 @@ class BEOPickEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, Any], dict[str, Any]]:
-        check_reset_options(options)
+        target = check_reset_options(options, self.categories)
         super().reset(seed=seed)
-        frame, pixels = self._tabletop.draw(self.np_random)
+        frame, pixels = self._tabletop.draw(self.np_random, target)
         assert self._scene is not None  # the draw made it
         self._attempts = 0
         self._terminated = False
@@ -759,23 +765,60 @@ def _copy(obs: dict[str, Any]) -> dict[str, Any]:
     return {k: v.copy() if isinstance(v, np.ndarray) else v for k, v in obs.items()}
 
 
-def check_reset_options(options: Any) -> None:
-    """BEOPick-v0 takes no reset options (a scene is the seed's): ``None`` or an empty dict,
-    else :class:`EnvConfigError` (gymnasium itself passes anything through, so a typo'd
-    option would otherwise be silently ignored)."""
+RESET_OPTIONS: tuple[str, ...] = ("target_class",)
+"""The keys ``reset(options=...)`` takes: ``target_class``, the class the episode's target
+must be (an index into ``categories``, as the observation's, or a category name)."""
+
+
+def check_reset_options(options: Any, categories: tuple[str, ...]) -> str | None:
+    """The category a ``reset(options=...)`` asks for as the target (``target_class``: an
+    index into ``categories`` or a name), None when it asks for none (``None`` or an empty
+    dict: the target is the seed's draw). Anything else is an :class:`EnvConfigError`
+    naming the fix: gymnasium itself passes any options through, so a typo'd one would
+    otherwise be silently ignored."""
     if options is None:
-        return
+        return None
     if not isinstance(options, Mapping):
         raise EnvConfigError(
             f"reset(options={options!r}): options must be a dict or None, got "
             f"{type(options).__name__}"
         )
-    if options:
+    unknown = [k for k in options if k not in RESET_OPTIONS]
+    if unknown:
         raise EnvConfigError(
-            f"reset(options=...): unknown option(s) {', '.join(map(repr, options))}; "
-            "BEOPick-v0 takes none (the scene is the seed's: reset(seed=N); the sensor, "
-            "camera and categories are gym.make keywords)"
+            f"reset(options=...): unknown option(s) {', '.join(map(repr, unknown))}; "
+            "BEOPick-v0 takes only 'target_class' (the scene is the seed's: reset(seed=N); "
+            "the sensor, camera and categories are gym.make keywords)"
         )
+    if "target_class" not in options or options["target_class"] is None:
+        return None
+    return _target_category(options["target_class"], categories)
+
+
+def _target_category(value: Any, categories: tuple[str, ...]) -> str:
+    """The category ``reset(options={"target_class": value})`` names: an index into
+    ``categories`` (an int, as the observation's ``target_class``) or one of their names."""
+    if isinstance(value, str):
+        if value not in categories:
+            close = difflib.get_close_matches(value, categories, n=1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            raise EnvConfigError(
+                f"reset(options={{'target_class': {value!r}}}): not one of this env's "
+                f"categories; {hint}use an index 0..{len(categories) - 1} or a name of "
+                f"{list(categories)}"
+            )
+        return value
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        if not 0 <= int(value) < len(categories):
+            raise EnvConfigError(
+                f"reset(options={{'target_class': {value!r}}}): out of range; use an index "
+                f"0..{len(categories) - 1} into env.unwrapped.categories (or a category name)"
+            )
+        return categories[int(value)]
+    raise EnvConfigError(
+        f"reset(options={{'target_class': {value!r}}}): give an index into "
+        "env.unwrapped.categories (as the observation's target_class) or a category name"
+    )
 
 
 def parse_action(action: Any) -> tuple[np.ndarray, float]:

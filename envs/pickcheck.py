@@ -69,16 +69,19 @@ def ground_truth_pick_check(
     episodes: int = 100,
     seed: int = 0,
     progress: bool = False,
+    reset_options: dict[str, Any] | None = None,
     **env_kwargs: Any,
 ) -> PickCheck:
-    """Run ``episodes`` episodes with seeds ``seed, seed + 1, ...`` (deterministic)."""
+    """Run ``episodes`` episodes with seeds ``seed, seed + 1, ...`` (deterministic);
+    ``reset_options``: every reset's options (``{"target_class": c}``: the ``pick``
+    suite's episodes ask for their target classes)."""
     env_kwargs.setdefault("split", "test")
     env = gym.make("BEOPick-v0", **env_kwargs)
     u = cast("BEOPickEnv", env.unwrapped)
     result = PickCheck()
     try:
         for s in tqdm(range(seed, seed + episodes), desc="pick-check", disable=not progress):
-            _, info = env.reset(seed=s)
+            _, info = env.reset(seed=s, options=reset_options)
             assert u.scene is not None  # reset built it
             target = u.scene.instances[u.target_label - 1]
             grasps = u.ground_truth_grasps()

@@ -39,9 +39,16 @@ Per view (docs/design.md "Perception backends"):
    from). In 3-DOF the coarse candidates cover only its support (elevation within
    ``PRIOR_MARGIN_DEG`` of the range, roll within 3 sigma plus that margin: 7% of SO(3), so
    the same ``so3_samples`` are 2.4x denser per axis) and the fine step adds log P(R), its
-   elevation edges softened by ``PRIOR_SOFT_DEG``. Without a published prior (tabletop,
-   a user's views), or with ``pose_prior=False``, P(R) is uniform over SO(3). With
-   ``View.up_hint`` (1-DOF) P(R) is constant over the yaw and changes nothing.
+   elevation edges softened by ``PRIOR_SOFT_DEG``. On a table (``View.world_up``: the
+   ``tabletop`` and ``pick`` suites, whose protocol reveals the table plane), P(R) is the
+   published rest prior (:class:`~beo_bench.types.RestPrior`, learned from the training
+   split's tabletop scenes, as HBEO learns it from its tabletop crops): the coarse
+   candidates are ``so3_samples`` rotations drawn from it (stratified yaws about the
+   world's up, tilts as objects rest: nearly all upright, a few tipped as monitors and
+   toilets rest), searched at the 1-DOF spacing ``yaw_step_deg``, and the fine step adds
+   its log density. Without either (a user's views), or with ``pose_prior=False``, P(R)
+   is uniform over SO(3). With ``View.up_hint`` (1-DOF) P(R) is constant over the yaw and
+   changes nothing.
 
 The class: ``View.class_hint`` when the view carries one (the ``class-given`` track), else
 estimated jointly with the pose. With ``View.pose_hint`` (``known-pose``, Table 3.1) the
@@ -72,7 +79,7 @@ from beo_bench.perception.beo_observe import (
 )
 from beo_bench.perception.beo_project import Subspace, project
 from beo_bench.perception.digest import state_digest
-from beo_bench.types import Estimate, View, ViewpointPrior
+from beo_bench.types import Estimate, PosePrior, RestPrior, View
 
 if TYPE_CHECKING:
     from beo_bench.bench.runs import RunContext
@@ -157,8 +164,9 @@ class BEOOptions:
     )
     pose_prior: bool = option(
         True,
-        "use the suite's viewpoint distribution (View.viewpoint_prior) as P(R) in the 3-DOF "
-        "coarse and fine steps; false: uniform over SO(3)",
+        "use the suite's viewpoint distribution (View.viewpoint_prior) or, on a table "
+        "(View.world_up), the published rest prior as P(R) in the 3-DOF coarse and fine "
+        "steps; false: uniform over SO(3)",
     )
     twins: bool = option(
         True,
@@ -211,7 +219,7 @@ class BEOBackend(Backend):
         self._dataset: Dataset | None = None
         self._models: dict[tuple[str, ...], tuple[BEOModel, Subspace, Subspace]] = {}
         self._digest: str | None = None
-        self._digests: dict[int, str] = {}
+        self._digests: dict[tuple[int, bool], str] = {}
 
     # -- model ----------------------------------------------------------------------------
     def prepare(self, ctx: RunContext) -> None:
@@ -223,9 +231,18 @@ class BEOBackend(Backend):
             self._models.clear()
         cats = tuple(ctx.categories)
         m = self._model(cats, progress=ctx.progress)[0]
-        if id(m) not in self._digests:  # the weights as loaded (published or cached)
-            self._digests[id(m)] = state_digest(m.arrays())
-        self._digest = self._digests[id(m)]
+        # on a table the rest prior is part of the model the run uses (a refit moves its
+        # scores): the digest covers both
+        rest = self.pose_prior and ctx.suite.protocol.world_frame == "robot"
+        key = (id(m), rest)
+        if key not in self._digests:  # the weights as loaded (published or cached)
+            state: dict[str, Any] = {"model": m.arrays()} if rest else m.arrays()
+            if rest:
+                from beo_bench.perception.means import rest_prior, rest_prior_arrays
+
+                state["rest_prior"] = rest_prior_arrays(rest_prior()[0])
+            self._digests[key] = state_digest(state)
+        self._digest = self._digests[key]
 
     def model_digest(self) -> str | None:
         """The content digest (:func:`~beo_bench.perception.digest.state_digest`) of the
@@ -333,7 +350,7 @@ class BEOBackend(Backend):
         sub: Subspace,
         hyp: Hypotheses,
         classes: list[int],
-        prior: ViewpointPrior | None = None,
+        prior: PosePrior | None = None,
     ) -> torch.Tensor:
         """(B,) the fine step's score of each hypothesis (higher is better): the joint
         pose-class log density plus log P(R) under ``prior`` (eq. 3.22; None: uniform)."""
@@ -348,7 +365,7 @@ class BEOBackend(Backend):
         sub: Subspace,
         hyp: Hypotheses,
         classes: list[int],
-        prior: ViewpointPrior | None = None,
+        prior: PosePrior | None = None,
     ) -> torch.Tensor:
         """(B, C) log p(o'_R | c) + log p(c) + log P(R) per class (-inf for the classes
         not in ``classes``): the terms of eq. 3.22 before the max over classes."""
@@ -433,7 +450,7 @@ class BEOBackend(Backend):
         cats: tuple[str, ...],
         classes: list[int],
         up: np.ndarray | None,
-        prior: ViewpointPrior | None = None,
+        prior: PosePrior | None = None,
     ) -> tuple[Hypotheses, dict]:
         """The best hypothesis (B = 1) by the coarse and fine steps, and search statistics.
         ``prior``: the pose prior P(R) of the 3-DOF search (None: uniform over SO(3))."""
@@ -445,8 +462,10 @@ class BEOBackend(Backend):
             spacing = 2 * math.pi / n
             prior = None  # constant over the yaw about a known up
         elif prior is not None:
-            R0, spacing = prior_rotations(prior, self.so3_samples)
-            R0 = R0.copy()  # the cached set stays read-only; torch wants its own
+            # the candidates of the prior's reference frame (cached), turned into the view's
+            # (the rig's prior is in the camera's already; a rest prior's up is the world's)
+            R0, spacing = prior_rotations(prior.canonical(), self.so3_samples, self.yaw_step_deg)
+            R0 = prior.frame() @ R0  # a new array: the cached set stays read-only
         else:
             R0 = super_fibonacci(self.so3_samples)
             spacing = so3_spacing(self.so3_samples)
@@ -516,7 +535,7 @@ class BEOBackend(Backend):
         seeds: Hypotheses,
         score: torch.Tensor,
         classes: list[int],
-        prior: ViewpointPrior | None,
+        prior: PosePrior | None,
     ) -> tuple[Hypotheses, torch.Tensor]:
         """Each seed, or its twin turned 180 degrees about its own up (canonical +z) when
         the twin scores higher under the seed's best class. A partial view of a car or an
@@ -549,6 +568,19 @@ class BEOBackend(Backend):
         return out, torch.where(better, twin_score, score)
 
     # -- predict --------------------------------------------------------------------------
+    @staticmethod
+    def prior_of(view: View) -> PosePrior | None:
+        """The pose prior P(R) of a view: its suite's viewpoint distribution, or on a table
+        (``View.world_up``) the published rest prior placed by the world's up; None where
+        the view comes with neither."""
+        if view.viewpoint_prior is not None:
+            return view.viewpoint_prior
+        if view.world_up is not None:
+            from beo_bench.perception.means import rest_prior
+
+            return rest_prior()[0].in_view(np.asarray(view.world_up, dtype=np.float64))
+        return None
+
     def predict(self, view: View) -> Estimate:
         cats = tuple(view.categories)
         model, full, _ = self._model(cats)
@@ -569,7 +601,7 @@ class BEOBackend(Backend):
             protocol = "known-pose"
         else:
             up = view.unit_up()
-            prior = view.viewpoint_prior if self.pose_prior else None
+            prior = self.prior_of(view) if self.pose_prior else None
             best, info = self.search(obs, cats, classes, up, prior)
             best = self.fit_box(obs, full, best, 1)
             comp = self.complete(obs, full, best)
@@ -603,11 +635,24 @@ def so3_spacing(n: int) -> float:
 
 
 @functools.lru_cache(maxsize=16)
-def prior_rotations(prior: ViewpointPrior, n: int) -> tuple[np.ndarray, float]:
-    """About ``n`` rotations spread evenly over the support of ``prior`` (see
-    :meth:`ViewpointPrior.support`, widened by ``PRIOR_MARGIN_DEG``), and their spacing
-    (rad): the super-Fibonacci set whose members in the support number at least ``n``.
-    Deterministic, cached (do not modify the array)."""
+def prior_rotations(
+    prior: PosePrior, n: int, yaw_step_deg: float = 10.0
+) -> tuple[np.ndarray, float]:
+    """The coarse candidates of a prior in its reference frame, and their spacing (rad),
+    deterministic and cached (do not modify the array).
+
+    - A :class:`ViewpointPrior`: about ``n`` rotations spread evenly over its support (see
+      :meth:`ViewpointPrior.support`, widened by ``PRIOR_MARGIN_DEG``), the super-Fibonacci
+      set whose members in the support number at least ``n``.
+    - A :class:`RestPrior`: ``n`` rotations drawn from it (a fixed generator): its mass is
+      nearly all upright, a cap of a degree or two that an even cover of its support (which
+      reaches the few objects resting on their sides) would leave with a handful of
+      candidates. Their yaws are dense, so the spacing is the 1-DOF search's,
+      ``yaw_step_deg``: what the survivors are kept apart by and the fine step starts at."""
+    if isinstance(prior, RestPrior):
+        R = prior.sample(n, np.random.default_rng(0))
+        R.setflags(write=False)
+        return R, math.radians(yaw_step_deg)
     m = n
     for _ in range(20):  # the support's share is found in two or three rounds
         R = super_fibonacci(m)

@@ -11,8 +11,12 @@ the **class-mean shape** (the 0.5 iso-surface of the mean training occupancy, se
   lazily on first use and kept per (categories, class) on the backend.
 - *Starts*: with ``View.up_hint`` (the ``pose-1dof`` protocol) ``starts`` yaw angles about
   the known up, and every update keeps that axis fixed (only the yaw about canonical +z and
-  the translation are estimated); otherwise ``starts`` rotations spread evenly over SO(3)
-  (super-Fibonacci sampling, Alexa 2022). Each start's translation puts the centroid of the
+  the translation are estimated); on a table (``View.world_up``: ``tabletop`` and ``pick``)
+  with ``pose_prior``, ``starts`` gravity-aligned rotations drawn from the published rest
+  prior (:class:`~beo_bench.types.RestPrior`, the training split's resting poses, as
+  ``beo`` uses it: stratified yaws about the world's up, tilts as objects rest), every
+  update free; otherwise ``starts`` rotations spread evenly over SO(3) (super-Fibonacci
+  sampling, Alexa 2022). Each start's translation puts the centroid of the
   model's camera-facing surface (points weighted by how squarely their normals face the
   viewing ray) on the centroid of the observed points: a partial view sees the front
   surface, so the object's centre lies behind the observed centroid, by about half its depth
@@ -50,13 +54,14 @@ Deterministic: nothing is random (observed points are thinned by even striding).
 
 ``icp-plain`` is the dissertation's baseline (the ICP of Figures 3.6 and 4.3, which "got
 stuck in local minima"): the same code with one start (the identity, or with
-``View.up_hint`` the up-aligned start at yaw 0), every correspondence kept (no trimming),
-point-to-point (Kabsch) steps and no free-space term, so the lowest plain ICP residual
-chooses the class when it is not given.
+``View.up_hint``, or on a table the world's up, the up-aligned start at yaw 0), every
+correspondence kept (no trimming), point-to-point (Kabsch) steps and no free-space term, so
+the lowest plain ICP residual chooses the class when it is not given.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -67,8 +72,8 @@ from beo_bench.backend import Backend, BackendSpec, Capabilities, ClassHint, reg
 from beo_bench.errors import ViewError
 from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
 from beo_bench.options import option
-from beo_bench.perception.means import ClassMeans, class_means
-from beo_bench.types import Estimate, Mat3, Points, View
+from beo_bench.perception.means import ClassMeans, class_means, rest_prior
+from beo_bench.types import Estimate, Mat3, Points, RestPrior, View
 
 if TYPE_CHECKING:
     from beo_bench.bench.runs import RunContext
@@ -411,6 +416,11 @@ class ICPOptions:
         "weight of the free-space term in choosing among starts and classes (0: the plain "
         "trimmed ICP residual)",
     )
+    pose_prior: bool = option(
+        True,
+        "on a table (View.world_up), start from rotations drawn from the published rest "
+        "prior (upright about the world's up); false: starts over all of SO(3)",
+    )
 
     def __post_init__(self) -> None:
         if self.starts < 1 or self.iterations < 1 or self.max_points < 3:
@@ -451,6 +461,8 @@ class ICPBackend(Backend):
         self.temperature_mm = o.temperature_mm
         self.model_points = o.model_points
         self.free_space = o.free_space
+        self.pose_prior = o.pose_prior
+        self._digest: str | None = None
         self._dataset: Dataset | None = None
         self._means: dict[tuple[str, ...], ClassMeans] = {}
         self._surfaces: dict[tuple[tuple[str, ...], int], MeanSurface] = {}
@@ -471,6 +483,14 @@ class ICPBackend(Backend):
             self._means.clear()
             self._surfaces.clear()
         self._class_means(tuple(ctx.categories), progress=ctx.progress)
+        # on a table the starts come from the published rest prior: its digest is what the
+        # run's model is (a refit moves the scores); elsewhere ICP learns nothing but means
+        table = self.pose_prior and ctx.suite.protocol.world_frame == "robot"
+        self._digest = rest_prior()[1] if table else None
+
+    def model_digest(self) -> str | None:
+        """The published rest prior's digest on a table suite (its starts), else None."""
+        return self._digest
 
     def surface(self, cats: tuple[str, ...], c: int) -> MeanSurface:
         """The mean surface of class ``c`` of ``cats`` (built on first use, then kept)."""
@@ -481,19 +501,30 @@ class ICPBackend(Backend):
         return self._surfaces[key]
 
     # -- alignment ----------------------------------------------------------------------
-    def _start_rotations(self, up: np.ndarray | None) -> np.ndarray:
+    def _start_rotations(self, up: np.ndarray | None, rest: RestPrior | None) -> np.ndarray:
         if up is not None:
             return yaw_starts(up, self.starts)
+        if rest is not None:
+            if self.starts == 1:  # the prior's mode: upright, yaw 0
+                return yaw_starts(np.asarray(rest.up), 1)
+            return rest.frame() @ _rest_starts(rest.canonical(), self.starts)
         if self.starts == 1:
             return UPRIGHT[None]
         return super_fibonacci(self.starts)
 
-    def fit(self, obs: Observation, surf: MeanSurface, up: np.ndarray | None) -> Fit:
+    def fit(
+        self,
+        obs: Observation,
+        surf: MeanSurface,
+        up: np.ndarray | None,
+        rest: RestPrior | None = None,
+    ) -> Fit:
         """Align the observed points of ``obs`` to ``surf``; ``up``: the known canonical +z in
-        the camera frame (1-DOF), or None (3-DOF)."""
+        the camera frame (1-DOF), or None (3-DOF); ``rest``: on a table, the rest prior in
+        the camera frame the starts are drawn from."""
         pts = _thin(obs.points, self.max_points)
         coarse = _thin(pts, self.coarse_points)
-        R0 = self._start_rotations(up)
+        R0 = self._start_rotations(up, rest)
         yaw_only = up is not None
         aligner = _Aligner(surf, self.trim, self.point_to_plane, yaw_only)
 
@@ -570,7 +601,10 @@ class ICPBackend(Backend):
             R, t, size = (np.asarray(a, dtype=np.float64) for a in view.pose_hint)
             fits = [self.fit_known_pose(obs, cats, c, R, t, size) for c in classes]
         else:
-            fits = [self.fit(obs, self.surface(cats, c), up) for c in classes]
+            rest = None
+            if up is None and view.world_up is not None and self.pose_prior:
+                rest = rest_prior()[0].in_view(np.asarray(view.world_up, dtype=np.float64))
+            fits = [self.fit(obs, self.surface(cats, c), up, rest) for c in classes]
         res_mm = np.array([f.residual * 1e3 for f in fits])
         score_mm = np.array([f.score * 1e3 for f in fits])
         probs = np.zeros(len(cats))
@@ -662,6 +696,15 @@ def _protocol(view: View) -> str:
     if view.pose_hint is not None:
         return "known-pose"
     return "1dof" if view.up_hint is not None else "3dof"
+
+
+@functools.lru_cache(maxsize=8)
+def _rest_starts(rest: RestPrior, n: int) -> np.ndarray:
+    """``n`` starts drawn from the rest prior about +z (a fixed generator: the same starts
+    for every view), read-only."""
+    R = rest.sample(n, np.random.default_rng(0))
+    R.setflags(write=False)
+    return R
 
 
 def _thin(pts: np.ndarray, n: int) -> np.ndarray:

@@ -1,14 +1,25 @@
-"""Per-class mean shapes and sizes from the object library's ``train`` split.
+"""What the baselines learn from the object library's ``train`` split: per-class mean
+shapes and sizes, and how objects rest on a table.
 
-The ``random`` bound predicts them, ``icp`` aligns observations to them. Computed once per
-(categories, resolution, instances) and cached atomically in the asset cache.
+The ``random`` bound predicts the means, ``icp`` aligns observations to them. Computed once
+per (categories, resolution, instances) and cached atomically in the asset cache.
+
+The rest prior (:class:`~beo_bench.types.RestPrior`) is the tilt of objects' up from the
+world's up in the training split's own tabletop scenes: what HBEO and the MDN absorb from
+their tabletop training crops, fitted here so that ``beo`` (its pose prior P(R), eq. 3.22)
+and ``icp`` (its starting rotations) may use it on the ``tabletop`` and ``pick`` views
+(docs/benchmark.md, "What a backend is told"). It is published
+(``perception/published/rest-prior``, ``beo-bench publish rest-prior`` refits it) so that
+every machine uses the same one.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import multiprocessing as mp
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -16,11 +27,21 @@ import numpy as np
 from beo_bench.objects import cache
 from beo_bench.objects.dataset import object_set
 from beo_bench.objects.prepare import prepare
+from beo_bench.types import RestPrior
 
 if TYPE_CHECKING:
     from beo_bench.objects.dataset import Dataset
 
 MEANS_VERSION = 1
+REST_SCENES = 300
+"""Training-split tabletop scenes the rest prior is fitted on (about 750 objects)."""
+REST_SEED = 91_000
+"""Their base seed (scene i is ``BEOPick-v0``'s draw under seed ``REST_SEED + i`` from the
+``train`` split: none of a suite's scenes, which are of the ``test`` split)."""
+REST_BANDWIDTH_DEG = 1.0
+"""The kernel's width: above the physics' settling jitter (0.01-0.1 deg in these scenes)
+and below the searches' finest steps, so a pose a degree from a training tilt is not
+penalised."""
 
 
 @dataclass(frozen=True)
@@ -95,3 +116,76 @@ def training_voxels(
         grids[c] = np.stack([i.voxels(resolution) for i in insts])
         sizes[c] = np.stack([np.asarray(i.size, dtype=np.float64) for i in insts])
     return grids, sizes
+
+
+def fit_rest_prior(
+    scenes: int = REST_SCENES,
+    seed: int = REST_SEED,
+    bandwidth_deg: float = REST_BANDWIDTH_DEG,
+    progress: bool = False,
+) -> RestPrior:
+    """The rest prior of the ``train`` split: every object's tilt (degrees between its
+    canonical up and the world's up) in ``scenes`` tabletop scenes drawn as BEOPick-v0
+    draws them (its default classes, settled by physics), sorted."""
+    from tqdm import tqdm
+
+    from beo_bench.objects import ObjectSet, pickable_categories
+    from beo_bench.scenes.tabletop import TabletopScenes
+
+    tables = TabletopScenes(ObjectSet(split="train"), pickable_categories())
+    tilts: list[float] = []
+    try:
+        for i in tqdm(range(scenes), desc="rest prior", disable=not progress):
+            _, truth = tables.reset(seed=seed + i)
+            for g in truth:
+                cos = float(np.clip(np.asarray(g.R_world)[2, 2], -1.0, 1.0))
+                tilts.append(float(np.degrees(np.arccos(cos))))
+    finally:
+        tables.close()
+    return RestPrior(tuple(sorted(tilts)), float(bandwidth_deg))
+
+
+def rest_prior_meta(prior: RestPrior) -> dict[str, object]:
+    """The published rest prior's ``rest-prior.json``: how it was fitted and its digest."""
+    from beo_bench.perception.digest import state_digest
+
+    return {
+        "format": 1,
+        "bandwidth_deg": prior.bandwidth_deg,
+        "objects": len(prior.tilt_deg),
+        "scenes": REST_SCENES,
+        "seed": REST_SEED,
+        "split": "train",
+        "digest": state_digest(rest_prior_arrays(prior)),
+    }
+
+
+def rest_prior_arrays(prior: RestPrior) -> dict[str, np.ndarray]:
+    return {
+        "tilt_deg": np.asarray(prior.tilt_deg, dtype=np.float64),
+        "bandwidth_deg": np.asarray(prior.bandwidth_deg, dtype=np.float64),
+    }
+
+
+@functools.lru_cache(maxsize=1)
+def rest_prior() -> tuple[RestPrior, str]:
+    """The published rest prior and its digest (checked against the manifest when read)."""
+    from beo_bench.perception import published
+
+    meta, arrays = published.read("rest-prior")
+    prior = RestPrior(tuple(float(t) for t in arrays["tilt_deg"]), float(arrays["bandwidth_deg"]))
+    return prior, str(meta["digest"])
+
+
+def publish_rest_prior(root: Path | None = None, progress: bool = False) -> str:
+    """Fit the rest prior on the training split's scenes and publish it (``beo-bench
+    publish rest-prior``); returns its npz's SHA-256."""
+    from beo_bench.perception import published
+
+    prior = fit_rest_prior(progress=progress)
+    return published.write(
+        "rest-prior",
+        rest_prior_meta(prior),
+        rest_prior_arrays(prior),
+        root or published.PUBLISHED_DIR,
+    )

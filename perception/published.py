@@ -10,6 +10,9 @@ every file. The stems:
   published HBEO model regresses, so
   those do not depend on retraining BEO, whose float reductions differ in the last bits
   from one CPU to another;
+- ``rest-prior``: how objects rest on a table, learned from the training split's tabletop
+  scenes (:func:`~beo_bench.perception.means.fit_rest_prior`): ``beo``'s pose prior and
+  ``icp``'s starts on the ``tabletop`` and ``pick`` views;
 - ``hbeo`` and ``hbeo-mdn``: the small networks of the ``reference`` recipe
   (:data:`~beo_bench.perception.hbeo_train.RECIPES`), weights stored in float16 (they are
   used in float32; ``make bench`` measures what the rounding costs: nothing measurable).
@@ -43,7 +46,7 @@ if TYPE_CHECKING:
 
 PUBLISHED_DIR = Path(__file__).resolve().parent / "published"
 MANIFEST = "MANIFEST.json"
-STEMS: tuple[str, ...] = ("beo", "hbeo", "hbeo-mdn")
+STEMS: tuple[str, ...] = ("beo", "hbeo", "hbeo-mdn", "rest-prior")
 NET_PREFIX = "net."
 SPLIT: dict[str, tuple[str, ...]] = {"beo": ("basis",)}
 """Arrays stored in files of their own (``beo-basis.npz``, or ``beo-basis-0.npz``,

@@ -128,33 +128,55 @@ class TabletopScenes:
         self._rng: np.random.Generator | None = None
 
     # -- drawing ---------------------------------------------------------------------------------
-    def reset(self, seed: int | None = None) -> tuple[dict[str, Any], list[ObjectState]]:
+    def reset(
+        self, seed: int | None = None, target_category: str | None = None
+    ) -> tuple[dict[str, Any], list[ObjectState]]:
         """A new scene: its observation (``depth``, ``segmentation``, ``target_class``,
         ``intrinsics``, ``cam_to_world``, as BEOPick-v0's without noise) and every object's
         ground truth. ``seed`` starts the generator anew (the env's ``reset(seed=...)``
-        gives the same scene); without it the draws continue from the last reset's."""
+        gives the same scene); without it the draws continue from the last reset's.
+        ``target_category``: the class the target must be (:meth:`draw`)."""
         if seed is not None or self._rng is None:
             self._rng = np.random.default_rng(seed)  # gymnasium's seeding, bit for bit
-        frame, _ = self.draw(self._rng)
+        frame, _ = self.draw(self._rng, target_category)
         obs = self.observation(frame)
         return obs, self.ground_truth(obs["segmentation"])
 
-    def draw(self, rng: np.random.Generator) -> tuple[Frame, int]:
+    def draw(
+        self, rng: np.random.Generator, target_category: str | None = None
+    ) -> tuple[Frame, int]:
         """Draw a scene from ``rng`` (objects, placement, camera, target) and make it the
         current one; returns its rendering and the target's visible pixels.
+
+        ``target_category`` (one of ``categories``; the env's ``reset(options={"target_class":
+        ...})``): every scene drawn holds an object of that class, and it is the target.
+        The scene is then drawn from the unrequested draw's distribution given that target
+        class: as many objects, the others a uniform choice among the remaining classes, the
+        target's label uniform among them. None draws exactly as before the option existed
+        (the same seed, the same scene, bit for bit).
 
         Raises :class:`NoVisibleTargetError` when no scene and camera of
         :data:`SCENE_DRAWS` x :data:`CAMERA_DRAWS` shows ``min_target_pixels`` of the
         target, :class:`~beo_bench.scenes.layout.PlacementError` when no draw fit on the
         table and :class:`~beo_bench.scenes.layout.ObjectTooLargeError` for an object too
         large for the table."""
+        if target_category is not None and target_category not in self.categories:
+            raise ValueError(
+                f"target category {target_category!r} is not among the classes drawn from; "
+                f"choose one of {list(self.categories)}"
+            )
         placed, best = 0, (-1, "")
         look_at = np.array([0.0, 0.0, self.table.table_height])
         # Draws happen in the order they always did, so a seed whose first scene and camera
         # show the target gives the episode it gave before the visibility guarantee.
         for _ in range(SCENE_DRAWS):
             k = int(rng.integers(self.num_objects[0], self.num_objects[1] + 1))
-            cats = [self.categories[j] for j in rng.choice(len(self.categories), k, replace=False)]
+            if target_category is None:
+                cats = [
+                    self.categories[j] for j in rng.choice(len(self.categories), k, replace=False)
+                ]
+            else:
+                cats = self._with_target(rng, k, target_category)
             drawn = [(c, int(rng.integers(self.objects.count(c)))) for c in cats]
             insts = [self.objects.get(c, i) for c, i in drawn]
             try:
@@ -175,7 +197,10 @@ class TabletopScenes:
             park(self.scene)
             settle(self.scene)
             self.cam = self.rig.sample(rng, look_at)
-            self.target = int(rng.integers(k)) + 1
+            if target_category is None:
+                self.target = int(rng.integers(k)) + 1
+            else:  # the requested class is the target: nothing to draw
+                self.target = cats.index(target_category) + 1
             for view in range(CAMERA_DRAWS):
                 if view:
                     self.cam = self.rig.sample(rng, look_at)
@@ -201,6 +226,16 @@ class TabletopScenes:
                 f"frames the table (camera=...)"
             )
         return frame, pixels
+
+    def _with_target(self, rng: np.random.Generator, k: int, target: str) -> list[str]:
+        """``k`` distinct classes, ``target`` among them at a uniform position (its label),
+        the others a uniform choice of the remaining classes in a uniform order: the
+        unrequested draw's classes given that its target is of class ``target`` (there, the
+        target's class is uniform whatever k, so k keeps its own distribution)."""
+        others = [c for c in self.categories if c != target]
+        cats = [others[j] for j in rng.choice(len(others), k - 1, replace=False)]
+        cats.insert(int(rng.integers(k)), target)
+        return cats
 
     def restore(
         self, drawn: list[tuple[str, int]], poses: list[Mat4], cam: Mat4, target: int

@@ -75,6 +75,9 @@ class Campaign:
     report_views: int = 0
     """``--report-views``: each run's ``report.html`` shows that many worst views (0: no
     report)."""
+    force_rerun: bool = False
+    """``--force-rerun``: a run whose results a plugin scored with other code or options
+    (its code digest) is discarded and run again, rather than refused."""
     after_run: Callable[[RunContext, Path], None] | None = None
     """Called with each run's context and directory when it ends (the CLI prints its
     failures there, so each run of a campaign ends with them as a lone run does)."""
@@ -125,6 +128,7 @@ def run_campaign(c: Campaign) -> list[Path]:
                 pool=pool,
                 item_timeout=c.item_timeout,
                 report_views=c.report_views,
+                force_rerun=c.force_rerun,
             )
             finished.append((out, summary))
             if c.after_run is not None:

@@ -2,8 +2,8 @@
 
 Results go to ``OUT/results.jsonl`` (one line per scored view or episode) and
 ``OUT/summary.json``; ``OUT/run.json`` records what the run is (suite with its track,
-backend, options, the backend's model digest, the object library version, whether the
-backend can use the class hint), and a resume must match it. The summary carries the
+backend, options, the backend's model digest, a plugin's code digest, the object library
+version, whether the backend can use the class hint), and a resume must match it. The summary carries the
 track (``"track"``: ``class-given``, ``class-free`` or null for a suite without tracks),
 ``"uses_class_hint"`` and ``"model_digest"`` at its top level, for the leaderboard.
 
@@ -476,6 +476,39 @@ def _check_same_run(old: dict[str, Any] | None, meta: dict[str, Any], out: Path)
         )
 
 
+FORCE_RERUN_FLAG = "--force-rerun"
+"""The flag of ``run`` and ``all`` that discards results scored by other plugin code."""
+
+
+def _code_changed(old: dict[str, Any], digest: str | None, out: Path, force: bool) -> bool:
+    """Whether the results in ``out`` were scored by other code or options of the backend
+    than it has now (``code_digest`` in the run record; :func:`beo_bench.backend.code_digest`)
+    and are to be discarded (``force``); refused otherwise, naming the flag. A record
+    without a digest was written before digests were recorded: for a plugin it cannot be
+    checked, so it counts as changed."""
+    held = old.get("code_digest")
+    if held == digest:
+        return False
+    if force:
+        return True
+    raise RunUsageError(
+        f"{out} holds results of backend {old.get('backend')!r} scored by other code or "
+        f"options (code digest {held or 'not recorded'}, now {digest or 'none'}): resuming "
+        f"would mix two versions of it in one score. Pass {FORCE_RERUN_FLAG} to discard them "
+        "and run it again, or choose another --out"
+    )
+
+
+def _discard_results(out: Path) -> None:
+    """Remove a run's results, summary and report (:func:`_code_changed` with force): the
+    run then starts again, under the lock the caller holds."""
+    for name in (RESULTS_NAME, SUMMARY_NAME, REPORT_NAME):
+        try:
+            (out / name).unlink(missing_ok=True)
+        except OSError as e:
+            raise io_error(e, out / name, "discarding the results of other code") from e
+
+
 def _check_same_model(old: dict[str, Any], digest: str | None, out: Path) -> None:
     """Refuse to add items scored by another model than the run's first ones."""
     if "model_digest" not in old or "library_version" not in old:
@@ -632,6 +665,7 @@ def run(
     pool: WorkerPool | None = None,
     item_timeout: float | None = None,
     report_views: int = 0,
+    force_rerun: bool = False,
 ) -> Summary:
     """Run (or resume) ``cfg`` into ``out`` with ``workers`` processes (default: one per
     core), Ray actors, or the processes of ``pool`` (kept across runs; it sets the number
@@ -639,8 +673,10 @@ def run(
     ``item_timeout``: seconds an item may take before it is recorded as failed (default:
     the suite's ``item_timeout_s``). ``report_views``: also write ``OUT/report.html`` with
     that many worst views (:mod:`.report`; 0: none), when this call scored items or there
-    is none yet. The directory is locked for the whole run. The run's context is resolved
-    here, once (a :class:`RunContext` given is used as it is)."""
+    is none yet. ``force_rerun`` (``--force-rerun``): results in ``out`` scored by other
+    code or options of a plugin backend (its ``code_digest``) are discarded and the run made
+    again, rather than refused. The directory is locked for the whole run. The run's context
+    is resolved here, once (a :class:`RunContext` given is used as it is)."""
     ctx = cfg if isinstance(cfg, RunContext) else RunContext.of(cfg, progress=progress)
     if pool is not None:
         workers = pool.workers
@@ -649,7 +685,7 @@ def run(
     out = _run_dir(Path(out))
     with lock_run_dir(out):
         summary, prepared, scored = _run_locked(
-            ctx, out, workers, resume, use_ray, progress, pool, timeout
+            ctx, out, workers, resume, use_ray, progress, pool, timeout, force_rerun
         )
         if report_views > 0 and (scored or not (out / REPORT_NAME).exists()):
             _report(ctx, out, report_views, prepared)
@@ -684,12 +720,13 @@ def _run_locked(
     progress: bool,
     pool: WorkerPool | None,
     timeout: float,
+    force_rerun: bool = False,
 ) -> tuple[Summary, Prepared | None, bool]:
     """The run, then its summary; with the backend the driver prepared (None: nothing was
     left to do) and whether any item was scored."""
     from tqdm import tqdm
 
-    record, done, todo, prepared = _open_run(ctx, out, resume)
+    record, done, todo, prepared = _open_run(ctx, out, resume, force_rerun)
     t0 = time.perf_counter()
     if use_ray:
         imports = pool.imports if pool is not None else ()
@@ -732,16 +769,19 @@ def run_end(out: Path | str, size: int | None = None, label: str = "") -> RunEnd
 
 
 def _open_run(
-    ctx: RunContext, out: Path, resume: bool
+    ctx: RunContext, out: Path, resume: bool, force_rerun: bool = False
 ) -> tuple[dict[str, Any] | None, set[int], list[int], Prepared | None]:
     """Check that ``out`` may take this run (or its resume), prepare the backend if there
     is work left and record a new run: (the run record, the items done, the items to do,
-    what preparing learnt)."""
+    what preparing learnt). ``force_rerun``: results scored by other code of the backend
+    are discarded rather than refused."""
+    from beo_bench.backend import code_digest
     from beo_bench.objects import LIBRARY_VERSION
 
     results, record_path = out / RESULTS_NAME, out / RECORD_NAME
     meta = _identity(ctx)
     old = _read_record(record_path)
+    code = code_digest(ctx.backend.name, ctx.backend.options)
     try:
         has_results = results.exists() and results.stat().st_size > 0
     except OSError as e:
@@ -753,6 +793,11 @@ def _open_run(
                 "run, or choose another --out"
             )
         _check_same_run(old, meta, out)
+        assert old is not None  # _check_same_run refuses results without a record
+        # checked before "nothing left to do": a finished run of other code is not reused
+        if _code_changed(old, code, out, force_rerun):
+            _discard_results(out)
+            has_results = False
     scan = _scan(results, repair=has_results)
     done = {r["item"] for r in scan.rows if r["item"] < ctx.suite.size}
     todo = [i for i in range(ctx.suite.size) if i not in done]
@@ -766,6 +811,7 @@ def _open_run(
         old = {
             **meta,
             "model_digest": prepared.model_digest,
+            "code_digest": code,
             "library_version": LIBRARY_VERSION,
             "uses_class_hint": ctx.backend.capabilities.wants_class_hint,
             "privileged": ctx.privileged,
@@ -835,6 +881,7 @@ def _summarise(
             "ray": use_ray,
             "item_timeout_s": timeout,
             "model_digest": digest,
+            "code_digest": (record or {}).get("code_digest"),
             "library_version": (record or {}).get("library_version"),
         },
     )

@@ -50,6 +50,32 @@ def test_sign_flip_samples_many_items_deterministically() -> None:
     assert 0.05 < sign_flip_p(noise, 2000, 5) <= 1
 
 
+def test_the_one_sided_sign_flip_counts_sums_at_least_the_observed_one() -> None:
+    d = np.array([1.0, 2.0, 3.0, 4.0, -0.5])
+    every = [sum(s * x for s, x in zip(signs, d, strict=True))
+             for signs in itertools.product((1, -1), repeat=len(d))]  # fmt: skip
+    expected = np.mean([t >= d.sum() - 1e-12 for t in every])
+    assert sign_flip_p(d, alternative="greater") == pytest.approx(expected) == 2 / 32
+    assert sign_flip_p(np.array([1.0, 1.0, 1.0]), alternative="greater") == pytest.approx(1 / 8)
+    # every unit better: the one-sided test of "worse" finds nothing (two-sided: 2/8)
+    assert sign_flip_p(-np.ones(3), alternative="greater") == 1.0
+    assert sign_flip_p(-np.ones(3)) == pytest.approx(2 / 8)
+    with pytest.raises(ValueError, match="'two-sided' or 'greater'"):
+        sign_flip_p(d, alternative="less")
+
+
+def test_the_one_sided_test_keeps_its_level_on_noise() -> None:
+    """Differences symmetric about 0 (a stochastic backend re-seeded): the one-sided test
+    rejects at 5% about 5% of the time, and less with a margin subtracted."""
+    rng = np.random.default_rng(7)
+    plain = shifted = 0
+    for k in range(300):
+        d = rng.normal(0, 10, size=40)
+        plain += sign_flip_p(d, 499, k, "greater") <= 0.05
+        shifted += sign_flip_p(d - 2.0, 499, k, "greater") <= 0.05
+    assert 0.025 <= plain / 300 <= 0.085 and shifted / 300 < 0.02
+
+
 def test_holm_by_hand() -> None:
     # sorted: 0.005 x 4 = 0.02, 0.01 x 3 = 0.03, 0.03 x 2 = 0.06, 0.04 x 1 -> max 0.06
     assert holm([0.01, 0.04, 0.03, 0.005]) == pytest.approx([0.03, 0.06, 0.06, 0.02])
@@ -58,20 +84,21 @@ def test_holm_by_hand() -> None:
 
 
 def test_holm_keeps_a_metric_that_alone_would_fail_from_failing_among_three(tmp_path) -> None:
-    """Six items, every one worse by the same amount: the exact p is 2/64 = 0.031 on each
-    metric. Alone it fails the gate; three such tests at once, Holm-corrected, do not."""
+    """Five items, every one worse by more than the metric's margin: the exact one-sided p
+    is 1/32 = 0.031 on each metric. Alone it fails the gate; three such tests at once,
+    Holm-corrected, do not."""
     keys = ("rot_err_deg_mean", "trans_err_cm_mean", "size_err_pct_mean")
-    a = [pose_row(i) for i in range(6)]
-    b = [pose_row(i, rot_err_deg=11.0, trans_err_cm=2.0, size_err_pct=6.0) for i in range(6)]
+    a = [pose_row(i) for i in range(5)]
+    b = [pose_row(i, rot_err_deg=16.0, trans_err_cm=2.5, size_err_pct=11.0) for i in range(5)]
     write_run(tmp_path / "a", "beo", a, track="class-free")
     write_run(tmp_path / "b", "beo", b, track="class-free")
     runs, base = gate.load_runs([tmp_path / "b"]), gate.load_baseline(tmp_path / "a")
     alone = gate.gate(runs, base, GateOptions(metrics=keys[:1]))
     assert [v.outcome for v in alone.verdicts] == ["regression"]
-    assert alone.verdicts[0].p == pytest.approx(2 / 64) == alone.verdicts[0].p_holm
+    assert alone.verdicts[0].p == pytest.approx(1 / 32) == alone.verdicts[0].p_holm
     three = gate.gate(runs, base, GateOptions(metrics=keys))
-    assert three.passed and {v.outcome for v in three.verdicts} == {"no difference"}
-    assert all(v.p_holm == pytest.approx(3 * 2 / 64) for v in three.verdicts)
+    assert three.passed and {v.outcome for v in three.verdicts} == {"worse, within the margin"}
+    assert all(v.p_holm == pytest.approx(3 / 32) for v in three.verdicts)
 
 
 # -- verdicts -----------------------------------------------------------------------------------
@@ -79,13 +106,13 @@ def test_direction_comes_from_the_metric_spec(tmp_path) -> None:
     """Lower is better for the rotation error, higher for IoU: a rotation error up and an
     IoU up are a regression and an improvement; only the regression fails."""
     a = [pose_row(i, rot_err_deg=ROT[i], iou=0.4) for i in range(30)]
-    b = [pose_row(i, rot_err_deg=ROT[i] + 5, iou=0.6) for i in range(30)]
+    b = [pose_row(i, rot_err_deg=ROT[i] + 8, iou=0.6) for i in range(30)]
     write_run(tmp_path / "a", "beo", a, track="class-free")
     write_run(tmp_path / "b", "beo", b, track="class-free")
     opts = GateOptions(metrics=("rot_err_deg_mean", "iou_mean"))
     r = gate.gate(gate.load_runs([tmp_path / "b"]), gate.load_baseline(tmp_path / "a"), opts)
     by = {v.metric: v for v in r.verdicts}
-    assert by["rot_err_deg_mean"].outcome == "regression" and by["rot_err_deg_mean"].diff == 5
+    assert by["rot_err_deg_mean"].outcome == "regression" and by["rot_err_deg_mean"].diff == 8
     assert by["iou_mean"].outcome == "improvement"
     assert not r.passed and r.regressions == (by["rot_err_deg_mean"],)
     # the other way round the rotation improves and IoU regresses
@@ -96,15 +123,73 @@ def test_direction_comes_from_the_metric_spec(tmp_path) -> None:
     }
 
 
-def test_the_primary_metric_is_the_default(tmp_path) -> None:
+def test_the_primary_metrics_are_the_default(tmp_path) -> None:
+    """Rotation, translation and class for a pose run (pick where a suite measures it): a
+    translation-only regression fails the default gate, as a rotation one does."""
     r = gate.gate(
         gate.load_runs([_run(tmp_path / "b", 30)]), gate.load_baseline(_run(tmp_path / "a"))
     )
-    assert [v.metric for v in r.verdicts] == ["gross_err_rate"]
-    assert gate.primary_metric("known-pose") == "class_acc"
+    assert [v.metric for v in r.verdicts] == ["rot_err_deg_mean", "trans_err_cm_mean", "class_acc"]
+    assert [v.outcome for v in r.verdicts] == ["regression", "no difference", "no difference"]
+    assert gate.primary_keys() == ("rot_err_deg_mean", "trans_err_cm_mean", "class_acc",
+                                   "pick_success")  # fmt: skip
+    shifted = [pose_row(i, rot_err_deg=ROT[i], trans_err_cm=6.0) for i in range(30)]
+    write_run(tmp_path / "t", "beo", shifted, track="class-free")
+    t = gate.gate(gate.load_runs([tmp_path / "t"]), gate.load_baseline(tmp_path / "a"))
+    assert [v.metric for v in t.regressions] == ["trans_err_cm_mean"]
+    assert t.regressions[0].diff == pytest.approx(5.0) and t.regressions[0].margin == 1.0
+    assert gate.primary_metric("known-pose") == "class_acc"  # a suite's headline metric
     assert gate.primary_metric("pose-3dof+modelnet10") == "gross_err_rate"
-    assert gate.primary_metric("tabletop") == "class_acc"
     assert gate.primary_metric("pick") == "pick_success"
+
+
+def test_a_worsening_within_the_margin_passes_however_many_items(tmp_path) -> None:
+    """Every one of 30 items 4 deg worse: certain, but within the 5 deg margin, so not a
+    regression; 6 deg worse is one."""
+    a = [pose_row(i, rot_err_deg=ROT[i]) for i in range(30)]
+    write_run(tmp_path / "a", "beo", a, track="class-free")
+    opts = GateOptions(metrics=("rot_err_deg_mean",))
+    for shift, outcome in ((4.0, "worse, within the margin"), (6.0, "regression")):
+        b = [pose_row(i, rot_err_deg=ROT[i] + shift) for i in range(30)]
+        write_run(tmp_path / f"b{shift}", "beo", b, track="class-free")
+        runs = gate.load_runs([tmp_path / f"b{shift}"])
+        (v,) = gate.gate(runs, gate.load_baseline(tmp_path / "a"), opts).verdicts
+        assert (v.outcome, v.margin, v.diff) == (outcome, 5.0, pytest.approx(shift))
+    assert gate.margin("rot_err_deg_mean") == 5.0 and gate.margin("edt_err_mean") == 0.0
+
+
+def test_pooled_over_suites_the_gate_finds_what_no_suite_alone_shows(tmp_path) -> None:
+    """Three suites of 20 items, each 3/4 of its items 14 deg worse and 1/4 10 deg better
+    (+8 deg on the mean): one suite alone is within its noise, the three pooled are a
+    regression. A suite's two tracks score the same items: one unit each, not two."""
+    suites = ("pose-1dof", "pose-3dof", "pose-3dof-ood")
+    opts = GateOptions(metrics=("rot_err_deg_mean",))
+    for suite in suites:
+        a = [pose_row(i, rot_err_deg=ROT[i]) for i in range(20)]
+        b = [pose_row(i, rot_err_deg=ROT[i] + (-10.0 if i % 4 == 0 else 14.0)) for i in range(20)]
+        write_run(tmp_path / "base" / suite, "beo", a, suite, track="class-free")
+        write_run(tmp_path / "runs" / suite, "beo", b, suite, track="class-free")
+        alone = gate.gate(
+            gate.load_runs([tmp_path / "runs" / suite]),
+            gate.load_baseline(tmp_path / "base" / suite),
+            opts,
+        )
+        assert alone.passed and alone.verdicts[0].p > 0.05, suite
+    pooled = gate.gate(
+        gate.load_runs([tmp_path / "runs"]), gate.load_baseline(tmp_path / "base"), opts
+    )
+    (v,) = pooled.verdicts
+    assert v.regression and v.p < 0.05 and v.diff == pytest.approx(8.0)
+    assert (v.n_items, v.n_views, v.suites) == (60, 60, tuple(f"{s}@class-free" for s in suites))
+    assert [p.diff for p in v.parts] == pytest.approx([8.0] * 3)
+
+    # the class-given track of pose-1dof too: the same 20 items, so still 60 units
+    write_run(tmp_path / "base" / "given", "beo", [pose_row(i) for i in range(20)])
+    write_run(tmp_path / "runs" / "given", "beo", [pose_row(i) for i in range(20)])
+    both = gate.gate(
+        gate.load_runs([tmp_path / "runs"]), gate.load_baseline(tmp_path / "base"), opts
+    )
+    assert (both.verdicts[0].n_items, both.verdicts[0].n_views) == (60, 80)
 
 
 def test_identical_runs_pass_with_p_one(tmp_path) -> None:
@@ -132,7 +217,7 @@ def test_a_baseline_file_gates_as_its_run_does(tmp_path) -> None:
     from_file = gate.gate(runs, gate.load_baseline(tmp_path / "base.json"), opts)
     from_dir = gate.gate(runs, gate.load_baseline(tmp_path / "a"), opts)
     assert [v.to_json() for v in from_file.verdicts] == [v.to_json() for v in from_dir.verdicts]
-    with pytest.raises(GateUsageError, match="no view scored on 'class_acc'"):
+    with pytest.raises(GateUsageError, match=r"nothing to gate.*no view scored on it in both"):
         gate.gate(runs, gate.load_baseline(tmp_path / "base.json"), GateOptions(("class_acc",)))
 
 
@@ -190,24 +275,30 @@ def test_bad_arguments_exit_2(tmp_path, capsys) -> None:
     assert main(["gate", a, "--baseline", str(tmp_path / "none.json")]) == 2
     assert "--baseline " in capsys.readouterr().err
     assert main(["gate", a, "--baseline", a, "--metrics", "pick_success"]) == 2
-    assert "has no metric 'pick_success'" in capsys.readouterr().err
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "nothing to gate: no run measures pick_success" in err[0]
+    assert "give --metrics among" in err[0]
 
 
 # -- several suites, the reports ---------------------------------------------------------------
 def test_runs_pair_with_their_suites_baseline_and_the_reports_say_it(
     tmp_path, capsys, monkeypatch
 ) -> None:
-    """A directory of runs against a baseline of three: each run finds its suite label's
-    entry; the one without a run is a skipped test case; the JUnit file has a test case per
-    (suite, metric) and a failure element for the regression; the Markdown summary is
-    written and appended to $GITHUB_STEP_SUMMARY."""
+    """A directory of runs against a baseline of four: each run finds its suite label's
+    entry and each metric is one test pooled over the runs that measure it; a suite that
+    does not measure a metric given by --metrics is skipped, not refused, and so is the
+    baseline run no run was gated against; every report says so (JUnit skipped test
+    cases), the JUnit failure is on the regression, the Markdown summary is written and
+    appended to $GITHUB_STEP_SUMMARY."""
     _run(tmp_path / "base" / "one")
     _run(tmp_path / "base" / "two", track="class-given")
-    write_run(tmp_path / "base" / "three", "beo", [pose_row(i) for i in range(6)], "known-pose",
-              track=None)  # fmt: skip
+    known = [pose_row(i) for i in range(6)]
+    write_run(tmp_path / "base" / "three", "beo", known, "known-pose", track=None)
+    write_run(tmp_path / "base" / "four", "beo", known, "pose-3dof", track="class-free")
     main(["baseline", str(tmp_path / "base"), "--out", str(tmp_path / "base.json")])
     _run(tmp_path / "runs" / "one", 30)  # class-free: every view now a gross error
     _run(tmp_path / "runs" / "two", track="class-given")
+    write_run(tmp_path / "runs" / "three", "beo", known, "known-pose", track=None)
     step = tmp_path / "step.md"
     step.write_text("earlier step\n")
     monkeypatch.setenv("GITHUB_STEP_SUMMARY", str(step))
@@ -217,30 +308,40 @@ def test_runs_pair_with_their_suites_baseline_and_the_reports_say_it(
     capsys.readouterr()
     assert main([*argv, "--metrics", "gross_err_rate", "iou_mean"]) == 3
     io = capsys.readouterr()
-    assert io.err.startswith("beo-bench: gate failed: regression in pose-1dof@class-free")
+    assert io.err.startswith("beo-bench: gate failed: regression in beo > 15 deg over 2 runs")
     assert len(io.err.strip().splitlines()) == 1
-    assert "gate: 1 regression in 4 tests" in io.out
+    assert "gate: 1 regression in 2 tests" in io.out
+    assert "skipped        known-pose: gross_err_rate" in io.out
+    assert "pose-1dof@class-free: " in io.out  # the regression's suites, under it
 
     root = ET.parse(out["junit"]).getroot()
-    assert (root.get("tests"), root.get("failures"), root.get("skipped")) == ("5", "1", "1")
+    assert (root.get("tests"), root.get("failures"), root.get("skipped")) == ("4", "1", "2")
     cases = {(ts.get("name"), tc.get("name")): tc for ts in root for tc in ts.iter("testcase")}
     assert set(cases) == {
-        ("pose-1dof@class-free", "gross_err_rate"),
-        ("pose-1dof@class-free", "iou_mean"),
-        ("pose-1dof@class-given", "gross_err_rate"),
-        ("pose-1dof@class-given", "iou_mean"),
-        ("known-pose", "run"),
+        ("beo", "gross_err_rate"),
+        ("beo", "iou_mean"),
+        ("known-pose", "gross_err_rate"),
+        ("pose-3dof@class-free", "run"),
     }
     failed = [k for k, tc in cases.items() if tc.find("failure") is not None]
-    assert failed == [("pose-1dof@class-free", "gross_err_rate")]
+    assert failed == [("beo", "gross_err_rate")]
     assert cases[failed[0]].find("failure").get("message").startswith("regression: ")
-    assert cases[("known-pose", "run")].find("skipped") is not None
+    assert cases[("known-pose", "gross_err_rate")].find("skipped") is not None
+    assert cases[("pose-3dof@class-free", "run")].find("skipped") is not None
 
     report = json.loads(out["json"].read_text())
     assert report["passed"] is False and report["regressions"] == 1
-    assert report["not_run"] == ["known-pose"]
+    assert report["not_run"] == ["pose-3dof@class-free"]
+    assert [(s["suite"], s["metric"]) for s in report["skipped"]] == [
+        ("known-pose", "gross_err_rate")
+    ]
+    by = {v["metric"]: v for v in report["verdicts"]}
+    assert by["gross_err_rate"]["suites"] == ["pose-1dof@class-free", "pose-1dof@class-given"]
+    assert by["gross_err_rate"]["items"] == 30 and by["gross_err_rate"]["views"] == 60
+    assert len(by["iou_mean"]["suites"]) == 3 and by["iou_mean"]["outcome"] == "no difference"
     md = out["markdown"].read_text()
     assert md.startswith("### beo-bench gate: 1 regression") and "**regression**" in md
+    assert "Skipped (the suite does not measure the metric): known-pose: gross_err_rate" in md
     assert step.read_text() == "earlier step\n" + md
 
 
@@ -329,3 +430,17 @@ def test_all_runs_the_smoke_set_at_its_sizes_unless_episodes_is_given(
     assert set(seen[1][0].values()) == {3} and seen[1][1]["max_failure_rate"] is None
     assert main(["all", "--suites", "smok", "--out", str(tmp_path)]) == 2
     assert "suite sets ['smoke']" in capsys.readouterr().err
+
+
+def test_each_backend_is_tested_apart(tmp_path) -> None:
+    """Runs of two backends against a baseline of both: each backend's metric is its own
+    test (one backend's regression is not diluted by the other's runs)."""
+    for backend, shift in (("beo", 30.0), ("icp", 0.0)):
+        _run(tmp_path / "base" / backend, backend=backend)
+        _run(tmp_path / "runs" / backend, shift, backend=backend)
+    opts = GateOptions(metrics=("rot_err_deg_mean",))
+    r = gate.gate(gate.load_runs([tmp_path / "runs"]), gate.load_baseline(tmp_path / "base"), opts)
+    assert [(v.backend, v.outcome, v.n_items) for v in r.verdicts] == [
+        ("beo", "regression", 30),
+        ("icp", "no difference", 30),
+    ]

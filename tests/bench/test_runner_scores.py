@@ -41,9 +41,12 @@ def test_oracle_on_tabletop_scores_every_visible_object(tmp_path) -> None:
 
 def test_oracle_picks_exactly_like_the_ground_truth_planner(tmp_path) -> None:
     """Episode by episode, the oracle's pick (its exact mesh, the other objects' true
-    surfaces as obstacles) does what ``pick-check``'s ground-truth planner does."""
+    surfaces as obstacles) does what ``pick-check``'s ground-truth planner does on the same
+    episode (its seed, and its target class asked for)."""
+    from beo_bench.bench.kinds.pick import target_class
     from beo_bench.bench.suites import episode_seed
     from beo_bench.envs.pickcheck import ground_truth_pick_check
+    from beo_bench.objects import pickable_categories
 
     n = 10
     s = short_run(tmp_path, "pick", "oracle", n)
@@ -52,9 +55,13 @@ def test_oracle_picks_exactly_like_the_ground_truth_planner(tmp_path) -> None:
         read_rows(tmp_path / f"pick-oracle-{n}" / "results.jsonl"), key=lambda r: r["item"]
     )
     suite = get_suite("pick")
+    cats = pickable_categories()
     for r in rows:
-        gt = ground_truth_pick_check(1, episode_seed(suite, r["item"])).episodes[0]
+        asked = {"target_class": target_class(r["item"], len(cats))}
+        seed = episode_seed(suite, r["item"])
+        gt = ground_truth_pick_check(1, seed, reset_options=asked).episodes[0]
         assert (r["success"], r["category"]) == (gt.success, gt.category), r
+    assert [r["category"] for r in rows] == list(cats[:n])  # the balanced target classes
     assert s["metrics"]["pick_success"] >= 0.7  # the ceiling is about 92% (docs/objects.md)
 
 

@@ -126,12 +126,44 @@ def test_a_huge_or_tiny_quaternion_is_normalised_not_a_scipy_error(scale) -> Non
 
 @pytest.mark.parametrize(
     "options, match",
-    [("seed=3", "must be a dict"), ([("seed", 3)], "must be a dict"), ({"seed": 3}, "'seed'")],
+    [
+        ("seed=3", "must be a dict"),
+        ([("seed", 3)], "must be a dict"),
+        ({"seed": 3}, "'seed'.*takes only 'target_class'"),
+        ({"target_class": 18}, r"out of range; use an index 0\.\.17"),
+        ({"target_class": -1}, "out of range"),
+        ({"target_class": "mugs"}, "did you mean 'mug'"),
+        ({"target_class": 1.0}, "give an index into env.unwrapped.categories"),
+        ({"target_class": True}, "give an index into env.unwrapped.categories"),
+    ],
 )
 def test_bad_reset_options_are_refused(env, options, match) -> None:
     with pytest.raises(EnvConfigError, match=match):
         env.reset(seed=0, options=options)
     env.reset(seed=0, options={})  # gymnasium's wrappers may pass an empty dict
+
+
+def test_a_requested_target_class_is_in_the_scene_and_is_the_target(env) -> None:
+    """``reset(options={"target_class": c})``: the scene holds an object of class c (an
+    index or a name alike) and it is the target, the same for the same seed; without it,
+    or with it None or an empty dict, the seed's own scene."""
+    u = env.unwrapped
+    for seed, asked in [(0, 0), (0, "mug"), (5, 17), (89, "chair"), (89, np.int64(4))]:
+        obs, info = env.reset(seed=seed, options={"target_class": asked})
+        want = asked if isinstance(asked, str) else u.categories[asked]
+        cats = [g.category for g in u.ground_truth()]
+        assert u.categories[obs["target_class"]] == want == cats[u.target_label - 1]
+        assert len(set(cats)) == len(cats) == info["num_objects"]  # still distinct classes
+        # by name or by index, after another episode: the same scene
+        env.reset(seed=seed + 1)
+        again, _ = env.reset(seed=seed, options={"target_class": u.categories.index(want)})
+        for k in obs:
+            np.testing.assert_array_equal(obs[k], again[k])
+    plain, _ = env.reset(seed=3)
+    for options in (None, {}, {"target_class": None}):
+        same, _ = env.reset(seed=3, options=options)
+        for k in plain:
+            np.testing.assert_array_equal(plain[k], same[k])
 
 
 def test_quaternion_is_normalised() -> None:

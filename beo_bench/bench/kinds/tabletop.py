@@ -61,8 +61,15 @@ class SceneItems(Items):
 
     def reset(self, index: int) -> dict[str, Any]:
         """The env reset to item ``index``'s episode; its observation."""
-        obs, _ = self.env.reset(seed=episode_seed(self.suite, index))
+        obs, _ = self.env.reset(
+            seed=episode_seed(self.suite, index), options=self.reset_options(index)
+        )
         return obs
+
+    def reset_options(self, index: int) -> dict[str, Any] | None:
+        """The env's reset options of item ``index``: none, the scene is the seed's (the
+        pick suite asks for its episodes' target classes: :class:`~.pick.PickItems`)."""
+        return None
 
     def scene_views(self, obs: dict[str, Any]) -> list[View]:
         """The scored views of the scene ``obs`` shows: every object with ``min_pixels``."""

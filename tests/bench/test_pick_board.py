@@ -1,0 +1,173 @@
+"""The pick page (issue 47): every run's episodes in the page's JSON, one short record each,
+so that any two rows pair after the fact; every method paired with hbeo and the MDN's modes
+with each other, episode by episode, with an interval, an exact McNemar p and a verdict, in
+the page and in its ``_paired.json`` (``"pairing": "method"``), bounds never paired; and the
+per-category successes with their counts."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy.stats import binomtest
+
+from beo_bench.bench.leaderboard import (
+    EPISODE_FIELDS,
+    Row,
+    Section,
+    episodes,
+    mcnemar_p,
+    page_json,
+    pick_category_table,
+    pick_comparisons,
+    regenerate,
+)
+from tests.bench.synthetic_runs import write_run
+
+N = 60
+CATS = ("bowl", "mug", "can")
+HBEO = np.random.default_rng(1).random(N) < 0.5
+"""hbeo's successes; the other rows are defined from it."""
+FLIP = np.flatnonzero(~HBEO)[:12]
+"""Episodes hbeo missed that icp picks (icp: hbeo's successes and these)."""
+
+
+def pick_row(item: int, success: bool, found: bool | None = True) -> dict:
+    """Episode ``item`` of a pick run (its target of class ``item mod 3``)."""
+    c = item % len(CATS)
+    return {
+        "item": item,
+        "view": 0,
+        "category": CATS[c],
+        "true_class": c,
+        "views": 2,
+        "failure": None,
+        "success": bool(success),
+        "reason": "success" if success else "nothing_lifted",
+        "chosen_is_target": found,
+        "ms": 5.0,
+        "ms_decision": 10.0,
+    }
+
+
+def _rows(success: np.ndarray) -> list[dict]:
+    return [pick_row(i, bool(s)) for i, s in enumerate(success)]
+
+
+@pytest.fixture(scope="module")
+def board(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("pick")
+    runs = tmp / "runs"
+    icp = HBEO.copy()
+    icp[FLIP] = True
+    mdn = HBEO.copy()
+    mdn[:4] = ~mdn[:4]  # four episodes differ from hbeo, both ways
+    write_run(runs / "hbeo", "hbeo", _rows(HBEO), suite="pick", track=None, size=500)
+    write_run(runs / "icp", "icp", _rows(icp), suite="pick", track=None, size=500)
+    for mode in ("likelihood", "posterior"):
+        write_run(runs / mode, f"hbeo-mdn-{mode}", _rows(mdn), suite="pick", track=None, size=500)
+    # a nothing-chosen episode and a failed one: their records say so
+    beo = _rows(HBEO)
+    beo[0].update(success=False, reason="no_estimate", chosen_is_target=None)
+    write_run(runs / "beo", "beo", beo, suite="pick", track=None, size=500)
+    for name, kw in (("oracle", {}), ("random", {}), ("swap", {"base": "hbeo"})):
+        every = _rows(np.ones(N, bool))
+        write_run(runs / name, name, every, suite="pick", track=None, size=500, kwargs=kw,
+                  privileged=name != "random")  # fmt: skip
+    # the same backends under another sensor: their part gets its comparisons too
+    write_run(runs / "hbeo-d435", "hbeo", _rows(HBEO), suite="pick", track=None, size=500,
+              sensor="d435")  # fmt: skip
+    write_run(runs / "icp-d435", "icp", _rows(HBEO), suite="pick", track=None, size=500,
+              sensor="d435")  # fmt: skip
+    regenerate(runs, tmp / "board")
+    return tmp / "board"
+
+
+def test_the_page_json_holds_every_runs_episodes_one_line_each(board) -> None:
+    text = (board / "pick.json").read_text()
+    rows = json.loads(text)
+    assert len(rows) == 10
+    for s in rows:
+        assert s["episode_fields"] == list(EPISODE_FIELDS)
+        assert [r[0] for r in s["episodes"]] == list(range(N))
+    icp = next(s for s in rows if s["backend"] == "icp" and s["sensor"] == "ideal")
+    assert icp["episodes"][FLIP[0]] == [int(FLIP[0]), CATS[FLIP[0] % 3], True, "success", True]
+    beo = episodes(next(s for s in rows if s["backend"] == "beo"))
+    assert beo[0] == {"item": 0, "category": "bowl", "success": False, "reason": "no_estimate",
+                      "chosen_is_target": None}  # fmt: skip
+    # one line per record: 10 runs of 60 episodes are 600 lines of the file, not 4,200
+    assert sum(ln.startswith("      [") for ln in text.splitlines()) == 10 * N
+
+
+def test_page_json_is_plain_json_without_episodes_and_keeps_a_record_a_line() -> None:
+    plain = [{"b": 1, "a": [1, 2]}]
+    assert page_json(plain) == json.dumps(plain, indent=2, sort_keys=True) + "\n"
+    shown = [{"backend": "x", "episodes": [[0, "mug", True, "success", True]]}, {"episodes": []}]
+    text = page_json(shown)
+    assert json.loads(text) == shown
+    assert '      [0, "mug", true, "success", true]\n' in text
+
+
+def test_every_method_is_paired_with_hbeo_and_the_mdn_modes_with_each_other(board) -> None:
+    paired = json.loads((board / "pick_paired.json").read_text())
+    method = [p for p in paired if p["pairing"] == "method" and "sensor" not in p]
+    pairs = {(p["method"], p["baseline"]) for p in method}
+    assert pairs == {
+        ("beo", "hbeo"),
+        ("icp", "hbeo"),
+        ("hbeo-mdn-likelihood", "hbeo"),
+        ("hbeo-mdn-posterior", "hbeo"),
+        ("hbeo-mdn-posterior", "hbeo-mdn-likelihood"),
+    }  # no oracle, random or swap: bounds and privileged rows are never paired
+    icp = next(p for p in method if p["method"] == "icp")
+    assert icp["metric"] == "pick_success" and icp["items"] == N
+    assert icp["diff"] == pytest.approx(len(FLIP) / N)
+    assert (icp["method_only"], icp["baseline_only"]) == (len(FLIP), 0)
+    assert icp["p_value"] == pytest.approx(2 / 2 ** len(FLIP))
+    assert icp["ci95"][0] > 0 and icp["verdict"] == "better"
+    modes = next(p for p in method if p["baseline"] == "hbeo-mdn-likelihood")
+    assert modes["diff"] == 0 and modes["p_value"] == 1 and modes["verdict"] == "no difference"
+    beo = next(p for p in method if p["method"] == "beo")
+    assert (beo["method_only"], beo["baseline_only"]) == (0, int(HBEO[0]))
+    # the d435 part pairs its own runs, marked with their sensor
+    d435 = [p for p in paired if p["pairing"] == "method" and p.get("sensor") == "d435"]
+    assert [(p["method"], p["baseline"], p["diff"]) for p in d435] == [("icp", "hbeo", 0.0)]
+
+
+def test_the_page_shows_the_comparisons_and_counts_per_category(board) -> None:
+    md = (board / "pick.md").read_text()
+    line = next(ln for ln in md.splitlines() if ln.startswith("| icp | hbeo |"))
+    k = int(HBEO.sum())
+    assert line.split(" | ")[2:5] == [str(N), f"{100 * k / N:.1f}%",
+                                      f"{100 * (k + len(FLIP)) / N:.1f}%"]  # fmt: skip
+    assert line.endswith(f"| {len(FLIP)} | 0 | <0.001 | **better** |")
+    assert "| hbeo-mdn-posterior | hbeo-mdn-likelihood | 60 |" in md
+    assert "pick success per category (successes / episodes):" in md
+    bowl = next(ln for ln in md.split("## Robustness")[0].splitlines() if ln.startswith("| bowl |"))
+    hbeo_bowl = int(HBEO[0::3].sum())
+    beo_bowl = hbeo_bowl - int(HBEO[0])  # beo missed episode 0, a bowl
+    cells = bowl.strip("| ").split(" | ")  # category, beo, hbeo, ... (bounds last)
+    assert cells[2] == f"{hbeo_bowl}/20 ({100 * hbeo_bowl / 20:.0f}%)"
+    assert cells[1] == f"{beo_bowl}/20 ({100 * beo_bowl / 20:.0f}%)"
+    # the index shows them too
+    assert "| icp | hbeo | 60 |" in (board / "README.md").read_text()
+
+
+def test_a_category_table_without_per_category_figures_is_empty() -> None:
+    assert pick_category_table([Row({"backend": "x", "metrics": {}})]) == ""
+
+
+def test_rows_without_episodes_are_not_paired() -> None:
+    """A row whose records are not there (a kept page's, written before the records) gets
+    no comparison rather than one over nothing."""
+    rows = [Row({"backend": b, "metrics": {}, "provenance": {}}) for b in ("hbeo", "icp")]
+    assert pick_comparisons(Section("pick", 5, None, 5000, 500, rows)) == []
+
+
+@pytest.mark.parametrize("b_only, a_only", [(0, 6), (12, 0), (3, 9), (7, 7), (40, 61), (0, 0)])
+def test_mcnemar_p_is_the_exact_two_sided_sign_test(b_only, a_only) -> None:
+    n = b_only + a_only
+    want = 1.0 if n == 0 else binomtest(b_only, n, 0.5).pvalue
+    assert mcnemar_p(b_only, a_only) == pytest.approx(want, rel=1e-9)
+    assert mcnemar_p(a_only, b_only) == mcnemar_p(b_only, a_only)
