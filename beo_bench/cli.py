@@ -1321,7 +1321,7 @@ FORCE_RERUN_HELP = (
 
 def _add_gate(sub: Any, data: argparse.ArgumentParser) -> None:
     """The ``gate`` command."""
-    from beo_bench.bench.gate import DEFAULT_ALPHA, DEFAULT_PERMUTATIONS
+    from beo_bench.bench.gate import DEFAULT_ALPHA, DEFAULT_PERMUTATIONS, primary_keys
 
     g = sub.add_parser(
         "gate",
@@ -1356,7 +1356,7 @@ def _add_gate(sub: Any, data: argparse.ArgumentParser) -> None:
         metavar="METRIC",
         help="summary metrics to gate, each pooled over the suites that measure it (a suite "
         "that does not is skipped, and the reports say so), e.g. gross_err_rate iou_mean "
-        "(default: rot_err_deg_mean trans_err_cm_mean class_acc pick_success)",
+        f"(default: {' '.join(primary_keys())})",
     )
     g.add_argument(
         "--alpha",

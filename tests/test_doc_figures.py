@@ -241,3 +241,48 @@ def test_results_md_names_beos_weakest_quoted_class_from_the_dissertation_rows()
         for per in rows:
             weakest = min(per, key=lambda c: per[c])
             assert cls == weakest.replace("_", " "), (cls, figure, per)
+
+
+def _pick_board(
+    root: Path, rows: list[tuple[str, dict, float]], paired: list[dict] | None = None
+) -> Boards:
+    """A leaderboard directory with a ``pick`` page of ``rows`` ((backend, options, pick
+    success)) at the suite's own sensor, and its paired entries."""
+    s = get_suite("pick")
+    out = [
+        {"backend": name, "provenance": {"backend_kwargs": kwargs}, "track": None,
+         "seed": s.seed, "n": 10, "metrics": {"pick_success": v}}
+        for name, kwargs, v in rows
+    ]  # fmt: skip
+    root.mkdir(parents=True, exist_ok=True)
+    (root / "pick.json").write_text(json.dumps(out))
+    (root / "pick_paired.json").write_text(json.dumps(paired or []))
+    return Boards(root)
+
+
+def test_a_swap_not_run_at_this_version_is_a_dash_not_an_error(tmp_path) -> None:
+    from beo_bench.bench import doctables
+
+    rows = [("hbeo", {}, 0.6), ("hbeo-mdn-posterior", {}, 0.62), ("icp", {}, 0.5),
+            ("oracle", {"mesh": False}, 0.9)]  # fmt: skip
+    for base in ("hbeo", "hbeo-mdn-posterior"):
+        for t in ("class", "pose", "shape"):
+            rows.append(("swap", {"base": base, "truth": t}, 0.7))
+    table = doctables.swap(_pick_board(tmp_path / "lb", rows))
+    assert "| `icp` | 50.0% | - | - | - | 90.0% |" in table
+    assert "| `hbeo` | 60.0% | 70.0% | 70.0% | 70.0% | 90.0% |" in table
+
+
+def test_a_page_without_its_sensor_sections_says_so_in_the_robustness_table(tmp_path) -> None:
+    from beo_bench.bench import doctables
+
+    cells = (("pick", None, "pick_success", "`pick` success"),)
+    b = _pick_board(tmp_path / "lb", [("hbeo", {}, 0.6)])
+    table = doctables.robustness_table(cells)(b)
+    assert f"| `hbeo` | {doctables.NOT_RUN_SENSORS} |" in table
+    # a page that has them for some backends but not all is still an error
+    entry = {"baseline_sensor": "ideal", "metric": "pick_success", "track": None,
+             "method": "hbeo", "sensor": "kinect-v1"}  # fmt: skip
+    b = _pick_board(tmp_path / "lb2", [("hbeo", {}, 0.6)], [entry])
+    with pytest.raises(doctables.MissingFigureError, match="under every sensor"):
+        doctables.robustness_table(cells)(b)

@@ -35,14 +35,16 @@ the difference's 95% paired bootstrap interval over units (the figure ``beo-benc
 prints for one run) and, per suite, its own difference (not tested: what a failure points
 at).
 
-By default the gate tests the declared primary metrics (:data:`PRIMARY_METRICS`), one for
-each thing a backend gets wrong: rotation (the mean rotation error), translation (the mean
-translation error), class (the class accuracy) and pick (pick success); a suite joins each
-test whose metric it measures. Four tests rather than one per suite and metric: pooled, the
-smoke set's 160 isolated views and its scenes count together, and Holm divides alpha by
-four, not by the dozens of (suite, metric) cells, which drowned a 90 deg turn of every
-estimate (issue 47). ``--metrics`` tests others instead, pooled the same way; a suite that
-does not measure one is left out of that test and listed in the report as skipped.
+By default the gate tests the declared primary metrics (:data:`PRIMARY_METRICS`), for each
+thing a backend gets wrong: rotation (the mean rotation error and the > 15 deg rate),
+translation (the mean translation error), class (the class accuracy) and pick (pick
+success); a suite joins each test whose metric it measures. Five tests rather than one per
+suite: pooled, the smoke set's 126 items that score a pose (166 a class) count together,
+and Holm divides alpha by five at most, not by the number of runs (issue 47 saw a 90 deg
+turn of every estimate pass, its p of 0.065 made 1 by 16 tests; docs/ci.md, "What the
+default gate catches", has what the gate catches now).
+``--metrics`` tests others instead, pooled the same way; a suite that does not measure one
+is left out of that test and listed in the report as skipped.
 """
 
 from __future__ import annotations
@@ -95,7 +97,8 @@ ViewKey = tuple[int, int]
 
 class GateUsageError(UsageError):
     """A gate asked for in a way that cannot work: runs that do not pair with the baseline,
-    a metric a suite does not measure, a damaged baseline file (exit status 2)."""
+    an unknown metric or none that a run measures, a damaged baseline file (exit status
+    2)."""
 
 
 class GateFailure(ThresholdError):
@@ -121,15 +124,19 @@ class GateMetric:
 
 PRIMARY_METRICS: tuple[GateMetric, ...] = (
     GateMetric("rot_err_deg_mean", "rotation"),
+    GateMetric("gross_err_rate", "rotation"),
     GateMetric("trans_err_cm_mean", "translation"),
     GateMetric("class_acc", "class"),
     GateMetric("pick_success", "pick"),
 )
 """The gate's default tests, declared here and nowhere else (docs/benchmark.md, "A
-regression gate"): each suite joins those whose metric it measures. The mean rotation error
-rather than the > 15 deg rate: a turn of a view that is already wrong moves the rate not at
-all, and pooled over a hundred views one view's 180 deg moves the mean by under 2 deg, less
-than its margin."""
+regression gate"): each suite joins those whose metric it measures. The rotation has two,
+because each misses what the other sees: the mean error, which a turn of views that are
+already wrong moves and the > 15 deg rate does not; and the > 15 deg rate, which a small
+bias of views that were right moves (a 10 deg turn of every estimate: 19 points of
+``hbeo``'s smoke views more over 15 deg) while the mean, led by the views that are far off,
+moves by 2 deg. Pooled over a hundred views, one view's 180 deg moves the mean by under 2
+deg and the rate by one view: both under their margins."""
 
 MARGINS: dict[str, float] = {
     # degrees: NOCS's tightest rotation threshold (5deg2cm)

@@ -1664,7 +1664,10 @@ def _track_part(
         at = ablations.ablation_table(abl)
         picks = pick_comparisons(sec, sensor) if is_pick_suite(suite) else []
         page.comparisons += picks
-        vt = "\n\n".join(t for t in (vt, at, pick_comparison_table(picks)) if t)
+        # the suite's own sensor shows these pairs once, as the page's primary comparisons
+        # (Holm-corrected); under another sensor they are exploratory
+        mt = pick_comparison_table(picks) if sensor is not None else ""
+        vt = "\n\n".join(t for t in (vt, at, mt) if t)
         if sensor is None:  # the index shows the suite's own sensor (and the robustness)
             page.index += [f"### {_heading(suite, track)}: {sec.title}", "", table, ""]
             page.index += [vt, ""] if vt else []

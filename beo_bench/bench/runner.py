@@ -3,9 +3,11 @@
 Results go to ``OUT/results.jsonl`` (one line per scored view or episode) and
 ``OUT/summary.json``; ``OUT/run.json`` records what the run is (suite with its track,
 backend, options, the backend's model digest, a plugin's code digest, the object library
-version, whether the backend can use the class hint), and a resume must match it. The summary carries the
-track (``"track"``: ``class-given``, ``class-free`` or null for a suite without tracks),
-``"uses_class_hint"`` and ``"model_digest"`` at its top level, for the leaderboard.
+version, whether the backend can use the class hint), and a resume must match it (a
+plugin's changed code is refused, or run again with ``force_rerun``). The summary carries
+the track (``"track"``: ``class-given``, ``class-free`` or null for a suite without
+tracks), ``"uses_class_hint"`` and ``"model_digest"`` at its top level, for the
+leaderboard.
 
 A run is resolved once into its :class:`~beo_bench.bench.runs.RunContext` (the backend's
 options parsed and capabilities read without building it); the driver then builds the

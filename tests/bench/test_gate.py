@@ -124,15 +124,18 @@ def test_direction_comes_from_the_metric_spec(tmp_path) -> None:
 
 
 def test_the_primary_metrics_are_the_default(tmp_path) -> None:
-    """Rotation, translation and class for a pose run (pick where a suite measures it): a
-    translation-only regression fails the default gate, as a rotation one does."""
+    """Rotation (its mean and the > 15 deg rate), translation and class for a pose run
+    (pick where a suite measures it): a translation-only regression fails the default gate,
+    as a rotation one does."""
     r = gate.gate(
         gate.load_runs([_run(tmp_path / "b", 30)]), gate.load_baseline(_run(tmp_path / "a"))
     )
-    assert [v.metric for v in r.verdicts] == ["rot_err_deg_mean", "trans_err_cm_mean", "class_acc"]
-    assert [v.outcome for v in r.verdicts] == ["regression", "no difference", "no difference"]
-    assert gate.primary_keys() == ("rot_err_deg_mean", "trans_err_cm_mean", "class_acc",
-                                   "pick_success")  # fmt: skip
+    assert [v.metric for v in r.verdicts] == [
+        "rot_err_deg_mean", "gross_err_rate", "trans_err_cm_mean", "class_acc",
+    ]  # fmt: skip
+    assert [v.outcome for v in r.verdicts] == ["regression"] * 2 + ["no difference"] * 2
+    assert gate.primary_keys() == ("rot_err_deg_mean", "gross_err_rate", "trans_err_cm_mean",
+                                   "class_acc", "pick_success")  # fmt: skip
     shifted = [pose_row(i, rot_err_deg=ROT[i], trans_err_cm=6.0) for i in range(30)]
     write_run(tmp_path / "t", "beo", shifted, track="class-free")
     t = gate.gate(gate.load_runs([tmp_path / "t"]), gate.load_baseline(tmp_path / "a"))
@@ -141,6 +144,23 @@ def test_the_primary_metrics_are_the_default(tmp_path) -> None:
     assert gate.primary_metric("known-pose") == "class_acc"  # a suite's headline metric
     assert gate.primary_metric("pose-3dof+modelnet10") == "gross_err_rate"
     assert gate.primary_metric("pick") == "pick_success"
+
+
+def test_each_rotation_metric_sees_what_the_other_misses(tmp_path) -> None:
+    """Views right at 12 deg turned to 16: the mean grows by 4 deg (within its margin), the
+    > 15 deg rate by every view. Views wrong at 60 deg turned to 120: the rate does not
+    move, the mean grows by 60 deg."""
+    found = {}
+    for name, before, after in (("bias", 12.0, 16.0), ("far", 60.0, 120.0)):
+        write_run(tmp_path / name / "a", "beo", [pose_row(i, rot_err_deg=before)
+                  for i in range(20)], track="class-free")  # fmt: skip
+        write_run(tmp_path / name / "b", "beo", [pose_row(i, rot_err_deg=after)
+                  for i in range(20)], track="class-free")  # fmt: skip
+        r = gate.gate(
+            gate.load_runs([tmp_path / name / "b"]), gate.load_baseline(tmp_path / name / "a")
+        )
+        found[name] = [v.metric for v in r.regressions]
+    assert found == {"bias": ["gross_err_rate"], "far": ["rot_err_deg_mean"]}
 
 
 def test_a_worsening_within_the_margin_passes_however_many_items(tmp_path) -> None:

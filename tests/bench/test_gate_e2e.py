@@ -244,11 +244,11 @@ def test_the_default_gate_fails_the_planted_bug_and_passes_a_no_op(repo, planted
         outcome[name] = (status, sorted(v["metric"] for v in report["verdicts"]
                                         if v["outcome"] == "regression"))  # fmt: skip
         assert [v["metric"] for v in report["verdicts"]] == [
-            "rot_err_deg_mean", "trans_err_cm_mean", "class_acc",
+            "rot_err_deg_mean", "gross_err_rate", "trans_err_cm_mean", "class_acc",
         ]  # fmt: skip
         assert all(v["items"] == SMOKE for v in report["verdicts"])
     assert outcome == {
-        "both": (3, ["rot_err_deg_mean", "trans_err_cm_mean"]),
+        "both": (3, ["gross_err_rate", "rot_err_deg_mean", "trans_err_cm_mean"]),
         "shift": (3, ["trans_err_cm_mean"]),
         "no-op": (0, []),
     }
