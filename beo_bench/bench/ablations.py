@@ -78,6 +78,11 @@ and the rank of the best rotation sample (the posterior and the likelihood rank 
 samples: whether the silhouette prior moves the best one up)."""
 
 
+PICK_KEYS: tuple[str, ...] = ("pick_success", "target_found_rate")
+"""What an ablation is paired on in ``pick`` (no pose metric there): whether the variant
+changes the grasps' outcome, and whether it finds the target it must grasp."""
+
+
 @dataclass(frozen=True)
 class AblationResult:
     ablation: Ablation
@@ -109,6 +114,8 @@ def ablation_results(
                     keys = [k for k in ab.keys if k in both]
                 elif both & set(VERDICT_KEYS):
                     keys = [k for k in KEYS if k in both]
+                elif both & set(PICK_KEYS):  # pick: what the variant does to the grasps
+                    keys = [k for k in PICK_KEYS if k in both]
                 else:
                     continue  # no pose metric (known-pose): nothing these variants change
                 if not keys:

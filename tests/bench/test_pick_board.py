@@ -175,3 +175,21 @@ def test_mcnemar_p_is_the_exact_two_sided_sign_test(b_only, a_only) -> None:
     want = 1.0 if n == 0 else binomtest(b_only, n, 0.5).pvalue
     assert mcnemar_p(b_only, a_only) == pytest.approx(want, rel=1e-9)
     assert mcnemar_p(a_only, b_only) == mcnemar_p(b_only, a_only)
+
+
+def test_a_pose_prior_control_pairs_on_pick_success_over_its_prefix(tmp_path) -> None:
+    """A control (``beo:pose_prior=false``) run on the first 30 episodes pairs with ``beo``
+    on those, on pick success and target found (pick has no pose metric to pair on)."""
+    runs = tmp_path / "runs"
+    write_run(runs / "beo", "beo", _rows(HBEO), suite="pick", track=None, size=500)
+    control = HBEO[:30].copy()
+    control[np.flatnonzero(HBEO[:30])[:5]] = False  # five of beo's successes lost
+    write_run(runs / "beo-flat", "beo", _rows(control), suite="pick", track=None, size=500,
+              kwargs={"pose_prior": False})  # fmt: skip
+    regenerate(runs, tmp_path / "board")
+    paired = json.loads((tmp_path / "board" / "pick_paired.json").read_text())
+    abl = {p["metric"]: p for p in paired if p["pairing"] == "ablation"}
+    assert set(abl) == {"pick_success", "target_found_rate"}
+    assert abl["pick_success"]["items"] == 30
+    assert abl["pick_success"]["diff"] == pytest.approx(-5 / 30)  # control - beo
+    assert "Ablations" in (tmp_path / "board" / "pick.md").read_text()

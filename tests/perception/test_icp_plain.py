@@ -61,7 +61,7 @@ def test_the_one_3dof_start_is_upright_and_facing_the_camera() -> None:
     np.testing.assert_array_equal(UPRIGHT[:, 2], [0, -1, 0])  # up: image up (OpenCV y down)
     np.testing.assert_array_equal(UPRIGHT[:, 0], [0, 0, -1])  # front: towards the camera
     b = ICPBackend(starts=1, **FAST)
-    np.testing.assert_array_equal(b._start_rotations(None), UPRIGHT[None])
+    np.testing.assert_array_equal(b._start_rotations(None, None), UPRIGHT[None])  # no prior
 
 
 def test_from_a_near_start_it_is_exact_and_its_score_is_the_plain_residual(plain) -> None:

@@ -9,6 +9,7 @@ import numpy as np
 
 from beo_bench.bench.kinds.common import ItemKind, Items, Rows
 from beo_bench.bench.suites import Kind, Suite, episode_seed
+from beo_bench.errors import UserDataError
 from beo_bench.types import GroundTruth, View
 
 
@@ -60,10 +61,23 @@ class SceneItems(Items):
             self._env = None
 
     def reset(self, index: int) -> dict[str, Any]:
-        """The env reset to item ``index``'s episode; its observation."""
-        obs, _ = self.env.reset(
-            seed=episode_seed(self.suite, index), options=self.reset_options(index)
-        )
+        """The env reset to item ``index``'s episode; its observation. On a user's dataset,
+        a target no camera pose shows (objects loaded too small to see, as a file in the
+        wrong units makes them) is the data's fault, said in one line with the flags that
+        fix it (a :class:`~beo_bench.errors.UserDataError`), never reported as a bug."""
+        from beo_bench.scenes.tabletop import NoVisibleTargetError
+
+        try:
+            obs, _ = self.env.reset(
+                seed=episode_seed(self.suite, index), options=self.reset_options(index)
+            )
+        except NoVisibleTargetError as e:
+            if self.suite.dataset is None:
+                raise  # the library's own objects: that is beo-bench's to fix
+            raise UserDataError(
+                f"item {index} of {self.suite.name}: {e}; with --objects, objects this small "
+                "are usually in other units than detected: give --units or --size METRES"
+            ) from e
         return obs
 
     def reset_options(self, index: int) -> dict[str, Any] | None:
