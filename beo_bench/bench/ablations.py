@@ -10,6 +10,7 @@ committed file that ``beo-bench leaderboard`` regenerates.
 
 from __future__ import annotations
 
+import re
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -18,6 +19,7 @@ from typing import Any
 
 from beo_bench.bench import compare
 from beo_bench.bench.columns import VERDICT_KEYS
+from beo_bench.bench.columns import spec as spec_of
 from beo_bench.errors import UsageError
 
 
@@ -155,3 +157,111 @@ def ablation_table(results: Sequence[AblationResult]) -> str:
 def ablation_json(x: AblationResult) -> dict[str, Any]:
     out = compare.paired_json(x.result, "ablation", x.track, x.ablation.method, x.ablation.baseline)
     return {**out, "what": x.ablation.what}
+
+
+# -- training-seed spread ------------------------------------------------------------------------
+SEED_MODEL = re.compile(r"seed(\d+)-[a-z0-9-]+")
+"""A replicate's model name, ``seed<k>-<network>`` (``beo-bench train hbeo --recipe reference
+--seed 1 --name seed1-hbeo``): the published recipe with another training seed (the
+published models are seed 0). Its runs (``hbeo:model=seed1-hbeo``) are seed replicates of
+the row with the same backend and the other options."""
+
+SEED_KEYS: tuple[str, ...] = (*VERDICT_KEYS, "class_acc", "pick_success")
+"""The figures a seed spread is reported for, where the runs have them."""
+
+
+@dataclass(frozen=True)
+class SeedSpread:
+    """One learned row's figure over its training seeds: the published model's (seed 0) and
+    each replicate's, on the items all of them scored (the means as each run reports them
+    when the runs cover the same items)."""
+
+    label: str
+    key: str
+    published: float
+    seeds: tuple[tuple[int, float], ...]
+
+    @property
+    def values(self) -> list[float]:
+        return [self.published, *(v for _, v in self.seeds)]
+
+    @property
+    def spread(self) -> float:
+        """Max - min over the seeds, the published one included."""
+        return max(self.values) - min(self.values)
+
+
+def seed_spreads(rows: Sequence[Any], label: Callable[[dict[str, Any]], str]) -> list[SeedSpread]:
+    """Every published row of ``rows`` (leaderboard rows of one section) with seed
+    replicates among them, per figure of :data:`SEED_KEYS` that all of its runs have."""
+    published: dict[str, dict[str, Any]] = {}
+    replicas: dict[str, list[tuple[int, dict[str, Any]]]] = {}
+    for r in rows:
+        s = r.summary
+        kwargs = dict(s.get("provenance", {}).get("backend_kwargs") or {})
+        match = SEED_MODEL.fullmatch(str(kwargs.get("model", "")))
+        if match is None:
+            published[label(s)] = s
+            continue
+        del kwargs["model"]
+        base = label({**s, "provenance": {**s.get("provenance", {}), "backend_kwargs": kwargs}})
+        replicas.setdefault(base, []).append((int(match.group(1)), s))
+    out: list[SeedSpread] = []
+    for base, reps in replicas.items():
+        pub = published.get(base)
+        if pub is None or any(s.get("n") != pub.get("n") for _, s in reps):
+            continue  # no published row, or other items: not a spread of the same figure
+        for key in SEED_KEYS:
+            runs = [pub, *(s for _, s in reps)]
+            if all(key in s.get("metrics", {}) for s in runs):
+                seeds = tuple(sorted((k, float(s["metrics"][key])) for k, s in reps))
+                out.append(SeedSpread(base, key, float(pub["metrics"][key]), seeds))
+    return out
+
+
+def seed_table(spreads: Sequence[SeedSpread]) -> str:
+    """Markdown: each learned row's figures at the published seed, at every other seed and
+    their spread; then each pair of learned rows whose gap the seeds could make: the
+    published rows' gap against the larger of their two spreads."""
+    if not spreads:
+        return ""
+    lines = [
+        "Training-seed spread: each learned row's figure with the published model (seed 0) "
+        "and with the same recipe trained from other seeds (`seed<k>-<network>` models), on "
+        "the same items. A gap between two learned rows no larger than their seed spread is "
+        "not a difference between the methods, whatever its paired interval says:",
+        "",
+        "| backend | metric | published (seed 0) | other seeds | spread (max - min) |",
+        "|---|---|---:|---:|---:|",
+    ]
+    for x in spreads:
+        spec = spec_of(x.key)
+        others = ", ".join(f"{k}: {spec.format(v)}" for k, v in x.seeds)
+        lines.append(
+            f"| {x.label} | {spec.label} | {spec.format(x.published)} | {others} "
+            f"| {spec.format_diff(x.spread).lstrip('+')} |"
+        )
+    gaps = []
+    for i, a in enumerate(spreads):
+        for b in spreads[i + 1 :]:
+            if a.key != b.key:
+                continue
+            spec, gap = spec_of(a.key), b.published - a.published
+            widest = max(a.spread, b.spread)
+            says = (
+                "the seeds spread as far as the gap"
+                if abs(gap) <= widest
+                else "the gap exceeds the seed spread"
+            )
+            gaps.append(
+                f"| {b.label} | {a.label} | {spec.label} | {spec.format_diff(gap)} "
+                f"| {spec.format_diff(widest).lstrip('+')} | {says} |"
+            )
+    if gaps:
+        lines += [
+            "",
+            "| method | baseline | metric | published gap | larger seed spread | |",
+            "|---|---|---|---:|---:|---|",
+            *gaps,
+        ]
+    return "\n".join(lines)

@@ -1662,12 +1662,14 @@ def _track_part(
         else:
             page.sensor_ablations += [(sensor, a) for a in abl]
         at = ablations.ablation_table(abl)
+        # the learned rows' training-seed spread (issue 47), under the suite's own sensor
+        st = ablations.seed_table(ablations.seed_spreads(sec.rows, label)) if not sensor else ""
         picks = pick_comparisons(sec, sensor) if is_pick_suite(suite) else []
         page.comparisons += picks
         # the suite's own sensor shows these pairs once, as the page's primary comparisons
         # (Holm-corrected); under another sensor they are exploratory
         mt = pick_comparison_table(picks) if sensor is not None else ""
-        vt = "\n\n".join(t for t in (vt, at, mt) if t)
+        vt = "\n\n".join(t for t in (vt, at, st, mt) if t)
         if sensor is None:  # the index shows the suite's own sensor (and the robustness)
             page.index += [f"### {_heading(suite, track)}: {sec.title}", "", table, ""]
             page.index += [vt, ""] if vt else []

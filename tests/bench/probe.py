@@ -31,6 +31,7 @@ READ_FIELDS = (
     "categories",
     "class_hint",
     "up_hint",
+    "world_up",
     "pose_hint",
     "viewpoint_prior",
     "ground_truth",
@@ -45,6 +46,7 @@ def probe_features(view: View, with_pose_hint: bool = False) -> np.ndarray:
     assert view.ground_truth is None, "the probe is not privileged: it must not get the truth"
     parts = [np.asarray(view.cam_to_world, float).ravel(), np.asarray(view.K, float).ravel()]
     parts.append(np.zeros(3) if view.up_hint is None else np.asarray(view.up_hint, float))
+    parts.append(np.zeros(3) if view.world_up is None else np.asarray(view.world_up, float))
     parts.append([-1.0 if view.class_hint is None else float(view.class_hint)])
     prior = view.viewpoint_prior
     parts.append([0.0, 0.0, 0.0] if prior is None else [*prior.elevation_deg, prior.roll_sigma_deg])

@@ -193,3 +193,28 @@ def test_a_pose_prior_control_pairs_on_pick_success_over_its_prefix(tmp_path) ->
     assert abl["pick_success"]["items"] == 30
     assert abl["pick_success"]["diff"] == pytest.approx(-5 / 30)  # control - beo
     assert "Ablations" in (tmp_path / "board" / "pick.md").read_text()
+
+
+def test_seed_replicates_give_each_learned_row_its_spread_and_judge_the_gap(tmp_path) -> None:
+    """``hbeo:model=seed1-hbeo`` and ``seed2-hbeo`` are hbeo trained from other seeds: the
+    page gives hbeo's pick success at seed 0, at 1 and 2, and the spread; a gap to the MDN
+    smaller than that spread is said to be within it, a larger one to exceed it."""
+    runs = tmp_path / "runs"
+    rate = {0: 30, 1: 24, 2: 36}  # hbeo's successes of 60 at each seed: spread 12 (20 pts)
+    for seed, k in rate.items():
+        kw = {"model": f"seed{seed}-hbeo"} if seed else {}
+        ok = np.arange(N) < k
+        write_run(runs / f"hbeo{seed}", "hbeo", _rows(ok), suite="pick", track=None, size=500,
+                  kwargs=kw)  # fmt: skip
+    for seed, k in {0: 33, 1: 32}.items():  # the MDN: 3 more than hbeo, spread 1
+        kw = {"model": f"seed{seed}-hbeo-mdn"} if seed else {}
+        write_run(runs / f"mdn{seed}", "hbeo-mdn-likelihood", _rows(np.arange(N) < k),
+                  suite="pick", track=None, size=500, kwargs=kw)  # fmt: skip
+    write_run(runs / "icp", "icp", _rows(np.arange(N) < 10), suite="pick", track=None, size=500)
+    regenerate(runs, tmp_path / "board")
+    page = (tmp_path / "board" / "pick.md").read_text()
+    assert "| hbeo | pick success | 50.0% | 1: 40.0%, 2: 60.0% | 20.0% |" in page
+    assert "| hbeo-mdn-likelihood | pick success | 55.0% | 1: 53.3% | 1.7% |" in page
+    gap = "| hbeo-mdn-likelihood | hbeo | pick success | +5.0% | 20.0% | the seeds spread as far"
+    assert gap in page
+    assert "| icp | pick success" not in page  # no replicates: no spread
