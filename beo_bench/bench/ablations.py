@@ -64,6 +64,16 @@ ABLATIONS: tuple[Ablation, ...] = (
     # rotation; issue 28's headroom check reads these pairs on modelnet10-3dof
     Ablation("hbeo-mdn-likelihood", "hbeo", "the MDN's mixture head (chapter 5), likelihood mode"),
     Ablation("hbeo-mdn-posterior", "hbeo", "the MDN's mixture head with eq. 5.6's prior"),
+    # pick's diagnostics (issue 47): what the truth of one component is worth to a backend's
+    # grasps, on the same episodes; and what planning on voxels costs the oracle
+    *(
+        Ablation(f'swap (base="{b}", truth="{t}")', b, f"{b}'s {t} replaced by the truth")
+        for b in ("hbeo", "hbeo-mdn-posterior", "icp")
+        for t in ("class", "pose", "shape")
+    ),
+    Ablation(
+        "oracle (mesh=false)", "oracle", "the oracle planning on its 32^3 voxels, not its mesh"
+    ),
     # chapter 4's comparison at a known pose (Table 3.1 against HBEO's figures): the learned
     # encoder against BEO's projection onto the class subspaces, on class and completion
     Ablation(

@@ -382,10 +382,50 @@ def swap(b: Boards) -> str:
             name = f'swap (base="{base}", truth="{truth}")'
             # a swap not run at this suite version (the backend's own row is): "-", as the
             # page has no row of it; the prose beside the table says which
-            cells.append(
-                pct(b.metric("pick", name, "pick_success")) if b.has("pick", name) else "-"
-            )
+            if not b.has("pick", name):
+                cells.append("-")
+                continue
+            shift = _shift(b.pair("pick", name, base, "pick_success", None))
+            cells.append(f"{pct(b.metric('pick', name, 'pick_success'))} ({shift})")
         rows.append([f"`{base}`", *cells, voxels])
+    return _table(head, rows)
+
+
+def _shift(p: dict[str, Any]) -> str:
+    """A paired change in a rate, in points with its interval (``+14.4 [+10.2, +18.4]``)."""
+    lo, hi = p["ci95"]
+    return f"{100 * p['diff']:+.1f} [{100 * lo:+.1f}, {100 * hi:+.1f}]"
+
+
+PICK_CONTROLS: tuple[tuple[str, str], ...] = (
+    ("beo (pose_prior=false)", "beo"),
+    ("icp (pose_prior=false)", "icp"),
+    ("icp-plain (pose_prior=false)", "icp-plain"),
+    ("oracle (mesh=false)", "oracle"),
+)
+"""The pick page's controls docs/results.md quotes: the rest prior made uniform for each
+method that takes it, and the oracle planning on voxels."""
+
+
+def pick_pairs(b: Boards) -> str:
+    """Pick's comparisons on the same episodes: the page's primary ones (Holm-corrected over
+    the page's family), then the controls (uncorrected)."""
+    head = ["method", "baseline", "episodes", "pick success, method - baseline [95%]",
+            "verdict"]  # fmt: skip
+    rows = []
+    for pc in primary_comparisons("pick"):
+        p = b.primary("pick", pc)
+        if p is None:
+            continue
+        verdict = p["verdict"] if p["verdict"] == "no difference" else f"**{p['verdict']}**"
+        rows.append([f"`{pc.method}`", f"`{pc.baseline}`", str(p["items"]),
+                     f"{_shift(p)} pts", f"{verdict} (Holm)"])  # fmt: skip
+    for method, base in PICK_CONTROLS:
+        if not b.has("pick", method):
+            continue
+        p = b.pair("pick", method, base, "pick_success", None)
+        rows.append([f"`{method}`", f"`{base}`", str(p["items"]), f"{_shift(p)} pts",
+                     f"{p['verdict']} (uncorrected)"])  # fmt: skip
     return _table(head, rows)
 
 
@@ -1068,6 +1108,7 @@ TABLES: dict[str, Callable[[Boards], str]] = {
     "mdn-prior": mdn_prior_table("pose-3dof"),
     "mdn-prior-modelnet10": mdn_prior_table("modelnet10-3dof"),
     "swap": swap,
+    "pick-pairs": pick_pairs,
     "ood": ood,
     "hbeo-detail": hbeo_detail,
     "dissertation": dissertation,
