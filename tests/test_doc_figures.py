@@ -265,12 +265,17 @@ def test_a_swap_not_run_at_this_version_is_a_dash_not_an_error(tmp_path) -> None
 
     rows = [("hbeo", {}, 0.6), ("hbeo-mdn-posterior", {}, 0.62), ("icp", {}, 0.5),
             ("oracle", {"mesh": False}, 0.9)]  # fmt: skip
+    paired = []
     for base in ("hbeo", "hbeo-mdn-posterior"):
         for t in ("class", "pose", "shape"):
             rows.append(("swap", {"base": base, "truth": t}, 0.7))
-    table = doctables.swap(_pick_board(tmp_path / "lb", rows))
+            paired.append({"method": f'swap (base="{base}", truth="{t}")', "baseline": base,
+                           "metric": "pick_success", "track": None, "diff": 0.1,
+                           "ci95": [0.02, 0.18], "pairing": "ablation"})  # fmt: skip
+    table = doctables.swap(_pick_board(tmp_path / "lb", rows, paired))
     assert "| `icp` | 50.0% | - | - | - | 90.0% |" in table
-    assert "| `hbeo` | 60.0% | 70.0% | 70.0% | 70.0% | 90.0% |" in table
+    cell = "70.0% (+10.0 [+2.0, +18.0])"  # each swap's paired change beside its rate
+    assert f"| `hbeo` | 60.0% | {cell} | {cell} | {cell} | 90.0% |" in table
 
 
 def test_a_page_without_its_sensor_sections_says_so_in_the_robustness_table(tmp_path) -> None:
@@ -286,3 +291,21 @@ def test_a_page_without_its_sensor_sections_says_so_in_the_robustness_table(tmp_
     b = _pick_board(tmp_path / "lb2", [("hbeo", {}, 0.6)], [entry])
     with pytest.raises(doctables.MissingFigureError, match="under every sensor"):
         doctables.robustness_table(cells)(b)
+
+
+def test_pick_pairs_shows_the_primary_verdicts_holm_corrected_and_the_controls(tmp_path) -> None:
+    from beo_bench.bench import doctables
+
+    rows = [("hbeo", {}, 0.6), ("icp", {}, 0.5), ("beo", {}, 0.55),
+            ("beo", {"pose_prior": False}, 0.3)]  # fmt: skip
+    primary = {"method": "icp", "baseline": "hbeo", "metric": "pick_success", "track": None,
+               "diff": -0.1, "ci95": [-0.15, -0.01], "items": 500, "pairing": "primary",
+               "verdict": "no difference", "uncorrected_verdict": "worse"}  # fmt: skip
+    control = {"method": "beo (pose_prior=false)", "baseline": "beo", "metric": "pick_success",
+               "track": None, "diff": -0.25, "ci95": [-0.4, -0.1], "items": 60,
+               "pairing": "ablation", "verdict": "worse"}  # fmt: skip
+    table = doctables.pick_pairs(_pick_board(tmp_path / "lb", rows, [primary, control]))
+    # the corrected verdict, not the interval's own
+    assert "| `icp` | `hbeo` | 500 | -10.0 [-15.0, -1.0] pts | no difference (Holm) |" in table
+    assert "| `beo (pose_prior=false)` | `beo` | 60 | -25.0 [-40.0, -10.0] pts | worse (un" in table
+    assert "icp-plain" not in table  # a comparison without its runs is left out
