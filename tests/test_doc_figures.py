@@ -309,3 +309,25 @@ def test_pick_pairs_shows_the_primary_verdicts_holm_corrected_and_the_controls(t
     assert "| `icp` | `hbeo` | 500 | -10.0 [-15.0, -1.0] pts | no difference (Holm) |" in table
     assert "| `beo (pose_prior=false)` | `beo` | 60 | -25.0 [-40.0, -10.0] pts | worse (un" in table
     assert "icp-plain" not in table  # a comparison without its runs is left out
+
+
+def test_rest_prior_reads_the_ideal_part_and_gives_with_minus_without(tmp_path) -> None:
+    from beo_bench.bench import doctables
+
+    root = tmp_path / "lb"
+    root.mkdir()
+    (root / "tabletop.json").write_text("[]")
+    paired = []
+    for name in ("beo", "icp", "icp-plain"):
+        for key, a, b in (("rot_err_deg_mean", 60.0, 110.0), ("gross_err_rate", 0.5, 0.9),
+                          ("class_acc", 0.45, 0.15)):  # fmt: skip
+            entry = {"method": f"{name} (pose_prior=false)", "baseline": name, "metric": key,
+                     "track": None, "pairing": "ablation", "items": 228, "baseline_value": a,
+                     "method_value": b, "diff": b - a, "ci95": [b - a - 9, b - a + 8]}  # fmt: skip
+            paired.append({**entry, "sensor": "ideal"})
+            # the same pair under another sensor must not be read
+            paired.append({**entry, "sensor": "d435", "baseline_value": 0.0})
+    (root / "tabletop_paired.json").write_text(json.dumps(paired))
+    table = doctables.rest_prior(Boards(root))
+    row = "| `beo` | 228 | 60.0 deg -> 110.0 deg | 50.0% -> 90.0% | 45.0% -> 15.0% | "
+    assert row + "-50.0 deg [-58.0, -41.0] |" in table

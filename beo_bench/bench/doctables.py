@@ -103,10 +103,20 @@ class Boards:
         return float(v)
 
     def pair(
-        self, suite: str, method: str, baseline: str, metric: str, track: str | None
+        self,
+        suite: str,
+        method: str,
+        baseline: str,
+        metric: str,
+        track: str | None,
+        sensor: str | None = None,
     ) -> dict[str, Any]:
+        """The paired entry of ``method`` against ``baseline``; ``sensor``: in the part of
+        that sensor (not the suite's own), else the suite's own sensor's."""
         for p in self.paired(suite):
-            if "sensor" in p:  # of another sensor than the suite's own, or across sensors
+            if p.get("sensor") != sensor:  # another sensor's part, or a pair across sensors
+                continue
+            if p.get("pairing") == "sensor":
                 continue
             if p.get("pairing") == PRIMARY:  # the same pair, Holm-corrected: self.primary
                 continue
@@ -395,6 +405,35 @@ def _shift(p: dict[str, Any]) -> str:
     """A paired change in a rate, in points with its interval (``+14.4 [+10.2, +18.4]``)."""
     lo, hi = p["ci95"]
     return f"{100 * p['diff']:+.1f} [{100 * lo:+.1f}, {100 * hi:+.1f}]"
+
+
+REST_PRIOR_SENSOR = "ideal"
+"""The sensor the rest prior's tabletop controls ran under (the campaign block's line)."""
+
+
+def rest_prior(b: Boards) -> str:
+    """``tabletop``: each method that takes the rest prior against itself without it
+    (``pose_prior=false``), paired on the scenes both scored, under :data:`REST_PRIOR_SENSOR`."""
+    head = ["backend", "views", "rot. error mean, with -> without", "> 15 deg", "class acc.",
+            "with - without, mean [95%]"]  # fmt: skip
+    rows = []
+    for name in ("beo", "icp", "icp-plain"):
+        control = f"{name} (pose_prior=false)"
+        pairs = [
+            b.pair("tabletop", control, name, k, None, REST_PRIOR_SENSOR)
+            for k in ("rot_err_deg_mean", "gross_err_rate", "class_acc")
+        ]
+        rot, gross, acc = pairs
+        lo, hi = rot["ci95"]
+        rows.append([
+            f"`{name}`", str(rot["items"]),
+            f"{deg(rot['baseline_value'])} -> {deg(rot['method_value'])}",
+            f"{pct(gross['baseline_value'])} -> {pct(gross['method_value'])}",
+            f"{pct(acc['baseline_value'])} -> {pct(acc['method_value'])}",
+            # the table's direction is with - without: the ablation's, negated
+            f"{-rot['diff']:+.1f} deg [{-hi:+.1f}, {-lo:+.1f}]",
+        ])  # fmt: skip
+    return _table(head, rows)
 
 
 PICK_CONTROLS: tuple[tuple[str, str], ...] = (
@@ -1109,6 +1148,7 @@ TABLES: dict[str, Callable[[Boards], str]] = {
     "mdn-prior-modelnet10": mdn_prior_table("modelnet10-3dof"),
     "swap": swap,
     "pick-pairs": pick_pairs,
+    "rest-prior": rest_prior,
     "ood": ood,
     "hbeo-detail": hbeo_detail,
     "dissertation": dissertation,
