@@ -414,7 +414,7 @@ REST_PRIOR_SENSOR = "ideal"
 def rest_prior(b: Boards) -> str:
     """``tabletop``: each method that takes the rest prior against itself without it
     (``pose_prior=false``), paired on the scenes both scored, under :data:`REST_PRIOR_SENSOR`."""
-    head = ["backend", "views", "rot. error mean, with -> without", "> 15 deg", "class acc.",
+    head = ["backend", "scenes", "rot. error mean, with -> without", "> 15 deg", "class acc.",
             "with - without, mean [95%]"]  # fmt: skip
     rows = []
     for name in ("beo", "icp", "icp-plain"):
