@@ -36,9 +36,11 @@ from scipy.spatial.transform import Rotation
 from scipy.special import logsumexp
 
 from beo_bench.backend import Backend, BackendSpec, Capabilities, ClassHint, register
-from beo_bench.errors import UsageError
+from beo_bench.errors import UsageError, ViewError
 from beo_bench.geometry import orthonormalise
+from beo_bench.metrics import rotation_error
 from beo_bench.names import check_name
+from beo_bench.objects import instance_from_key
 from beo_bench.options import option
 from beo_bench.perception.beo_observe import grid_centres
 from beo_bench.perception.digest import state_digest
@@ -109,7 +111,66 @@ class HBEOOptions:
         "never trained here)",
     )
 
+    # chapter 5's ablation (issue 48): what the silhouette prior could do with better
+    # inputs, and the dissertation's two baselines; hbeo-mdn-posterior only
+    select: Literal["score", "prior", "oracle"] = option(
+        "score",
+        "hbeo-mdn-posterior: how a sample is chosen: score (eq. 5.5-5.8, density x prior), "
+        "prior (Random Sample + SDF Error: the silhouette prior alone) or oracle (Random "
+        "Sample + Oracle: the sample nearest the truth; privileged, a diagnostic bound)",
+    )
+    prior_shape: Literal["estimate", "truth"] = option(
+        "estimate",
+        "hbeo-mdn-posterior: the shape the prior re-projects: the estimate, or the "
+        "instance's true voxels at its true size (privileged, a diagnostic ceiling)",
+    )
+    prior_translation: Literal["estimate", "truth"] = option(
+        "estimate",
+        "hbeo-mdn-posterior: where the prior places the shape: the network's translation, "
+        "or the true one (privileged, a diagnostic)",
+    )
+    prior_grid: int = option(
+        32,
+        "hbeo-mdn-posterior: the grid the prior re-projects, 32 (the decode's) or 64 (the "
+        "decode resampled trilinearly; with prior_shape=truth the true voxels at 64^3)",
+    )
+    prior_pixels: Literal["crop", "view"] = option(
+        "crop",
+        "hbeo-mdn-posterior: where the silhouettes are compared: the network's 64x64 crop, "
+        "or the view's own pixels (the object's box, padded by a quarter)",
+    )
+    prior_occlusion: bool = option(
+        False,
+        "hbeo-mdn-posterior: compare only the pixels no other object covers (the view's "
+        "segmentation; isolated views have none)",
+    )
+
+    def diagnostic_truth(self) -> bool:
+        """Whether the options hand the backend the truth (a privileged diagnostic row)."""
+        return (
+            self.select == "oracle"
+            or self.prior_shape == "truth"
+            or self.prior_translation == "truth"
+        )
+
+    def prior_options(self) -> dict[str, object]:
+        """The chapter-5 ablation options that differ from their defaults."""
+        return {
+            f.name: getattr(self, f.name)
+            for f in fields(self)
+            if f.name in PRIOR_OPTIONS and getattr(self, f.name) != f.default
+        }
+
     def __post_init__(self) -> None:
+        if self.select not in ("score", "prior", "oracle"):
+            raise ValueError(f"select={self.select!r}: use score, prior or oracle")
+        for name in ("prior_shape", "prior_translation"):
+            if getattr(self, name) not in ("estimate", "truth"):
+                raise ValueError(f"{name}={getattr(self, name)!r}: use estimate or truth")
+        if self.prior_grid not in (32, 64):
+            raise ValueError(f"prior_grid={self.prior_grid}: use 32 or 64")
+        if self.prior_pixels not in ("crop", "view"):
+            raise ValueError(f"prior_pixels={self.prior_pixels!r}: use crop or view")
         if self.model is not None:
             check_name(self.model, "model")
         if self.size not in ("small", "dissertation"):
@@ -125,13 +186,28 @@ class HBEOOptions:
             raise ValueError(f"device {self.device!r}: use auto, cpu or cuda")
 
 
+PRIOR_OPTIONS = (
+    "select",
+    "prior_shape",
+    "prior_translation",
+    "prior_grid",
+    "prior_pixels",
+    "prior_occlusion",
+)
+"""The options of chapter 5's ablation, which only ``hbeo-mdn-posterior`` takes."""
+
+
 def hbeo_capabilities(mode: Mode, options: HBEOOptions) -> Capabilities:
     """What the runner must know of an HBEO backend of ``mode`` with ``options``: with
     ``per_category`` the class hint chooses the network (no hint, no estimate: the
-    class-given track only), otherwise it never reads the hint."""
+    class-given track only), otherwise it never reads the hint; an ablation option that
+    hands it the truth makes it a privileged diagnostic, listed with the bounds."""
+    truth = options.diagnostic_truth()
     return Capabilities(
         class_hint=ClassHint.REQUIRED if options.per_category else ClassHint.NONE,
         model="hbeo" if mode == "hbeo" else "hbeo-mdn",
+        privileged=truth,
+        diagnostic=truth,
     )
 
 
@@ -148,6 +224,11 @@ class HBEOBackend(Backend):
 
         self.options = options if options is not None else HBEOOptions(**kwargs)
         o = self.options
+        if mode != "posterior" and o.prior_options():
+            raise UsageError(
+                f"{NAMES[mode]} has no silhouette prior: "
+                f"{', '.join(sorted(o.prior_options()))} are hbeo-mdn-posterior's options"
+            )
         self.mode = mode
         self.device = resolve_device(o.device)
         self.name = NAMES[mode]
@@ -314,10 +395,17 @@ class HBEOBackend(Backend):
         info: dict[str, object] = {"mode": self.mode}
         R, samples, weights = f.rotation, None, None
         if self.mode != "hbeo":
-            s = self.rotation_samples(view, f, prior=self.mode == "posterior")
+            select = self.options.select
+            s = self.rotation_samples(
+                view, f, prior=self.mode == "posterior" and select != "oracle"
+            )
             score = s.log_likelihood.copy()
             if s.silhouette_error is not None:
-                score -= np.log(s.silhouette_error**4 + PRIOR_EPS)  # eq. 5.8: x 1/(e^4 + eps)
+                log_prior = -np.log(s.silhouette_error**4 + PRIOR_EPS)  # eq. 5.8: 1/(e^4 + eps)
+                score = log_prior if select == "prior" else score + log_prior
+            if select == "oracle":  # the dissertation's Random Sample + Oracle (Table 5.1)
+                gt = _truth(view, self.name)
+                score = -np.array([rotation_error(R, gt.R_cam, gt.symmetry) for R in s.R])
             best = int(np.argmax(score))  # eq. 5.7 (likelihood) or the posterior mode
             R, samples = s.R[best], s.R
             weights = np.exp(score - score[best])
@@ -351,12 +439,47 @@ class HBEOBackend(Backend):
         d = w[:, None, :] - mu[None]
         comp = -0.5 * (d * d / var + np.log(2 * np.pi * var)).sum(-1)  # (N, M)
         R = f.crop.rotation_from(Rotation.from_rotvec(w).as_matrix())
-        e = None
-        if prior:
-            shape = torch.from_numpy(f.shape)
-            masks = silhouettes(shape, f.size, R, f.translation, view.K, f.crop)
-            e = sdf_errors(f.crop.mask, masks)
+        e = self.silhouette_errors(view, f, R) if prior else None
         return Samples(R=R, log_likelihood=logsumexp(comp + lw, axis=1), silhouette_error=e)
+
+    def silhouette_errors(self, view: View, f: Forward, R: np.ndarray) -> np.ndarray:
+        """e (eq. 5.6) of each rotation of ``R`` (N, 3, 3): the predicted shape re-projected
+        at the network's translation and compared in the crop, or with the ablation's
+        options (:data:`PRIOR_OPTIONS`) the true shape or translation, a 64^3 grid, the
+        view's own pixels, or only the pixels no other object covers."""
+        o = self.options
+        shape, size, t = f.shape, f.size, f.translation
+        if o.prior_shape == "truth" or o.prior_translation == "truth":
+            gt = _truth(view, self.name)
+            if o.prior_translation == "truth":
+                t = np.asarray(gt.t_cam, dtype=np.float64)
+            if o.prior_shape == "truth":
+                inst = instance_from_key(gt.key, self._dataset)
+                shape, size = inst.voxels(o.prior_grid).astype(np.float32), np.asarray(gt.size)
+        if shape.shape[0] != o.prior_grid:  # the decode, resampled (the basis is 32^3)
+            g = torch.from_numpy(np.ascontiguousarray(shape, dtype=np.float32))[None, None]
+            shape = F.interpolate(g, size=(o.prior_grid,) * 3, mode="trilinear")[0, 0].numpy()
+        others = None
+        if o.prior_occlusion and view.segmentation is not None:
+            others = (np.asarray(view.segmentation) != 0) & ~np.asarray(view.mask, dtype=bool)
+        if o.prior_pixels == "crop":
+            S = f.crop.image.shape[-1]
+            affine, hw, observed = np.asarray(f.crop.affine), (S, S), f.crop.mask
+            if others is not None:
+                warped = cv2.warpAffine(
+                    others.astype(np.float32), affine, (S, S), flags=cv2.INTER_NEAREST
+                )
+                others = warped > 0.5
+        else:
+            affine, hw, box = view_window(view)
+            y0, x0 = box
+            d = np.asarray(view.depth)
+            seen = np.asarray(view.mask, dtype=bool) & np.isfinite(d) & (d > 0)
+            observed = seen[y0 : y0 + hw[0], x0 : x0 + hw[1]]
+            if others is not None:
+                others = others[y0 : y0 + hw[0], x0 : x0 + hw[1]]
+        masks = project_masks(torch.from_numpy(shape), size, R, t, view.K, affine, hw)
+        return sdf_errors(observed, masks, None if others is None else ~others)
 
 
 @dataclass
@@ -406,30 +529,75 @@ def surface_points(shape: torch.Tensor, edge: float) -> torch.Tensor:
     return grid_centres(D)[surf] * edge
 
 
+def _truth(view: View, name: str) -> Any:
+    gt = view.ground_truth
+    if gt is None:
+        raise ViewError(f"{name} with the truth needs View.ground_truth (the runner fills it)")
+    return gt
+
+
+VIEW_PAD = 0.25
+"""``prior_pixels=view``: the observed mask's box, padded by this fraction of its side on
+every side, is where the silhouettes are compared (a re-projection may reach past it)."""
+
+
+def view_window(view: View) -> tuple[np.ndarray, tuple[int, int], tuple[int, int]]:
+    """The (2, 3) affine from image pixels to the window's, its (h, w) and its top-left
+    (row, column): the observed mask's bounding box padded by :data:`VIEW_PAD`, within the
+    image."""
+    m = np.asarray(view.mask, dtype=bool)
+    vs, us = np.nonzero(m)
+    if len(vs) == 0:
+        raise ViewError("the view's mask is empty: the silhouette prior has nothing to compare")
+    H, W = m.shape
+    ph = int(np.ceil(VIEW_PAD * (vs.max() - vs.min() + 1)))
+    pw = int(np.ceil(VIEW_PAD * (us.max() - us.min() + 1)))
+    y0, y1 = max(0, int(vs.min()) - ph), min(H, int(vs.max()) + ph + 1)
+    x0, x1 = max(0, int(us.min()) - pw), min(W, int(us.max()) + pw + 1)
+    affine = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0]])
+    return affine, (y1 - y0, x1 - x0), (y0, x0)
+
+
 def silhouettes(
     shape: torch.Tensor, size: np.ndarray, R: np.ndarray, t: np.ndarray, K: np.ndarray, crop: Crop
 ) -> np.ndarray:
     """(N, S, S) bool masks, in the crop's pixels, of ``shape`` (the estimate's unit-cube
     grid, edge = the largest extent) placed at each of the N rotations ``R`` (N, 3, 3) and
-    translation ``t``: every surface voxel of every sample projected in one batched step,
-    splatted, and closed (3x3) to fill the gaps between voxel centres."""
+    translation ``t`` (:func:`project_masks` into the crop)."""
     S = crop.image.shape[-1]
+    return project_masks(shape, size, R, t, K, np.asarray(crop.affine), (S, S))
+
+
+def project_masks(
+    shape: torch.Tensor,
+    size: np.ndarray,
+    R: np.ndarray,
+    t: np.ndarray,
+    K: np.ndarray,
+    affine: np.ndarray,
+    hw: tuple[int, int],
+) -> np.ndarray:
+    """(N, h, w) bool masks of ``shape`` at each rotation of ``R`` and translation ``t``, in
+    the pixels ``affine`` (2, 3) maps the image's to: every surface voxel of every sample
+    projected in one batched step, splatted, and closed (3x3) to fill the gaps between
+    voxel centres."""
+    h, w = hw
     P = surface_points(shape, float(np.max(size))).double()
     Rt = torch.from_numpy(np.asarray(R, dtype=np.float64))
     X = torch.einsum("nij,pj->npi", Rt, P) + torch.from_numpy(np.asarray(t, dtype=np.float64))
     # image pixels through K, then the crop's affine map; one matrix does both
-    M = torch.from_numpy(np.asarray(crop.affine, dtype=np.float64)) @ torch.from_numpy(
+    M = torch.from_numpy(np.asarray(affine, dtype=np.float64)) @ torch.from_numpy(
         np.asarray(K, dtype=np.float64)
     )
     z = X[..., 2].clamp_min(1e-6)
     xy = torch.einsum("ij,npj->npi", M, X) / z[..., None]
     ij = torch.floor(xy + 0.5).long()
-    ok = (X[..., 2] > 1e-6) & (ij >= 0).all(-1) & (ij < S).all(-1)
+    ok = (X[..., 2] > 1e-6) & (ij >= 0).all(-1) & (ij[..., 0] < w) & (ij[..., 1] < h)
     N = Rt.shape[0]
-    flat = torch.arange(N)[:, None] * S * S + ij[..., 1] * S + ij[..., 0]
-    canvas = torch.zeros(N * S * S + 1)
-    canvas[torch.where(ok, flat, torch.full_like(flat, N * S * S)).reshape(-1)] = 1.0
-    m = canvas[:-1].reshape(N, 1, S, S)
+    flat = torch.arange(N)[:, None] * h * w + ij[..., 1] * w + ij[..., 0]
+    canvas = torch.zeros(N * h * w + 1)
+    canvas[torch.where(ok, flat, torch.full_like(flat, N * h * w)).reshape(-1)] = 1.0
+    m = canvas[:-1].reshape(N, 1, h, w)
     m = F.max_pool2d(m, 3, stride=1, padding=1)  # closing: dilate ...
     m = -F.max_pool2d(-m, 3, stride=1, padding=1)  # ... then erode
     return m[:, 0].numpy() > 0.5
@@ -449,15 +617,21 @@ def signed_distance(mask: np.ndarray) -> np.ndarray:
     return exact(1 - m) - exact(m)
 
 
-def sdf_errors(observed: np.ndarray, masks: np.ndarray) -> np.ndarray:
-    """(N,) e_n = ||SDF(observed) - SDF(mask_n)||_F (eq. 5.6); an empty mask's SDF is its
-    distance to nothing, so it gets the largest error of any present one times two."""
+def sdf_errors(
+    observed: np.ndarray, masks: np.ndarray, valid: np.ndarray | None = None
+) -> np.ndarray:
+    """(N,) e_n = ||SDF(observed) - SDF(mask_n)||_F (eq. 5.6), over the ``valid`` pixels
+    only when given (those no other object covers); an empty mask's SDF is its distance to
+    nothing, so it gets the largest error of any present one times two."""
     ref = signed_distance(observed).astype(np.float64)
     e = np.empty(len(masks))
     empty = np.asarray(~masks.reshape(len(masks), -1).any(1))
+    keep = None if valid is None else np.asarray(valid, dtype=np.float64)
     for i, m in enumerate(masks):
         # numpy's pairwise sum, not BLAS: a threaded dot product is not bit-reproducible
         diff = ref - signed_distance(m)
+        if keep is not None:
+            diff *= keep
         e[i] = np.inf if empty[i] else np.sqrt(np.sum(diff * diff))
     finite = e[np.isfinite(e)]
     e[~np.isfinite(e)] = 2 * finite.max() if len(finite) else 1.0
