@@ -119,15 +119,16 @@ class HBEOOptions:
         "prior (Random Sample + SDF Error: the silhouette prior alone) or oracle (Random "
         "Sample + Oracle: the sample nearest the truth; privileged, a diagnostic bound)",
     )
-    prior_shape: Literal["estimate", "truth"] = option(
+    prior_shape: Literal["estimate", "hbeo", "truth"] = option(
         "estimate",
-        "hbeo-mdn-posterior: the shape the prior re-projects: the estimate, or the "
+        "hbeo-mdn-posterior: the shape the prior re-projects: the estimate, the hbeo "
+        "network's (its shape and size, from its own forward pass of the same crop), or the "
         "instance's true voxels at its true size (privileged, a diagnostic ceiling)",
     )
-    prior_translation: Literal["estimate", "truth"] = option(
+    prior_translation: Literal["estimate", "hbeo", "truth"] = option(
         "estimate",
         "hbeo-mdn-posterior: where the prior places the shape: the network's translation, "
-        "or the true one (privileged, a diagnostic)",
+        "the hbeo network's, or the true one (privileged, a diagnostic)",
     )
     prior_grid: int = option(
         32,
@@ -165,8 +166,8 @@ class HBEOOptions:
         if self.select not in ("score", "prior", "oracle"):
             raise ValueError(f"select={self.select!r}: use score, prior or oracle")
         for name in ("prior_shape", "prior_translation"):
-            if getattr(self, name) not in ("estimate", "truth"):
-                raise ValueError(f"{name}={getattr(self, name)!r}: use estimate or truth")
+            if getattr(self, name) not in ("estimate", "hbeo", "truth"):
+                raise ValueError(f"{name}={getattr(self, name)!r}: use estimate, hbeo or truth")
         if self.prior_grid not in (32, 64):
             raise ValueError(f"prior_grid={self.prior_grid}: use 32 or 64")
         if self.prior_pixels not in ("crop", "view"):
@@ -253,6 +254,23 @@ class HBEOBackend(Backend):
         ] = {}
         self._digest: str | None = None
         self._digests: dict[int, str] = {}
+        # prior_shape / prior_translation = hbeo: the hbeo network trained with the same
+        # recipe and seed answers the same crop (chapter 4's shape head, not the MDN's)
+        self._shape_net: HBEOBackend | None = None
+        if "hbeo" in (o.prior_shape, o.prior_translation):
+            self._shape_net = HBEOBackend(
+                "hbeo",
+                HBEOOptions(
+                    model=companion_model(o.model),
+                    threads=o.threads,
+                    device=o.device,
+                    size=o.size,
+                    per_category=o.per_category,
+                    instances=o.instances,
+                    images=o.images,
+                    epochs=o.epochs,
+                ),
+            )
 
     def prepare(self, ctx: RunContext) -> None:
         """Load the model for the run's classes and dataset (the published default, or one
@@ -270,6 +288,9 @@ class HBEOBackend(Backend):
                 self._digests[id(m)] = state_digest(m.state())
             digests.append(self._digests[id(m)])
         # per category: one digest naming the set of networks, in class order
+        if self._shape_net is not None:  # the prior's shape network is part of the model
+            self._shape_net.prepare(ctx)
+            digests.append(str(self._shape_net.model_digest()))
         self._digest = (
             digests[0]
             if len(digests) == 1
@@ -449,6 +470,12 @@ class HBEOBackend(Backend):
         view's own pixels, or only the pixels no other object covers."""
         o = self.options
         shape, size, t = f.shape, f.size, f.translation
+        if self._shape_net is not None:
+            g = self._shape_net.forward(view)
+            if o.prior_shape == "hbeo":
+                shape, size = g.shape, g.size
+            if o.prior_translation == "hbeo":
+                t = g.translation
         if o.prior_shape == "truth" or o.prior_translation == "truth":
             gt = _truth(view, self.name)
             if o.prior_translation == "truth":
@@ -457,8 +484,8 @@ class HBEOBackend(Backend):
                 inst = instance_from_key(gt.key, self._dataset)
                 shape, size = inst.voxels(o.prior_grid).astype(np.float32), np.asarray(gt.size)
         if shape.shape[0] != o.prior_grid:  # the decode, resampled (the basis is 32^3)
-            g = torch.from_numpy(np.ascontiguousarray(shape, dtype=np.float32))[None, None]
-            shape = F.interpolate(g, size=(o.prior_grid,) * 3, mode="trilinear")[0, 0].numpy()
+            grid = torch.from_numpy(np.ascontiguousarray(shape, dtype=np.float32))[None, None]
+            shape = F.interpolate(grid, size=(o.prior_grid,) * 3, mode="trilinear")[0, 0].numpy()
         others = None
         if o.prior_occlusion and view.segmentation is not None:
             others = (np.asarray(view.segmentation) != 0) & ~np.asarray(view.mask, dtype=bool)
@@ -527,6 +554,19 @@ def surface_points(shape: torch.Tensor, edge: float) -> torch.Tensor:
     near_empty = F.conv3d(F.pad(empty, (1,) * 6, value=1.0), _CROSS)[0, 0] > 0
     surf = (occ & near_empty).reshape(-1)
     return grid_centres(D)[surf] * edge
+
+
+def companion_model(model: str | None) -> str | None:
+    """The hbeo model trained beside an hbeo-mdn one: the published one for the published
+    MDN, ``seed<k>-hbeo`` for the replicate ``seed<k>-hbeo-mdn``."""
+    if model is None:
+        return None
+    if model.startswith("seed") and model.endswith("-hbeo-mdn"):
+        return model.removesuffix("-mdn")
+    raise UsageError(
+        f"prior_shape/prior_translation=hbeo with model={model}: no hbeo network is known "
+        "to be trained beside it (the published models and seed<k>-hbeo-mdn have one)"
+    )
 
 
 def _truth(view: View, name: str) -> Any:

@@ -23,6 +23,7 @@ from beo_bench.perception.hbeo import (
     Forward,
     HBEOBackend,
     HBEOOptions,
+    companion_model,
     project_masks,
     sdf_errors,
     silhouettes,
@@ -187,3 +188,26 @@ def test_only_pixels_no_other_object_covers_count() -> None:
     assert not np.array_equal(
         b.silhouette_errors(occluded, f, R), plain.silhouette_errors(occluded, f, R)
     )
+
+
+def test_the_hbeo_options_take_the_hbeo_networks_shape_and_translation(views) -> None:
+    """``prior_shape=hbeo`` re-projects the hbeo network's shape at its size, and
+    ``prior_translation=hbeo`` places it at its translation; the replicate seed<k>-hbeo-mdn
+    pairs with seed<k>-hbeo, and a model with no hbeo beside it is refused."""
+    assert companion_model(None) is None
+    assert companion_model("seed2-hbeo-mdn") == "seed2-hbeo"
+    with pytest.raises(UsageError, match="no hbeo network"):
+        HBEOBackend("posterior", prior_shape="hbeo", model="mine")
+    hb = HBEOBackend("hbeo")
+    both = HBEOBackend("posterior", prior_shape="hbeo", prior_translation="hbeo")
+    mdn = HBEOBackend("posterior")
+    for view in views[:2]:
+        f, g = mdn.forward(view), hb.forward(view)
+        R = mdn.rotation_samples(view, f, prior=False).R
+        masks = silhouettes(torch.from_numpy(g.shape), g.size, R, g.translation, view.K, f.crop)
+        np.testing.assert_array_equal(
+            both.silhouette_errors(view, f, R), sdf_errors(f.crop.mask, masks)
+        )
+        shape_only = HBEOBackend("posterior", prior_shape="hbeo").silhouette_errors(view, f, R)
+        masks = silhouettes(torch.from_numpy(g.shape), g.size, R, f.translation, view.K, f.crop)
+        np.testing.assert_array_equal(shape_only, sdf_errors(f.crop.mask, masks))
