@@ -13,13 +13,14 @@ from __future__ import annotations
 import re
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from beo_bench.bench import compare
 from beo_bench.bench.columns import VERDICT_KEYS
 from beo_bench.bench.columns import spec as spec_of
+from beo_bench.bench.runs import backend_label
 from beo_bench.errors import UsageError
 
 
@@ -35,6 +36,29 @@ class Ablation:
     suites with a pose metric only (a variant of the pose step changes nothing else)."""
 
 
+PRIOR_STEPS: tuple[tuple[dict[str, Any], str], ...] = (
+    ({"select": "prior"}, "Random Sample + SDF Error: the samples ranked by the prior alone"),
+    ({"select": "oracle"}, "Random Sample + Oracle: the sample nearest the truth"),
+    ({"prior_shape": "truth"}, "the prior of the true shape, at the estimated translation"),
+    (
+        {"prior_shape": "truth", "prior_translation": "truth"},
+        "the prior of the true shape at the true translation",
+    ),
+    ({"prior_grid": 64}, "the prior's shape re-projected at 64^3"),
+    ({"prior_pixels": "view"}, "the silhouettes compared in the view's pixels, not the crop's"),
+    ({"prior_occlusion": True}, "only the pixels no other object covers"),
+    ({"prior_shape": "hbeo"}, "the prior of the hbeo network's shape"),
+    ({"prior_translation": "hbeo"}, "the prior placed at the hbeo network's translation"),
+    (
+        {"prior_shape": "hbeo", "prior_translation": "hbeo"},
+        "the prior of the hbeo network's shape, at its translation",
+    ),
+)
+"""Chapter 5's ablation (issue 48; ``hbeo-mdn-posterior``'s options, docs/backends.md):
+each step changes one input of the silhouette prior, or the rule that picks the sample, and
+pairs with the likelihood on the same samples."""
+
+
 ABLATIONS: tuple[Ablation, ...] = (
     Ablation(
         "hbeo-mdn-posterior",
@@ -45,6 +69,15 @@ ABLATIONS: tuple[Ablation, ...] = (
         "hbeo-mdn-posterior (samples=100)",
         "hbeo-mdn-likelihood (samples=100)",
         "the silhouette prior of eq. 5.6 (N = 100 samples)",
+    ),
+    Ablation(
+        "hbeo-mdn-posterior (samples=5)",
+        "hbeo-mdn-likelihood (samples=5)",
+        "the silhouette prior of eq. 5.6 (N = 5 samples)",
+    ),
+    *(
+        Ablation(backend_label("hbeo-mdn-posterior", opts), "hbeo-mdn-likelihood", what)
+        for opts, what in PRIOR_STEPS
     ),
     Ablation(
         "beo (pose_prior=false)",
@@ -100,6 +133,9 @@ class AblationResult:
     ablation: Ablation
     track: str | None
     result: compare.PairedResult
+    category: str | None = None
+    """The category whose items alone were paired (chapter 5's per-category tables); None:
+    every item."""
 
 
 def ablation_results(
@@ -107,9 +143,11 @@ def ablation_results(
     rows: Sequence[Any],
     label: Callable[[dict[str, Any]], str],
     ablations: Sequence[Ablation] = ABLATIONS,
+    by_category: bool = False,
 ) -> list[AblationResult]:
     """Each ablation whose two runs are among ``rows`` (leaderboard rows of one track and
-    seed, with ``summary`` and ``path``), paired on their common items."""
+    seed, with ``summary`` and ``path``), paired on their common items; ``by_category``:
+    then on each category's items too (Tables 5.1/5.2 are per category)."""
     by_label = {label(r.summary): r for r in rows if getattr(r, "path", None) is not None}
     out: list[AblationResult] = []
     for ab in ablations:
@@ -133,9 +171,18 @@ def ablation_results(
                 if not keys:
                     continue
                 results = compare.paired_runs(a_run, b_run, keys)
+                out += [AblationResult(ab, track, r) for r in results]
+                cats = sorted({str(r["category"]) for r in a_run.rows}) if by_category else []
+                for c in cats:
+                    a_c, b_c = (
+                        replace(x, rows=tuple(r for r in x.rows if r["category"] == c))
+                        for x in (a_run, b_run)
+                    )
+                    out += [
+                        AblationResult(ab, track, r, c) for r in compare.paired_runs(a_c, b_c, keys)
+                    ]
         except UsageError:  # not pairable (other items or scoring): no result
             continue
-        out += [AblationResult(ab, track, r) for r in results]
     return out
 
 
@@ -157,8 +204,9 @@ def ablation_table(results: Sequence[AblationResult]) -> str:
         r, spec = x.result, x.result.spec
         diff = f"{spec.format_diff(r.diff)} [{spec.format_diff(r.lo)}, {spec.format_diff(r.hi)}]"
         verdict = f"**{r.verdict}**" if r.verdict != "no difference" else r.verdict
+        what = x.ablation.what + (f" ({x.category} only)" if x.category else "")
         lines.append(
-            f"| {x.ablation.method} | {x.ablation.baseline} | {x.ablation.what} | {r.n_items} "
+            f"| {x.ablation.method} | {x.ablation.baseline} | {what} | {r.n_items} "
             f"| {spec.label} | {diff} | {verdict} |"
         )
     return "\n".join(lines)
@@ -166,7 +214,7 @@ def ablation_table(results: Sequence[AblationResult]) -> str:
 
 def ablation_json(x: AblationResult) -> dict[str, Any]:
     out = compare.paired_json(x.result, "ablation", x.track, x.ablation.method, x.ablation.baseline)
-    return {**out, "what": x.ablation.what}
+    return {**out, "what": x.ablation.what, **({"category": x.category} if x.category else {})}
 
 
 # -- training-seed spread ------------------------------------------------------------------------

@@ -716,3 +716,37 @@ def test_the_headline_names_an_uncorrected_mode_difference_as_no_finding(tmp_pat
     assert "`pose-3dof` rot. error mean (deg) -0.5 deg [" in note
     assert "better uncorrected: one of the many paired cells" in note and "**" not in note
     assert "not a finding" in note
+
+
+def test_chapter_5s_ablations_are_paired_per_category_on_the_per_category_suite(tmp_path) -> None:
+    """On ``pose-3dof-percat`` an ablation of the prior pairs with the likelihood on every
+    item and on each category's alone (Tables 5.1/5.2 are per category); each category's
+    interval is that category's difference."""
+    from tests.bench.synthetic_runs import CATEGORIES
+
+    runs = tmp_path / "runs"
+    lik = [pose_row(i, rot_err_deg=float(r)) for i, r in enumerate(ROT)]
+    # the true shape helps the first category only
+    better = [{**r, "rot_err_deg": r["rot_err_deg"] * (0.5 if i % len(CATEGORIES) == 0 else 1)}
+              for i, r in enumerate(lik)]  # fmt: skip
+    common = {"suite": "pose-3dof-percat", "track": "class-free", "uses_hint": False}
+    write_run(runs / "lik", "hbeo-mdn-likelihood", lik, **common)
+    write_run(runs / "truth", "hbeo-mdn-posterior", better, kwargs={"prior_shape": "truth"},
+              privileged=True, **common)  # fmt: skip
+    regenerate(runs, tmp_path / "board")
+    paired = json.loads((tmp_path / "board" / "pose-3dof-percat_paired.json").read_text())
+    rot = {
+        v.get("category"): v
+        for v in paired
+        if v["pairing"] == "ablation" and v["metric"] == "rot_err_deg_mean"
+    }
+    cats = sorted({r["category"] for r in lik})
+    assert set(rot) == {None, *cats}
+    first = CATEGORIES[0]
+    assert rot[first]["verdict"] == "better" and rot[first]["items"] == sum(
+        r["category"] == first for r in lik
+    )
+    others = [c for c in cats if c != first]
+    assert all(rot[c]["diff"] == 0 and rot[c]["verdict"] == "no difference" for c in others)
+    md = (tmp_path / "board" / "pose-3dof-percat.md").read_text()
+    assert f"the prior of the true shape, at the estimated translation ({first} only)" in md
