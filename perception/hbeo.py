@@ -125,10 +125,12 @@ class HBEOOptions:
         "network's (its shape and size, from its own forward pass of the same crop), or the "
         "instance's true voxels at its true size (privileged, a diagnostic ceiling)",
     )
-    prior_translation: Literal["estimate", "hbeo", "truth"] = option(
+    prior_translation: Literal["estimate", "hbeo", "aligned", "truth"] = option(
         "estimate",
         "hbeo-mdn-posterior: where the prior places the shape: the network's translation, "
-        "the hbeo network's, or the true one (privileged, a diagnostic)",
+        "the hbeo network's, aligned (the network's, each sample's silhouette then shifted "
+        "so its centroid falls on the observed mask's), or the true one (privileged, a "
+        "diagnostic)",
     )
     prior_grid: int = option(
         32,
@@ -165,9 +167,13 @@ class HBEOOptions:
     def __post_init__(self) -> None:
         if self.select not in ("score", "prior", "oracle"):
             raise ValueError(f"select={self.select!r}: use score, prior or oracle")
-        for name in ("prior_shape", "prior_translation"):
-            if getattr(self, name) not in ("estimate", "hbeo", "truth"):
-                raise ValueError(f"{name}={getattr(self, name)!r}: use estimate, hbeo or truth")
+        if self.prior_shape not in ("estimate", "hbeo", "truth"):
+            raise ValueError(f"prior_shape={self.prior_shape!r}: use estimate, hbeo or truth")
+        if self.prior_translation not in ("estimate", "hbeo", "aligned", "truth"):
+            raise ValueError(
+                f"prior_translation={self.prior_translation!r}: use estimate, hbeo, aligned "
+                "or truth"
+            )
         if self.prior_grid not in (32, 64):
             raise ValueError(f"prior_grid={self.prior_grid}: use 32 or 64")
         if self.prior_pixels not in ("crop", "view"):
@@ -506,6 +512,8 @@ class HBEOBackend(Backend):
             if others is not None:
                 others = others[y0 : y0 + hw[0], x0 : x0 + hw[1]]
         masks = project_masks(torch.from_numpy(shape), size, R, t, view.K, affine, hw)
+        if o.prior_translation == "aligned":
+            masks = align_centroids(masks, observed)
         return sdf_errors(observed, masks, None if others is None else ~others)
 
 
@@ -641,6 +649,27 @@ def project_masks(
     m = F.max_pool2d(m, 3, stride=1, padding=1)  # closing: dilate ...
     m = -F.max_pool2d(-m, 3, stride=1, padding=1)  # ... then erode
     return m[:, 0].numpy() > 0.5
+
+
+def align_centroids(masks: np.ndarray, observed: np.ndarray) -> np.ndarray:
+    """Each of ``masks`` (N, h, w) shifted by whole pixels so that its centroid falls on the
+    observed mask's (what leaves the frame is lost; an empty mask stays empty): the
+    silhouettes compared at the observed position, whatever the translation's error."""
+    out = np.zeros_like(masks)
+    obs = np.argwhere(observed)
+    if not len(obs):
+        return masks
+    target = obs.mean(0)
+    h, w = masks.shape[1:]
+    for i, m in enumerate(masks):
+        px = np.argwhere(m)
+        if not len(px):
+            continue
+        dy, dx = (int(v) for v in np.rint(target - px.mean(0)))
+        ys, xs = px[:, 0] + dy, px[:, 1] + dx
+        ok = (ys >= 0) & (ys < h) & (xs >= 0) & (xs < w)
+        out[i, ys[ok], xs[ok]] = True
+    return out
 
 
 def signed_distance(mask: np.ndarray) -> np.ndarray:

@@ -49,6 +49,7 @@ PRIOR_STEPS: tuple[tuple[dict[str, Any], str], ...] = (
     ({"prior_occlusion": True}, "only the pixels no other object covers"),
     ({"prior_shape": "hbeo"}, "the prior of the hbeo network's shape"),
     ({"prior_translation": "hbeo"}, "the prior placed at the hbeo network's translation"),
+    ({"prior_translation": "aligned"}, "each silhouette shifted onto the observed centroid"),
     (
         {"prior_shape": "hbeo", "prior_translation": "hbeo"},
         "the prior of the hbeo network's shape, at its translation",

@@ -23,6 +23,7 @@ from beo_bench.perception.hbeo import (
     Forward,
     HBEOBackend,
     HBEOOptions,
+    align_centroids,
     companion_model,
     project_masks,
     sdf_errors,
@@ -211,3 +212,29 @@ def test_the_hbeo_options_take_the_hbeo_networks_shape_and_translation(views) ->
         shape_only = HBEOBackend("posterior", prior_shape="hbeo").silhouette_errors(view, f, R)
         masks = silhouettes(torch.from_numpy(g.shape), g.size, R, f.translation, view.K, f.crop)
         np.testing.assert_array_equal(shape_only, sdf_errors(f.crop.mask, masks))
+
+
+def test_aligned_translation_moves_each_silhouette_onto_the_observed_centroid() -> None:
+    """``align_centroids`` shifts a mask by whole pixels onto the observed centroid, and
+    ``prior_translation=aligned`` compares the shifted silhouettes: 3 cm of translation
+    error then costs the true rotation its lead no more."""
+    obs = np.zeros((30, 30), dtype=bool)
+    obs[10:20, 8:14] = True
+    moved = np.zeros_like(obs)
+    moved[13:23, 5:11] = True
+    empty = np.zeros_like(obs)
+    out = align_centroids(np.stack([moved, empty]), obs)
+    assert np.array_equal(out[0], obs) and not out[1].any()
+
+    (view,) = sample_views(picks=[("car", 1)], seed=5)
+    gt = view.ground_truth
+    truth = ObjectSet("test").get("car", 1).voxels(32).astype(np.float32)
+    off = np.asarray(gt.t_cam, dtype=np.float64) + np.array([0.03, -0.02, 0.0])
+    f = replace(_car_forward(view, truth, off), size=np.asarray(gt.size, dtype=np.float64))
+    R = _rotations(gt)
+    masks = silhouettes(torch.from_numpy(truth), f.size, R, off, view.K, f.crop)
+    want = sdf_errors(f.crop.mask, align_centroids(masks, f.crop.mask))
+    aligned = HBEOBackend("posterior", prior_translation="aligned").silhouette_errors(view, f, R)
+    np.testing.assert_array_equal(aligned, want)
+    assert not np.array_equal(aligned, sdf_errors(f.crop.mask, masks))
+    assert int(np.argmin(aligned)) == 0
