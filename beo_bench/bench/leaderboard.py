@@ -1498,25 +1498,61 @@ def robustness(suite: str, parts: dict[str | None, dict[str | None, list[Section
             "|---|" + "---:|" * len(keys),
         ]
         track_pairs: list[SensorPair] = []
+        shorter = False
         for b in backends:
             got = runs[b]
+            ref = next(x for x in sensors if x in got)
+            mine: list[SensorPair] = []
+            for x in sensors:
+                if x == ref or x not in got:
+                    continue
+                mine += _sensor_pairs(track, b, ref, got[ref], x, got[x], keys, loaded)
+            # a sensor run over fewer items (pick's 200 of 500): every cell on the items all
+            # of this backend's runs scored, as the paired rows below compare them
+            common = _common_values(got[ref], mine)
+            shorter |= bool(common)
             cells = [
                 " -> ".join(
-                    _robustness_cell(got[x].summary, k) if x in got else "-" for x in sensors
+                    (
+                        spec(k).format(common[(x, k)])
+                        if (x, k) in common
+                        else _robustness_cell(got[x].summary, k)
+                    )
+                    if x in got
+                    else "-"
+                    for x in sensors
                 )
                 for k in keys
             ]
             first = next(r for r in got.values())
             lines.append(f"| {_name(first)} | " + " | ".join(cells) + " |")
-            ref = next(x for x in sensors if x in got)
-            for x in sensors:
-                if x == ref or x not in got:
-                    continue
-                track_pairs += _sensor_pairs(track, b, ref, got[ref], x, got[x], keys, loaded)
+            track_pairs += mine
+        if shorter:
+            lines += ["", SHORTER_NOTE]
         pairs += track_pairs
         table = sensor_verdict_table(track_pairs)
         blocks.append((track, "\n".join(lines) + ("\n\n" + table if table else "")))
     return Robustness(blocks, pairs)
+
+
+SHORTER_NOTE = (
+    "Where a sensor's runs cover fewer items than the first sensor's, a backend's figures "
+    "under every sensor are over the items all of its runs scored, the paired rows' items."
+)
+
+
+def _common_values(ref: Row, pairs: list[SensorPair]) -> dict[tuple[str, str], float]:
+    """(sensor, metric) -> the value over the items common to the pairs, when some sensor's
+    run covers fewer items than the reference run and every pair has the same items; empty
+    when each covers the reference's items (the summaries' figures are these)."""
+    if not pairs:
+        return {}
+    n_items = {p.result.n_items for p in pairs}
+    if len(n_items) != 1 or n_items == {items(ref.summary)}:
+        return {}
+    out = {(p.sensor, p.result.key): p.result.b for p in pairs}
+    out.update({(p.baseline_sensor, p.result.key): p.result.a for p in pairs})
+    return out
 
 
 def _order_key(runs: dict[str, Row]) -> tuple[bool, str]:

@@ -159,6 +159,25 @@ def test_runs_under_other_sensors_get_their_part_and_a_robustness_table(tmp_path
     assert "### pose-1dof: robustness across sensors" in readme
 
 
+def test_a_sensor_run_over_fewer_items_puts_every_cell_on_the_common_items(tmp_path) -> None:
+    """``pick``'s sensor sections run 200 of its 500 episodes: the robustness table's
+    ``ideal -> kinect-v1`` cells are then both over the 200 (the paired rows' items), never
+    the ideal run's 500 beside the sensor's 200, and a note says so."""
+    runs = tmp_path / "runs"
+    size = len(ROT)
+    write_run(runs / "icp-ideal", "icp", _rows(1.0), size=size)
+    short = [r for r in _rows(1.5) if r["item"] < 10]
+    write_run(runs / "icp-kinect", "icp", short, sensor="kinect-v1", size=10)
+    regenerate(runs, tmp_path / "board")
+    table = (tmp_path / "board" / "pose-1dof.md").read_text().split("## Robustness")[1]
+    row = next(ln for ln in table.splitlines() if ln.startswith("| icp | "))
+    capped = np.minimum(ROT, 180)
+    first, second = capped[:10].mean(), np.minimum(1.5 * ROT, 180)[:10].mean()
+    assert capped.mean() != pytest.approx(first, abs=0.05)  # the test would tell them apart
+    assert row.split(" | ")[1] == f"{first:.1f} -> {second:.1f}"
+    assert "over the items all of its runs scored" in table
+
+
 def test_a_page_of_the_suite_own_sensor_is_as_before_sensors(tmp_path) -> None:
     """The same runs, recorded as before sensors existed (``noise: false``, no ``sensor``)
     and as now, give the same pages byte for byte, with no word of sensors."""
