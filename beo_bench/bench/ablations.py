@@ -44,6 +44,10 @@ PRIOR_STEPS: tuple[tuple[dict[str, Any], str], ...] = (
         {"prior_shape": "truth", "prior_translation": "truth"},
         "the prior of the true shape at the true translation",
     ),
+    (
+        {"prior_shape": "truth", "prior_translation": "aligned"},
+        "the prior of the true shape, each silhouette shifted onto the observed centroid",
+    ),
     ({"prior_grid": 64}, "the prior's shape re-projected at 64^3"),
     ({"prior_pixels": "view"}, "the silhouettes compared in the view's pixels, not the crop's"),
     ({"prior_occlusion": True}, "only the pixels no other object covers"),
