@@ -25,7 +25,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import zlib
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import TYPE_CHECKING, Any, Literal
 
 import cv2
@@ -47,7 +47,7 @@ from beo_bench.perception.digest import state_digest
 from beo_bench.perception.hbeo_crop import Crop, make_crop
 from beo_bench.perception.hbeo_net import Mixture, Output, point_rotation
 from beo_bench.perception.hbeo_train import HBEOModel, load_hbeo
-from beo_bench.types import Estimate, View
+from beo_bench.types import Estimate, GroundTruth, View
 
 if TYPE_CHECKING:
     from beo_bench.bench.runs import RunContext
@@ -264,18 +264,13 @@ class HBEOBackend(Backend):
         # recipe and seed answers the same crop (chapter 4's shape head, not the MDN's)
         self._shape_net: HBEOBackend | None = None
         if "hbeo" in (o.prior_shape, o.prior_translation):
+            # every other option (device, threads, size, per_category, the quick recipe's)
+            # carries over; the ablation's own options are the posterior's alone
+            plain: dict[str, Any] = {
+                f.name: f.default for f in fields(o) if f.name in PRIOR_OPTIONS
+            }
             self._shape_net = HBEOBackend(
-                "hbeo",
-                HBEOOptions(
-                    model=companion_model(o.model),
-                    threads=o.threads,
-                    device=o.device,
-                    size=o.size,
-                    per_category=o.per_category,
-                    instances=o.instances,
-                    images=o.images,
-                    epochs=o.epochs,
-                ),
+                "hbeo", replace(o, model=companion_model(o.model), **plain)
             )
 
     def prepare(self, ctx: RunContext) -> None:
@@ -577,7 +572,7 @@ def companion_model(model: str | None) -> str | None:
     )
 
 
-def _truth(view: View, name: str) -> Any:
+def _truth(view: View, name: str) -> GroundTruth:
     gt = view.ground_truth
     if gt is None:
         raise ViewError(f"{name} with the truth needs View.ground_truth (the runner fills it)")

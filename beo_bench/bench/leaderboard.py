@@ -107,9 +107,9 @@ HINT_UNUSED = "hint not used"
 TABLE_5_1_CATEGORIES: tuple[str, ...] = ("car", "airplane", "sofa")
 """The categories of the dissertation's Tables 5.1 and 5.2 (car, plane, couch)."""
 TABLE_5_1_SUITES: tuple[str, ...] = ("pose-3dof", "pose-3dof-percat")
+"""The suites whose pages carry a table in the form of Tables 5.1/5.2."""
 PER_CATEGORY_SUITES: tuple[str, ...] = ("pose-3dof-percat",)
 """Suites whose ablations are paired per category too, as Tables 5.1/5.2 report them."""
-"""The suites whose pages carry a table in the form of Tables 5.1/5.2."""
 DISSERTATION_MODELNET10: dict[str, tuple[str, float, dict[str, float]]] = {
     # per class: BEO's known-pose row of Table 3.1 on the three classes chapter 4 quotes
     "modelnet10-known-pose": (
