@@ -3,7 +3,8 @@
 - training-set rendering speed (a fresh 2,000-crop set, one worker per core);
 - the published reference models' training time, rendering included (as recorded when
   each was trained; ``beo-bench train hbeo|hbeo-mdn --recipe reference`` retrains and
-  prints it), and what storing their weights in float16 costs;
+  prints it), and what storing their weights in float16 costs, and the per-category
+  networks' int8;
 - median time per view on ``pose-3dof`` views: HBEO (crop + forward + shape decode),
   MDN-likelihood and MDN-posterior at N = 5, 25, 100 (one process, the backends' default of
   one torch thread; the runner gives each worker one thread too).
@@ -92,6 +93,7 @@ def main() -> None:
         )
 
     half_precision_cost(cats)
+    int8_cost()
     diagnose(cats)
 
 
@@ -134,6 +136,60 @@ def half_precision_cost(cats: tuple[str, ...]) -> None:
             float(np.mean(drot)) < 0.1,
             f"{flips} of {HALF_VIEWS} class decisions change; max {max(drot):.2f} deg",
         )
+
+
+INT8_VIEWS = 300
+
+
+def int8_cost() -> None:
+    """What storing the per-category networks in int8 costs (perception/published.py): the
+    published networks against the float32 ones they were exported from (``beo-bench train
+    hbeo-mdn --categories C --recipe per-category`` leaves them in the cache), on the first
+    ``INT8_VIEWS`` class-given ``pose-3dof-percat`` views: the mean absolute change of the
+    likelihood's rotation error."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from beo_bench.metrics import rotation_error
+    from beo_bench.perception import hbeo_train
+
+    suite = get_suite("pose-3dof-percat").with_overrides(track="class-given")
+    ev = Evaluator.of(suite, "hbeo-mdn-likelihood", {"per_category": True})  # views with hints
+    pairs = [ev.items.isolated_view(i) for i in range(INT8_VIEWS)]
+    pairs = [(replace(v, class_hint=gt.class_index), gt) for v, gt in pairs]  # the track's hint
+    ev.close()
+
+    def backend() -> object:
+        ctx = RunContext.of(RunConfig(suite, "hbeo-mdn-likelihood", {"per_category": True}))
+        b = ctx.backend.build()
+        b.prepare(ctx)
+        return b
+
+    int8 = backend()
+    published = hbeo_train.published_per_category
+    hbeo_train.published_per_category = lambda kind, category: None  # type: ignore[assignment]
+    try:
+        full = backend()
+    except Exception as e:  # no float32 network in the cache
+        print(f"  int8 cost of the per-category networks: skipped ({e})")
+        return
+    finally:
+        hbeo_train.published_per_category = published  # type: ignore[assignment]
+    drot = []
+    for view, gt in pairs:
+        a, b = int8.predict(view), full.predict(view)  # type: ignore[attr-defined]
+        ea = rotation_error(a.rotation, gt.R_cam, gt.symmetry)
+        eb = rotation_error(b.rotation, gt.R_cam, gt.symmetry)
+        drot.append(abs(ea - eb))
+    report(
+        "hbeo-mdn-likelihood per_category: int8 storage, mean |change of rotation error|",
+        float(np.mean(drot)),
+        "deg",
+        "< 0.1 deg",
+        float(np.mean(drot)) < 0.1,
+        f"{INT8_VIEWS} class-given pose-3dof-percat views; max {max(drot):.2f} deg",
+    )
 
 
 DIAG_VIEWS = 200

@@ -762,7 +762,7 @@ def cmd_publish(args: argparse.Namespace) -> int:
         model = HBEOModel.load(model_path(args.name))
         if model.config.kind != args.model:
             raise UsageError(f"{args.name!r} is a {model.config.kind} model, not {args.model}")
-        sha = published.publish_hbeo(model, out, half=not args.float32)
+        sha = published.publish_hbeo(model, out, storage=args.storage)
     print(f"published {args.model} -> {out} (SHA-256 {sha})")
     for name, size, digest in published.files_table(out):
         print(f"  {name:<16} {size / 1e6:6.2f} MB  {digest}")
@@ -1497,7 +1497,15 @@ def _add_publish(sub: Any, data: argparse.ArgumentParser) -> None:
             out_parent(None, "default: the package's perception/published"),
         ],
     )
-    pb.add_argument("--float32", action="store_true", help="keep float32 weights (default fp16)")
+    from beo_bench.perception.published import STORAGE
+
+    pb.add_argument(
+        "--storage",
+        choices=STORAGE,
+        default="float16",
+        help="how the network's weights are stored (int8: per-channel scales, half float16's "
+        "bytes; the per-category networks')",
+    )
     pb.set_defaults(func=cmd_publish)
 
 

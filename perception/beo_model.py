@@ -368,43 +368,52 @@ def train_beo(
     return model
 
 
-def published_model() -> BEOModel | None:
-    """The published default BEO model (:mod:`.published`: the subspace every published
-    HBEO model regresses), read and checked once per version of the published files; None
-    when none is published. :class:`CheckpointError` for an altered or unreadable file."""
+def published_model(stem: str = "beo") -> BEOModel | None:
+    """The published BEO model ``stem`` (:mod:`.published`: ``beo``, the subspace every
+    published 18-class HBEO model regresses, or ``beo-<class>``, a per-category network's),
+    read and checked once per version of the published files; None when none is published.
+    :class:`CheckpointError` for an altered or unreadable file."""
     from beo_bench.perception import published
 
     files = published.manifest()
-    if "beo.npz" not in files:
+    if f"{stem}.npz" not in files:
         return None
-    return _read_published(published.PUBLISHED_DIR, tuple(sorted(files.items())))
+    return _read_published(published.PUBLISHED_DIR, tuple(sorted(files.items())), stem)
 
 
 @functools.cache
-def _read_published(root: Path, files: tuple[tuple[str, str], ...]) -> BEOModel:
-    """The published BEO model under ``root``; ``files`` (the manifest: name, SHA-256) is
-    part of the cache key, so publishing anew (:func:`.published.write`) reads it again."""
+def _read_published(root: Path, files: tuple[tuple[str, str], ...], stem: str = "beo") -> BEOModel:
+    """The published BEO model ``stem`` under ``root``; ``files`` (the manifest: name,
+    SHA-256) is part of the cache key, so publishing anew (:func:`.published.write`) reads
+    it again."""
     from beo_bench.perception import published
 
-    meta, arrays = published.read("beo", root)
-    return BEOModel.from_stored(meta, arrays, f"{root}/beo", published._restore("beo"))
+    meta, arrays = published.read(stem, root)
+    return BEOModel.from_stored(meta, arrays, f"{root}/{stem}", published._restore(stem))
 
 
 def published_for(
     categories: tuple[str, ...], resolution: int, per_category: int | None
 ) -> BEOModel | None:
     """The published BEO model when it is the default model for these settings (the
-    default training configuration on these categories, resolution and instances), else
-    None (the caller trains its own)."""
+    default training configuration on these categories, resolution and instances): the
+    18-class one, or a per-category network's one-class subspace; else None (the caller
+    trains its own)."""
     from beo_bench.objects import LIBRARY_VERSION
+    from beo_bench.perception import published
 
     want = BEOConfig(categories=tuple(categories), resolution=resolution, per_category=per_category)
-    model = published_model()
-    if model is None or model.config != want:
-        return None
-    if model.info.get("library_version") != LIBRARY_VERSION:
-        return None  # published for another object library: the default is retrained
-    return model
+    stems = ["beo"]
+    if len(categories) == 1 and categories[0] in published.PER_CATEGORY:
+        stems.append(published.per_category_stem("beo", categories[0]))
+    for stem in stems:
+        model = published_model(stem)
+        if model is None or model.config != want:
+            continue
+        if model.info.get("library_version") != LIBRARY_VERSION:
+            return None  # published for another object library: the default is retrained
+        return model
+    return None
 
 
 def load_model(

@@ -915,12 +915,18 @@ def _read_published(kind: str, root: Path, files: tuple[tuple[str, str], ...]) -
         cfg = HBEOConfig.from_json(meta["config"])
     except Exception as e:
         raise CheckpointError(f"the published {kind} model's config is unreadable ({e})") from e
-    if cfg.kind != kind or meta.get("kind") != kind:
+    want = kind.removesuffix(f"-{cfg.categories[0]}") if len(cfg.categories) == 1 else kind
+    if cfg.kind != want or meta.get("kind") != cfg.kind:
         raise CheckpointError(
             f"the published {kind}.json holds a {cfg.kind} model; {published._restore(kind)}"
         )
     state = published._state(arrays)
-    beo = published_model()
+    one = len(cfg.categories) == 1 and kind != cfg.kind  # a per-category network
+    beo = published_model(published.per_category_stem("beo", cfg.categories[0]) if one else "beo")
+    if beo is None:
+        raise CheckpointError(
+            f"the published {kind} model's subspace is not published; " + published._restore(kind)
+        )
     where = f"{root}/{kind}"
     return HBEOModel.from_stored(meta, cfg, state, where, published._restore(kind), beo)
 
@@ -933,6 +939,34 @@ def published_for(kind: str, categories: tuple[str, ...]) -> HBEOModel | None:
 
     model = published_hbeo(kind)
     if model is None or not set(categories) <= set(model.categories):
+        return None
+    if model.info.get("library_version") != LIBRARY_VERSION:
+        return None
+    return model
+
+
+def is_per_category_default(config: HBEOConfig) -> bool:
+    """Whether ``config`` is the ``per-category`` recipe's small network for its one class
+    (on the procedural library): what ``per_category=true`` loads by default."""
+    cats = config.dataset.categories
+    if len(cats) != 1 or config.dataset.objects is not None or config.size != "small":
+        return False
+    want = default_config(config.kind, tuple(cats), recipe="per-category")
+    return default_name(config) == default_name(want)
+
+
+def published_per_category(kind: str, category: str) -> HBEOModel | None:
+    """The published one-class ``kind`` network for ``category`` (chapter 5's Tables
+    5.1/5.2), when there is one for this recipe and library version, else None."""
+    from beo_bench.objects import LIBRARY_VERSION
+    from beo_bench.perception import published
+
+    stem = published.per_category_stem(kind, category)
+    files = published.manifest()
+    if f"{stem}.npz" not in files:
+        return None
+    model = _read_published(stem, published.PUBLISHED_DIR, tuple(sorted(files.items())))
+    if not is_per_category_default(model.config) or model.categories != (category,):
         return None
     if model.info.get("library_version") != LIBRARY_VERSION:
         return None
@@ -963,6 +997,11 @@ def load_hbeo(
     from beo_bench.objects import LIBRARY_VERSION
 
     quick = any(v is not None for v in small.values())
+    one = len(categories) == 1 and dataset is None and size == "small" and not quick
+    if name is None and recipe == "per-category" and one:
+        model = published_per_category(kind, categories[0])
+        if model is not None:  # chapter 5's published network: nothing to train
+            return model
     if name is None and recipe == "default" and not quick:
         if size == "small":
             model = published_for(kind, tuple(categories))

@@ -15,7 +15,11 @@ every file. The stems:
   ``icp``'s starts on the ``tabletop`` and ``pick`` views;
 - ``hbeo`` and ``hbeo-mdn``: the small networks of the ``reference`` recipe
   (:data:`~beo_bench.perception.hbeo_train.RECIPES`), weights stored in float16 (they are
-  used in float32; ``make bench`` measures what the rounding costs: nothing measurable).
+  used in float32; ``make bench`` measures what the rounding costs: nothing measurable);
+- ``hbeo-mdn-car``, ``hbeo-mdn-airplane``, ``hbeo-mdn-sofa``: chapter 5's per-category
+  networks (the ``per-category`` recipe, Tables 5.1/5.2), weights stored in int8 with a
+  float32 scale per output channel (:func:`quantise`), half float16's bytes, so that the
+  set stays under :data:`TOTAL_LIMIT`; ``make bench`` measures what that costs.
 
 A file whose SHA-256 does not match the manifest is refused with :class:`CheckpointError`
 (never used silently), saying how to restore or retrain it. ``beo-bench publish`` writes
@@ -47,6 +51,9 @@ if TYPE_CHECKING:
 PUBLISHED_DIR = Path(__file__).resolve().parent / "published"
 MANIFEST = "MANIFEST.json"
 STEMS: tuple[str, ...] = ("beo", "hbeo", "hbeo-mdn", "rest-prior")
+PER_CATEGORY: tuple[str, ...] = ("car", "airplane", "sofa")
+"""The classes whose one-class networks (``<kind>-<class>``) may be published: chapter 5's
+Tables 5.1/5.2 (car, plane, couch)."""
 NET_PREFIX = "net."
 SPLIT: dict[str, tuple[str, ...]] = {"beo": ("basis",)}
 """Arrays stored in files of their own (``beo-basis.npz``, or ``beo-basis-0.npz``,
@@ -54,6 +61,17 @@ SPLIT: dict[str, tuple[str, ...]] = {"beo": ("basis",)}
 10 MB."""
 FILE_LIMIT = 10_000_000
 """Most bytes of one published file (the repository's cap: 10 MB a file, 20 MB in all)."""
+TOTAL_LIMIT = 20_000_000
+"""Most bytes of all published files together: :func:`write` refuses a set that passes it."""
+SCALE = "__scale"
+"""Suffix of an int8 weight's scale array (``net.<tensor>__scale``, :func:`quantise`)."""
+STORAGE = ("float16", "int8", "float32")
+INT8_MIN_SIZE = 100_000
+"""``int8`` storage quantises the weight tensors of at least this many elements (the small
+network's first fully connected layer, 524,288 of its 768,000 weights), the rest in float16:
+0.9 MB a per-category MDN, whose rotation error this changes by 0.04 deg a view on average
+(``make bench``; it allows 0.1). Quantising every matrix and kernel saves another 0.2 MB a
+network and changes it by 0.19 deg."""
 CHUNK = "@"
 """Joins a split array's name and its chunk's index inside a chunk file (``basis@0``)."""
 PLANES, SHAPE, DTYPE = "__planes", "__shape", "__dtype"
@@ -215,9 +233,14 @@ def _unpack(data: bytes) -> dict[str, np.ndarray]:
 
 
 def _restore(stem: str) -> str:
+    how = stem + (" --recipe reference" if stem != "beo" else "")
+    for c in PER_CATEGORY:
+        if stem.endswith(f"-{c}"):  # a per-category network or its subspace
+            kind = stem.removesuffix(f"-{c}")
+            how = f"{'hbeo-mdn' if kind == 'beo' else kind} --categories {c} --recipe per-category"
     return (
         f"restore it with `git checkout -- perception/published` (or retrain: `beo-bench train "
-        f"{stem}{' --recipe reference' if stem != 'beo' else ''}`)"
+        f"{how}`)"
     )
 
 
@@ -229,9 +252,17 @@ def _state(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
         "net": {
             k[len(NET_PREFIX) :]: torch.from_numpy(_widen(v))
             for k, v in arrays.items()
-            if k.startswith(NET_PREFIX)
+            if k.startswith(NET_PREFIX) and not k.endswith(SCALE)
         }
     }
+    for k in list(state["net"]):
+        scale = arrays.get(NET_PREFIX + k + SCALE)
+        if scale is not None:  # int8 storage: q * the row's scale (quantise's inverse)
+            q = arrays[NET_PREFIX + k]
+            if q.dtype != np.int8 or scale.shape != q.shape[:1]:
+                raise ValueError(f"{k}: int8 weights {q.dtype} {q.shape}, scales {scale.shape}")
+            w = q.astype(np.float32) * scale.astype(np.float32).reshape(-1, *[1] * (q.ndim - 1))
+            state["net"][k] = torch.from_numpy(w)
     for k in ("coef_mean", "coef_std"):
         if k in arrays:
             state[k] = torch.from_numpy(_widen(arrays[k]))
@@ -244,13 +275,33 @@ def _widen(a: np.ndarray) -> np.ndarray:
 
 
 # -- writing (beo-bench publish) ----------------------------------------------------------------
-def hbeo_arrays(model: HBEOModel, half: bool = True) -> dict[str, np.ndarray]:
+def quantise(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """float32 weights (output channels first) as int8 and a float32 scale per output
+    channel: symmetric, round to nearest, ``w ~ q * scale`` with ``scale = max|w_row| /
+    127`` (per-channel weight quantisation, Krishnamoorthi 2018, sec. 2.3)."""
+    rows = w.reshape(w.shape[0], -1).astype(np.float32)
+    scale = (np.abs(rows).max(axis=1) / 127).astype(np.float32)
+    scale[scale == 0] = 1.0  # an all-zero row: any scale gives zeros
+    q = np.clip(np.rint(rows / scale[:, None]), -127, 127).astype(np.int8)
+    return q.reshape(w.shape), scale
+
+
+def hbeo_arrays(model: HBEOModel, storage: str = "float16") -> dict[str, np.ndarray]:
     """The arrays of an HBEO model's published file: the network's floating tensors in
-    float16 (``half``), its integer buffers as they are, the standardisation in float32."""
+    ``storage`` (``int8``: the weight tensors of :data:`INT8_MIN_SIZE` elements or more
+    quantised, :func:`quantise`, the rest in float16), its integer buffers as they are, the
+    standardisation in float32."""
+    if storage not in STORAGE:
+        raise ValueError(f"storage={storage!r}: one of {STORAGE}")
     out: dict[str, np.ndarray] = {}
     for k, v in model.net.state_dict().items():
         a = v.detach().cpu().numpy()
-        out[NET_PREFIX + k] = a.astype(np.float16) if half and a.dtype == np.float32 else a
+        if a.dtype != np.float32 or storage == "float32":
+            out[NET_PREFIX + k] = a
+        elif storage == "int8" and a.ndim >= 2 and a.size >= INT8_MIN_SIZE:
+            out[NET_PREFIX + k], out[NET_PREFIX + k + SCALE] = quantise(a)
+        else:
+            out[NET_PREFIX + k] = a.astype(np.float16)
     out["coef_mean"] = np.asarray(model.coef_mean, np.float32)
     out["coef_std"] = np.asarray(model.coef_std, np.float32)
     return out
@@ -260,9 +311,12 @@ def write(stem: str, meta: dict[str, Any], arrays: dict[str, np.ndarray], root: 
     """Write ``<stem>.json``, ``<stem>.npz`` and, for each array of :data:`SPLIT`,
     ``<stem>-<array>.npz`` under ``root`` (:func:`_pack`; atomically, each through a
     temporary file) and record their SHA-256 in the manifest; returns the npz's SHA-256.
-    Only the stems of :data:`STEMS` are written: nothing else in ``root`` is touched."""
-    if stem not in STEMS:
-        raise ValueError(f"stem {stem!r}: one of {STEMS}")
+    Only the stems of :data:`STEMS` (and :func:`per_category_stem`'s) are written: nothing
+    else in ``root`` is touched. :class:`UsageError` when a file would pass
+    :data:`FILE_LIMIT` or the set :data:`TOTAL_LIMIT`."""
+    per_cat = {per_category_stem(k, c) for k in ("beo", "hbeo", "hbeo-mdn") for c in PER_CATEGORY}
+    if stem not in STEMS and stem not in per_cat:
+        raise ValueError(f"stem {stem!r}: one of {STEMS + tuple(sorted(per_cat))}")
     root.mkdir(parents=True, exist_ok=True)
     split = SPLIT.get(stem, ())
     blobs = {f"{stem}.npz": _pack({k: v for k, v in arrays.items() if k not in split})}
@@ -279,6 +333,18 @@ def write(stem: str, meta: dict[str, Any], arrays: dict[str, np.ndarray], root: 
     # this stem's split files of an earlier publication that this one does not write (a
     # basis that was one file and is now chunks): listed in the manifest, so written here
     old = {n for k in split for n in _split_files(stem, k, files) if n in files} - set(blobs)
+    others = sum(
+        os.path.getsize(root / n)
+        for n in files
+        if n not in blobs and n not in old and (root / n).is_file()
+    )
+    total = others + sum(len(d) for d in blobs.values())
+    if total > TOTAL_LIMIT:
+        raise UsageError(
+            f"publishing {stem} would make the published set {total / 1e6:.1f} MB, over its "
+            f"{TOTAL_LIMIT / 1e6:.0f} MB: store it smaller (`beo-bench publish ... --storage "
+            "int8`) or keep it in the cache and load it with --opt model=NAME"
+        )
     for name, data in blobs.items():
         atomic_write_bytes(root / name, data)
         files[name] = _sha256(data)
@@ -331,7 +397,17 @@ def publish_beo(model: BEOModel, root: Path | None = None) -> str:
     return write("beo", stored.stored_meta(), stored.arrays(), root or PUBLISHED_DIR)
 
 
-def publish_hbeo(model: HBEOModel, root: Path | None = None, half: bool = True) -> str:
+def per_category_stem(kind: str, category: str) -> str:
+    """The published name of ``kind``'s one-class network for ``category``."""
+    return f"{kind}-{category}"
+
+
+def publish_hbeo(model: HBEOModel, root: Path | None = None, storage: str = "float16") -> str:
+    """Publish ``model`` as ``<kind>`` (an 18-class network) or, when it is the
+    ``per-category`` recipe's one-class network of a class in :data:`PER_CATEGORY`, as
+    :func:`per_category_stem`."""
+    from beo_bench.perception.hbeo_train import is_per_category_default
+
     if model.config.size != "small":
         raise UsageError(
             f"only the small networks are published (the published set stays under 20 MB); "
@@ -339,13 +415,25 @@ def publish_hbeo(model: HBEOModel, root: Path | None = None, half: bool = True) 
             "--opt model=NAME"
         )
     meta = model.stored_meta()
-    meta["stored_dtype"] = "float16" if half else "float32"
+    meta["stored_dtype"] = storage
     from beo_bench.perception.digest import state_digest
 
-    arrays = hbeo_arrays(model, half)
+    arrays = hbeo_arrays(model, storage)
     # the digest is of the weights as used (float32 after widening): what a run records
     meta["digest"] = state_digest(_state(arrays))
-    return write(model.config.kind, meta, arrays, root or PUBLISHED_DIR)
+    kind, cats = model.config.kind, model.categories
+    if len(cats) == 1 and is_per_category_default(model.config):
+        if cats[0] not in PER_CATEGORY:
+            raise UsageError(
+                f"only the per-category networks of {', '.join(PER_CATEGORY)} are published "
+                f"(Tables 5.1/5.2); keep the {cats[0]} one in the cache"
+            )
+        # the one-class subspace it regresses, as trained (lossless: the network was
+        # trained on these exact coefficients, and its fingerprint must match): 20-130 kB
+        beo_stem = per_category_stem("beo", cats[0])
+        write(beo_stem, model.beo.stored_meta(), model.beo.arrays(), root or PUBLISHED_DIR)
+        return write(per_category_stem(kind, cats[0]), meta, arrays, root or PUBLISHED_DIR)
+    return write(kind, meta, arrays, root or PUBLISHED_DIR)
 
 
 def files_table(root: Path | None = None) -> list[tuple[str, int, str]]:

@@ -64,6 +64,10 @@ each step changes one input of the silhouette prior, or the rule that picks the 
 pairs with the likelihood on the same samples."""
 
 
+PER_CATEGORY: dict[str, Any] = {"per_category": True}
+"""The option that answers each view with its class's own network (``pose-3dof-percat``'s
+class-given track)."""
+
 ABLATIONS: tuple[Ablation, ...] = (
     Ablation(
         "hbeo-mdn-posterior",
@@ -82,6 +86,24 @@ ABLATIONS: tuple[Ablation, ...] = (
     ),
     *(
         Ablation(backend_label("hbeo-mdn-posterior", opts), "hbeo-mdn-likelihood", what)
+        for opts, what in PRIOR_STEPS
+    ),
+    # Tables 5.1/5.2 with chapter 5's own networks, one per category (class-given track)
+    *(
+        Ablation(
+            backend_label("hbeo-mdn-posterior", {**PER_CATEGORY, **n}),
+            backend_label("hbeo-mdn-likelihood", {**PER_CATEGORY, **n}),
+            f"the silhouette prior of eq. 5.6 (N = {n.get('samples', 25)} samples), each "
+            "category's own network",
+        )
+        for n in ({}, {"samples": 100}, {"samples": 5})
+    ),
+    *(
+        Ablation(
+            backend_label("hbeo-mdn-posterior", {**PER_CATEGORY, **opts}),
+            backend_label("hbeo-mdn-likelihood", PER_CATEGORY),
+            f"{what}, each category's own network",
+        )
         for opts, what in PRIOR_STEPS
     ),
     Ablation(

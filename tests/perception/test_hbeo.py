@@ -431,10 +431,10 @@ def test_a_published_model_reads_back_as_trained(trained, tmp_path) -> None:
     from beo_bench.perception.digest import state_digest
 
     m = trained["hbeo-mdn"]
-    published.publish_hbeo(m, tmp_path, half=False)
+    published.publish_hbeo(m, tmp_path, storage="float32")
     meta, arrays = published.read("hbeo-mdn", tmp_path)
     assert state_digest(published._state(arrays)) == meta["digest"] == state_digest(m.state())
-    published.publish_hbeo(m, tmp_path, half=True)
+    published.publish_hbeo(m, tmp_path, storage="float16")
     meta, arrays = published.read("hbeo-mdn", tmp_path)
     state = published._state(arrays)
     assert meta["stored_dtype"] == "float16" and meta["digest"] == state_digest(state)

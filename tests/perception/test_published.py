@@ -183,3 +183,66 @@ def test_the_published_beo_basis_is_rounded_to_16_significant_bits() -> None:
     assert np.all(arrays["basis"].view(np.uint32) & 0xFF == 0)
     cov = arrays["class_cov"]
     assert np.array_equal(cov, cov.astype(np.float32).astype(np.float64))
+
+
+def test_int8_storage_reads_back_within_half_a_step(tmp_path, monkeypatch) -> None:
+    """``--storage int8`` keeps each quantised weight within half its row's step of the
+    trained one (and every other tensor within float16's rounding), the digest names the
+    weights as used, and an all-zero row reads back as zeros."""
+    import numpy as np
+    import torch
+
+    q, scale = published.quantise(np.array([[0.0, 0.0], [1.0, -0.5]], np.float32))
+    assert q.tolist() == [[0, 0], [127, -64]] and scale[0] == 1.0
+    from beo_bench.perception.hbeo_net import HBEONet, NetConfig
+
+    torch.manual_seed(0)
+    net = HBEONet(NetConfig.preset("small", classes=1, coefficients=6, crop=32, rotation="mdn"))
+    monkeypatch.setattr(published, "INT8_MIN_SIZE", 1000)
+    model = type("M", (), {"net": net, "coef_mean": np.zeros(6), "coef_std": np.ones(6)})()
+    arrays = published.hbeo_arrays(model, "int8")  # type: ignore[arg-type]
+    quantised = [k for k in arrays if k.endswith(published.SCALE)]
+    assert quantised
+    assert all(arrays[k.removesuffix(published.SCALE)].dtype == np.int8 for k in quantised)
+    state = published._state(arrays)["net"]
+    for k, v in net.state_dict().items():
+        s = arrays.get(published.NET_PREFIX + k + published.SCALE)
+        if s is not None:
+            step = torch.from_numpy(s).reshape(-1, *[1] * (v.ndim - 1))
+            assert bool(((state[k] - v).abs() <= step / 2 + 1e-7).all()), k
+        elif v.dtype == torch.float32:
+            torch.testing.assert_close(state[k], v, rtol=1e-3, atol=1e-4)
+
+
+def test_the_published_set_is_refused_over_its_cap(tmp_path, monkeypatch) -> None:
+    """A publication that would take the set past TOTAL_LIMIT is a usage error naming
+    ``--storage int8``, and nothing is written: the manifest and the files stay as they
+    were."""
+    import numpy as np
+
+    from beo_bench.errors import UsageError
+
+    arrays = {"basis": np.arange(20000, dtype=np.float32).reshape(100, 200)}
+    published.write("beo", {"k": 1}, arrays, tmp_path)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    monkeypatch.setattr(published, "TOTAL_LIMIT", sum(len(b) for b in before.values()) + 10)
+    published.write("beo", {"k": 1}, arrays, tmp_path)  # replacing itself: same size, fits
+    with pytest.raises(UsageError, match=r"over its 0 MB.*--storage int8"):
+        published.write("hbeo-mdn", {"k": 1}, {"x": np.ones(5000, np.float32)}, tmp_path)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
+def test_the_per_category_networks_are_published_with_their_subspaces(no_training) -> None:
+    """Chapter 5's per-category MDNs (car, airplane, sofa) load from the published files
+    with ``recipe="per-category"`` (nothing trains), each regressing its own class's
+    published subspace, int8-stored; a class without one is not answered by them."""
+    for c in published.PER_CATEGORY:
+        m = hbeo_train.load_hbeo(None, "hbeo-mdn", (c,), recipe="per-category")
+        meta, _ = published.read(f"hbeo-mdn-{c}")
+        assert meta["stored_dtype"] == "int8" and state_digest(m.state()) == meta["digest"]
+        assert m.categories == (c,) and hbeo_train.is_per_category_default(m.config)
+        assert m.beo is beo_model.published_model(f"beo-{c}")
+        assert hbeo_train.fingerprint(m.beo) == meta["subspace"]
+        assert beo_model.load_model(None, (c,), 32) is m.beo  # BEO of that class alone
+    assert hbeo_train.published_per_category("hbeo-mdn", "chair") is None
+    assert hbeo_train.published_per_category("hbeo", "car") is None  # not published
