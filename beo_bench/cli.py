@@ -755,11 +755,25 @@ def cmd_publish(args: argparse.Namespace) -> int:
         path = model_dir(args.name, cats, 32)
         sha = published.publish_beo(BEOModel.load(path), out)
     else:
-        from beo_bench.perception.hbeo_train import HBEOModel, model_path
+        from beo_bench.perception.hbeo_train import (
+            HBEOModel,
+            default_config,
+            default_name,
+            model_path,
+        )
 
-        if args.name is None:
-            raise UsageError(f"publish {args.model} needs --name (the trained model's name)")
-        model = HBEOModel.load(model_path(args.name))
+        name = args.name
+        cats = tuple(args.categories or ())
+        if name is None and len(cats) == 1 and cats[0] in published.PER_CATEGORY:
+            # chapter 5's network of that class: the per-category recipe's default model
+            name = default_name(default_config(args.model, cats, recipe="per-category"))
+        if name is None:
+            raise UsageError(
+                f"publish {args.model} needs --name (the trained model's name), or "
+                "--categories C for the per-category network of C "
+                f"({', '.join(published.PER_CATEGORY)})"
+            )
+        model = HBEOModel.load(model_path(name))
         if model.config.kind != args.model:
             raise UsageError(f"{args.name!r} is a {model.config.kind} model, not {args.model}")
         sha = published.publish_hbeo(model, out, storage=args.storage)

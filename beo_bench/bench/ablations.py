@@ -51,6 +51,10 @@ PRIOR_STEPS: tuple[tuple[dict[str, Any], str], ...] = (
     ({"prior_grid": 64}, "the prior's shape re-projected at 64^3"),
     ({"prior_pixels": "view"}, "the silhouettes compared in the view's pixels, not the crop's"),
     ({"prior_occlusion": True}, "only the pixels no other object covers"),
+    (
+        {"prior_shape": "truth", "prior_occlusion": True},
+        "the prior of the true shape, only the pixels no other object covers",
+    ),
     ({"prior_shape": "hbeo"}, "the prior of the hbeo network's shape"),
     ({"prior_translation": "hbeo"}, "the prior placed at the hbeo network's translation"),
     ({"prior_translation": "aligned"}, "each silhouette shifted onto the observed centroid"),

@@ -380,6 +380,115 @@ def mdn_prior_table(suite: str) -> Callable[[Boards], str]:
     return table
 
 
+ABLATION_DIR = "ablations"
+"""``leaderboards/ablations/``: pages of a suite's few variant rows, for an ablation its full
+page cannot carry without re-running every row (``pose-3dof``'s prior steps: its ``beo``
+rows take hours); ``beo-bench leaderboard --runs RUNS --out leaderboards/ablations`` makes
+them from the variants' runs and their baseline's."""
+
+
+def _ablation_pair(
+    b: Boards, suite: str, method: str, baseline: str, key: str, track: str | None,
+    category: str | None = None,
+) -> dict[str, Any] | None:  # fmt: skip
+    """The ablation entry of ``method`` against ``baseline`` on the suite's own sensor, on
+    every item (``category`` None) or on one category's; None when the page lacks it."""
+    try:
+        paired = b.paired(suite)
+    except PendingSuiteError:
+        return None
+    for p in paired:
+        if p.get("pairing") != "ablation" or p.get("sensor") is not None:
+            continue
+        if (p["method"], p["baseline"], p["metric"], p["track"]) != (method, baseline, key, track):
+            continue
+        if p.get("category") == category:
+            return p
+    return None
+
+
+def prior_ablation(per_category: bool) -> Callable[[Boards], str]:
+    """Chapter 5's ablation (issue 48): each step of ``hbeo-mdn-posterior``'s prior options
+    (:data:`~beo_bench.bench.ablations.PRIOR_STEPS`) minus the likelihood on the same
+    samples, mean rotation error, paired: on ``pose-3dof`` (its ablation page), on
+    ``pose-3dof-percat`` whole and per category (Tables 5.1/5.2's), on ``tabletop``; with
+    ``per_category``, the per-category networks' steps (class-given)."""
+    from beo_bench.bench.ablations import PER_CATEGORY, PRIOR_STEPS
+
+    def table(b: Boards) -> str:
+        track = "class-given" if per_category else "class-free"
+        cols: list[tuple[str, Boards, str, str | None, str | None]] = []
+        if not per_category:
+            cols.append(("`pose-3dof`", Boards(b.root / ABLATION_DIR), "pose-3dof", track, None))
+        cols += [
+            (f"`pose-3dof-percat`{f', {c}' if c else ''}", b, "pose-3dof-percat", track, c)
+            for c in (None, "car", "airplane", "sofa")
+        ]
+        if not per_category:
+            cols.append(("`tabletop`", b, "tabletop", None, None))
+        opts0 = PER_CATEGORY if per_category else {}
+        base = backend_label("hbeo-mdn-likelihood", opts0)
+        steps = [({}, "the prior as published (eq. 5.6, 32^3, the crop)"), *PRIOR_STEPS]
+        rows: list[list[str]] = []
+        found: list[list[dict[str, Any] | None]] = []
+        for opts, what in steps:
+            method = backend_label("hbeo-mdn-posterior", {**opts0, **opts})
+            pairs = [
+                _ablation_pair(bb, suite, method, base, "rot_err_deg_mean", tr, c)
+                for _, bb, suite, tr, c in cols
+            ]
+            if all(p is None for p in pairs):
+                continue
+            found.append(pairs)
+            label = f"{what} (`{options_of(opts)}`)" if opts else what
+            rows.append([label, *("-" if p is None else _diff(p, "") for p in pairs)])
+        if not rows:
+            raise PendingSuiteError("no prior step is on the pages")
+        # each column's likelihood (the baseline of every step there), for scale
+        scale = [
+            next((deg(ps[j]["baseline_value"]) for ps in found if ps[j] is not None), "-")  # type: ignore[index]
+            for j in range(len(cols))
+        ]
+        head = ["posterior - likelihood, mean error (deg) [95%]", *(c[0] for c in cols)]
+        return _table(head, [["the likelihood's own mean error", *scale], *rows])
+
+    return table
+
+
+def shape_selection(b: Boards) -> str:
+    """What selecting the published networks on their shape loss would change (issue 48):
+    each network's kept epoch (the lowest total validation loss) against the epoch of its
+    lowest validation projection loss (eq. 4.3's shape term), from the training history
+    each published model carries (``perception/published/<stem>.json``)."""
+    from beo_bench.perception import published
+
+    files = published.manifest()
+    stems = ["hbeo", "hbeo-mdn"]
+    stems += [published.per_category_stem("hbeo-mdn", c) for c in published.PER_CATEGORY]
+    rows = []
+    for stem in stems:
+        if f"{stem}.json" not in files:
+            continue
+        meta, _ = published.read(stem)
+        hist = meta["info"]["history"]
+        kept = int(meta["info"]["epoch_kept"])
+        best = min(hist, key=lambda r: r["val_projection"])
+        at = hist[kept - 1]
+        gain = 1 - best["val_projection"] / at["val_projection"]
+        rows.append([
+            f"`{stem}`", f"{kept} of {len(hist)}", num(at["val_projection"]),
+            f"{best['epoch']}", num(best["val_projection"]), f"{100 * gain:.1f}%",
+        ])  # fmt: skip
+    head = ["published network", "kept epoch (lowest total loss)", "its shape loss",
+            "epoch of the lowest shape loss", "that shape loss", "shape loss saved"]  # fmt: skip
+    return _table(head, rows)
+
+
+def options_of(opts: dict[str, Any]) -> str:
+    """``k=v,k=v``: how ``--opt`` / ``--backends NAME:K=V,...`` spell a step's options."""
+    return ",".join(f"{k}={str(v).lower() if isinstance(v, bool) else v}" for k, v in opts.items())
+
+
 def swap(b: Boards) -> str:
     """Where each backend's pick gap comes from: one estimated component swapped for the truth."""
     head = ["backend", "pick success", "true class", "true pose and size", "true shape",
@@ -1151,6 +1260,9 @@ TABLES: dict[str, Callable[[Boards], str]] = {
     "mdn-prior": mdn_prior_table("pose-3dof"),
     "mdn-prior-modelnet10": mdn_prior_table("modelnet10-3dof"),
     "swap": swap,
+    "prior-ablation": prior_ablation(per_category=False),
+    "prior-ablation-percat": prior_ablation(per_category=True),
+    "shape-selection": shape_selection,
     "pick-pairs": pick_pairs,
     "rest-prior": rest_prior,
     "ood": ood,
