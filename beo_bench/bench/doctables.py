@@ -389,16 +389,17 @@ them from the variants' runs and their baseline's."""
 
 def _ablation_pair(
     b: Boards, suite: str, method: str, baseline: str, key: str, track: str | None,
-    category: str | None = None,
+    category: str | None = None, sensor: str | None = None,
 ) -> dict[str, Any] | None:  # fmt: skip
-    """The ablation entry of ``method`` against ``baseline`` on the suite's own sensor, on
-    every item (``category`` None) or on one category's; None when the page lacks it."""
+    """The ablation entry of ``method`` against ``baseline`` under ``sensor`` (None: the
+    suite's own), on every item (``category`` None) or on one category's; None when the
+    page lacks it."""
     try:
         paired = b.paired(suite)
     except PendingSuiteError:
         return None
     for p in paired:
-        if p.get("pairing") != "ablation" or p.get("sensor") is not None:
+        if p.get("pairing") != "ablation" or p.get("sensor") != sensor:
             continue
         if (p["method"], p["baseline"], p["metric"], p["track"]) != (method, baseline, key, track):
             continue
@@ -417,15 +418,17 @@ def prior_ablation(per_category: bool) -> Callable[[Boards], str]:
 
     def table(b: Boards) -> str:
         track = "class-given" if per_category else "class-free"
-        cols: list[tuple[str, Boards, str, str | None, str | None]] = []
+        Col = tuple[str, Boards, str, str | None, str | None, str | None]
+        cols: list[Col] = []
         if not per_category:
-            cols.append(("`pose-3dof`", Boards(b.root / ABLATION_DIR), "pose-3dof", track, None))
+            ab = Boards(b.root / ABLATION_DIR)
+            cols.append(("`pose-3dof`", ab, "pose-3dof", track, None, None))
         cols += [
-            (f"`pose-3dof-percat`{f', {c}' if c else ''}", b, "pose-3dof-percat", track, c)
+            (f"`pose-3dof-percat`{f', {c}' if c else ''}", b, "pose-3dof-percat", track, c, None)
             for c in (None, "car", "airplane", "sofa")
         ]
-        if not per_category:
-            cols.append(("`tabletop`", b, "tabletop", None, None))
+        if not per_category:  # its steps run under the ideal sensor: occlusion alone
+            cols.append(("`tabletop` (ideal sensor)", b, "tabletop", None, None, "ideal"))
         opts0 = PER_CATEGORY if per_category else {}
         base = backend_label("hbeo-mdn-likelihood", opts0)
         steps = [({}, "the prior as published (eq. 5.6, 32^3, the crop)"), *PRIOR_STEPS]
@@ -434,8 +437,8 @@ def prior_ablation(per_category: bool) -> Callable[[Boards], str]:
         for opts, what in steps:
             method = backend_label("hbeo-mdn-posterior", {**opts0, **opts})
             pairs = [
-                _ablation_pair(bb, suite, method, base, "rot_err_deg_mean", tr, c)
-                for _, bb, suite, tr, c in cols
+                _ablation_pair(bb, suite, method, base, "rot_err_deg_mean", tr, c, se)
+                for _, bb, suite, tr, c, se in cols
             ]
             if all(p is None for p in pairs):
                 continue
