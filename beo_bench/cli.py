@@ -590,7 +590,7 @@ def cmd_leaderboard(args: argparse.Namespace) -> int:
             f"--runs {args.runs} is not a directory: give the directory the runs are in "
             "(where `beo-bench run --out` or `all --runs` wrote them)"
         )
-    written = regenerate(args.runs, args.out, update=args.update)
+    written = regenerate(args.runs, args.out, update=args.update, ablation=args.ablation)
     if not written and not args.update:  # --update alone prunes pages of older versions
         raise BeoBenchError(f"no summary.json under {args.runs}: run `beo-bench run` first")
     for p in written:
@@ -1431,6 +1431,12 @@ def _add_leaderboard(sub: Any, data: argparse.ArgumentParser) -> None:
         "leaderboard",
         help="regenerate leaderboards/ from run summaries",
         parents=[runs_parent(), out_parent("leaderboards"), update_parent()],
+    )
+    lb.add_argument(
+        "--ablation",
+        action="store_true",
+        help="the runs are one study's variants and their baseline, not a suite's every row "
+        "(leaderboards/ablations/): no primary comparisons, a note naming the full page",
     )
     lb.set_defaults(func=cmd_leaderboard)
 

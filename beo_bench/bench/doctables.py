@@ -383,8 +383,8 @@ def mdn_prior_table(suite: str) -> Callable[[Boards], str]:
 ABLATION_DIR = "ablations"
 """``leaderboards/ablations/``: pages of a suite's few variant rows, for an ablation its full
 page cannot carry without re-running every row (``pose-3dof``'s prior steps: its ``beo``
-rows take hours); ``beo-bench leaderboard --runs RUNS --out leaderboards/ablations`` makes
-them from the variants' runs and their baseline's."""
+rows take hours); ``beo-bench leaderboard --ablation --runs RUNS --out
+leaderboards/ablations`` makes them from the variants' runs and their baseline's."""
 
 
 def _ablation_pair(

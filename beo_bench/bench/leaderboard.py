@@ -523,10 +523,18 @@ def _plots(out: Path, prefix: str, title: str, rows: list[Row]) -> list[str]:
     sampled = [s for s in with_rot if "samples" in _kwargs(s)]
     if sampled:
         written.append(_error_vs_samples(out, prefix, title, with_rot, sampled))
+    drawn: set[str] = set()
     for r in _ordered(rows):
         conf = r.summary["metrics"].get("confusion")
-        if conf and not r.borrowed:  # a borrowed run's plot is its own track's
-            written.append(_confusion(out, prefix, title, r.summary, conf))
+        if not conf or r.borrowed:  # a borrowed run's plot is its own track's
+            continue
+        # a variant of a row above with the same model and the same class decisions (an
+        # ablation of the pose step, another sample count) would draw the same matrix again
+        key = json.dumps([r.summary.get("model_digest"), conf])
+        if key in drawn:
+            continue
+        drawn.add(key)
+        written.append(_confusion(out, prefix, title, r.summary, conf))
     return written
 
 
@@ -1849,8 +1857,20 @@ def _kept_pages(out: Path, fresh: set[str]) -> dict[str, tuple[_Kept, list[Row]]
     return kept
 
 
+ABLATION_NOTE = (
+    "An ablation page (`beo-bench leaderboard --ablation`): the rows of one study, variants "
+    "of a backend and the baseline they pair with, on {suite}'s items, made from those runs "
+    "alone. The suite's own page (`leaderboards/{suite}.md`) holds every row, its primary "
+    "comparisons and its sensors; the verdicts here are exploratory and uncorrected."
+)
+"""What an ablation page says first (:func:`regenerate`'s ``ablation``)."""
+
+
 def regenerate(
-    runs: Path | str = "runs", out: Path | str = "leaderboards", update: bool = False
+    runs: Path | str = "runs",
+    out: Path | str = "leaderboards",
+    update: bool = False,
+    ablation: bool = False,
 ) -> list[Path]:
     """Rewrite ``out`` from the summaries under ``runs``; returns the suites' Markdown files.
     Its own files (named after a suite) that no run produces any more are removed. ``out``
@@ -1860,7 +1880,12 @@ def regenerate(
     index part as they are in ``out``, if every row there is of the suite's current
     version, so that a campaign too long for one machine's session can be run suite by
     suite. Each page is still made from one regeneration's runs: its rows, paired verdicts
-    and plots always come from the same runs."""
+    and plots always come from the same runs.
+
+    ``ablation`` (``--ablation``): the runs are one study's variant rows and their baseline,
+    not a suite's every row (``leaderboards/ablations/``): its pages carry no primary
+    comparisons (a family of a page's few rows would be corrected over the wrong family)
+    and say where the suite's full page is."""
     out = Path(out)
     check_out(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -1922,12 +1947,14 @@ def regenerate(
         page.md = [f"# {suite} (suite version {version})", "", desc, ""]
         partial = _partial_note(suite, tracks)
         page.md += [partial, ""] if partial else []
+        if ablation:
+            page.md += [ABLATION_NOTE.format(suite=suite), ""]
         if older:
             left = ", ".join(f"v{v}: {n} run(s)" for v, n in sorted(older.items()))
             page.md += [f"Runs of older suite versions are left out ({left}): not comparable.", ""]
         # the comparisons the page exists to make, Holm-corrected as one family, apart from
         # the exploratory verdicts of the tracks' sections (issue 47)
-        primary = primary_results(suite, tracks)
+        primary = [] if ablation else primary_results(suite, tracks)
         if any(x.result is not None for x in primary):
             page.md += ["## Primary comparisons", "", primary_table(primary), ""]
             page.index += [f"### {suite}: primary comparisons", "", primary_table(primary), ""]
@@ -1976,7 +2003,7 @@ def regenerate(
 
     ours = tuple(list_suites())
     pending = [s for s in ours if s not in index_parts]
-    if pending:
+    if pending and not ablation:
         index += [
             "## Not yet run at their current suite version",
             "",

@@ -750,3 +750,37 @@ def test_chapter_5s_ablations_are_paired_per_category_on_the_per_category_suite(
     assert all(rot[c]["diff"] == 0 and rot[c]["verdict"] == "no difference" for c in others)
     md = (tmp_path / "board" / "pose-3dof-percat.md").read_text()
     assert f"the prior of the true shape, at the estimated translation ({first} only)" in md
+
+
+def test_an_ablation_page_carries_no_primary_comparisons_and_names_the_full_page(
+    tmp_path,
+) -> None:
+    """``leaderboard --ablation`` (``leaderboards/ablations/``): a page of a study's rows
+    pairs its variants with their baseline, but makes no primary comparison (corrected over
+    a family of a few rows it would read *worse* where the full page's family might not),
+    says where the full page is, and lists no suite as not yet run; a variant with its
+    baseline's model and class decisions draws no second confusion matrix."""
+    runs = tmp_path / "runs"
+    steps = [3.0] * 18 + [-1.0] * 2  # the posterior reads worse, p < 0.05 alone
+    common = {"suite": "pose-3dof", "track": "class-free", "uses_hint": False, "digest": DIGEST}
+    for name, kw, rot in (
+        ("hbeo-mdn-likelihood", {}, [10.0] * 20),
+        ("hbeo-mdn-posterior", {}, [10.0 + s for s in steps]),
+        ("hbeo-mdn-posterior", {"prior_grid": 64}, [10.0 + s for s in steps]),
+    ):
+        rows = [pose_row(i, rot_err_deg=r) for i, r in enumerate(rot)]
+        write_run(runs / f"{name}{kw}", name, rows, kwargs=kw, **common)
+    for ablation in (False, True):
+        board = tmp_path / f"board-{ablation}"
+        regenerate(runs, board, ablation=ablation)
+        md = (board / "pose-3dof.md").read_text()
+        paired = json.loads((board / "pose-3dof_paired.json").read_text())
+        primary = [v for v in paired if v["pairing"] == "primary"]
+        assert ("## Primary comparisons" in md) is (not ablation)
+        assert bool(primary) is (not ablation)
+        assert ("An ablation page" in md) is ablation
+        assert ("Not yet run" in (board / "README.md").read_text()) is (not ablation)
+        steps_paired = [v for v in paired if v["pairing"] == "ablation"]
+        assert any(v["method"] == "hbeo-mdn-posterior (prior_grid=64)" for v in steps_paired)
+        confusions = sorted(p.name for p in board.glob("*confusion*.png"))
+        assert len(confusions) == 1, confusions  # one model, one set of class decisions
