@@ -107,8 +107,9 @@ class HBEOOptions:
     per_category: bool = option(
         False,
         "chapter 5's protocol (Tables 5.1/5.2): one network per category, chosen by the "
-        "view's class hint (class-given track only; each is the per-category recipe's, "
-        "never trained here)",
+        "view's class hint (class-given track only; each is the per-category recipe's: "
+        "the MDNs of car, airplane and sofa are published, any other is trained first with "
+        "`beo-bench train`, never here)",
     )
 
     # chapter 5's ablation (issue 48): what the silhouette prior could do with better
