@@ -580,6 +580,34 @@ def confusion_figure(conf: Any, categories: list[str] | None, title: str) -> Any
     return fig
 
 
+MDN_DEFAULT_SAMPLES = 25
+"""N for an MDN row without a ``samples`` option (``HBEOOptions.samples``' default; a test
+keeps the two equal): its point on the error-against-N curve."""
+
+
+def _series(s: dict[str, Any]) -> str:
+    """The curve a sampling row belongs to: its backend and options but ``samples``."""
+    return backend_label(s["backend"], {k: v for k, v in _kwargs(s).items() if k != "samples"})
+
+
+def sample_curves(
+    with_rot: list[dict[str, Any]], sampled: list[dict[str, Any]]
+) -> dict[str, list[tuple[int, float, Any]]]:
+    """Figure 5.3's curves: per backend and options but ``samples`` (:func:`_series`; the
+    shared network and each category's own are two curves), (N, mean rotation error, its
+    interval) of every row of that series, N ascending, a row without ``samples`` at
+    :data:`MDN_DEFAULT_SAMPLES`; bounds left out."""
+    keys = {_series(s) for s in sampled}
+    lines: dict[str, list[tuple[int, float, Any]]] = {}
+    for s in with_rot:
+        if is_bound(s) or _series(s) not in keys:
+            continue
+        ci = s.get("ci95", {}).get("rot_err_deg_mean")
+        n = int(_kwargs(s).get("samples", MDN_DEFAULT_SAMPLES))
+        lines.setdefault(_series(s), []).append((n, s["metrics"]["rot_err_deg_mean"], ci))
+    return {k: sorted(v, key=lambda p: p[0]) for k, v in lines.items()}
+
+
 def _error_vs_samples(
     out: Path,
     prefix: str,
@@ -588,27 +616,24 @@ def _error_vs_samples(
     sampled: list[dict[str, Any]],
 ) -> str:
     """Mean rotation error against N, the samples drawn (dissertation Figure 5.3): a line
-    per sampling backend; the other backends as horizontal references."""
+    per sampling backend and its other options (the shared network and each category's
+    own are two lines), through its rows at N = 5, the default and 100; the plain backends
+    (no options) as horizontal references."""
     import matplotlib.pyplot as plt
 
+    lines = sample_curves(with_rot, sampled)
     fig, ax = plt.subplots(figsize=(6, 4), constrained_layout=True)
-    lines: dict[str, list[tuple[int, float, Any]]] = {}
-    for s in sampled:
-        ci = s.get("ci95", {}).get("rot_err_deg_mean")
-        n = int(_kwargs(s)["samples"])
-        lines.setdefault(s["backend"], []).append((n, s["metrics"]["rot_err_deg_mean"], ci))
-    for backend, pts in sorted(lines.items()):
-        pts.sort(key=lambda p: p[0])
+    for name, pts in sorted(lines.items()):
         x = [p[0] for p in pts]
         y = [p[1] for p in pts]
-        ax.plot(x, y, marker="o", label=backend)
+        ax.plot(x, y, marker="o", label=name)
         lo = [p[2][0] if p[2] else p[1] for p in pts]
         hi = [p[2][1] if p[2] else p[1] for p in pts]
         ax.fill_between(x, lo, hi, alpha=0.15)
-    # the other methods as references, those within twice the sampled errors' range (a
-    # far-off baseline would squash the curves this plot is about)
-    top = 2 * max(s["metrics"]["rot_err_deg_mean"] for s in sampled)
-    others = [s for s in with_rot if "samples" not in _kwargs(s) and not is_bound(s)]
+    # the plain methods as references, those within twice the curves' range (a far-off
+    # baseline would squash the curves this plot is about)
+    top = 2 * max(y for pts in lines.values() for _, y, _ in pts)
+    others = [s for s in with_rot if not _kwargs(s) and label(s) not in lines and not is_bound(s)]
     styles = iter(["--", ":", "-.", (0, (5, 1)), (0, (1, 3))] * 4)
     for i, s in enumerate(o for o in others if o["metrics"]["rot_err_deg_mean"] <= top):
         ax.axhline(
@@ -616,14 +641,14 @@ def _error_vs_samples(
             ls=next(styles),
             lw=1,
             label=label(s),
-            color=f"C{i + 2}",
+            color=f"C{i + len(lines)}",
         )
     ax.set_ylim(0, top)
     ax.set_xscale("log")
     ax.set_xlabel("N, rotation samples drawn")
     ax.set_ylabel("mean rotation error (deg)")
     ax.legend(fontsize="small")
-    ax.set_title(f"{title}: error against N (cf. Figure 5.3)")
+    ax.set_title(f"{title}: error against N (cf. Figure 5.3)", fontsize="medium")
     name = f"{prefix}_error_vs_samples.png"
     _savefig(fig, out / name)
     plt.close(fig)

@@ -784,3 +784,31 @@ def test_an_ablation_page_carries_no_primary_comparisons_and_names_the_full_page
         assert any(v["method"] == "hbeo-mdn-posterior (prior_grid=64)" for v in steps_paired)
         confusions = sorted(p.name for p in board.glob("*confusion*.png"))
         assert len(confusions) == 1, confusions  # one model, one set of class decisions
+
+
+def test_figure_5_3s_curves_follow_one_network_each() -> None:
+    """The error-against-N plot draws one curve per backend and options but ``samples``:
+    the shared network's rows and the per-category networks' rows are two curves, each
+    through its N = 5, 25 (the row without ``samples``) and 100, never a line joining one
+    network's N = 5 to the other's N = 100; variants of other options and bounds are not
+    points on them."""
+    from beo_bench.bench.leaderboard import MDN_DEFAULT_SAMPLES, sample_curves
+    from beo_bench.perception.hbeo import HBEOOptions
+
+    assert HBEOOptions().samples == MDN_DEFAULT_SAMPLES
+
+    def row(kw: dict, err: float) -> dict:
+        return {"backend": "hbeo-mdn-likelihood", "metrics": {"rot_err_deg_mean": err},
+                "provenance": {"backend_kwargs": kw}}  # fmt: skip
+
+    rows = [
+        row({}, 9.5), row({"samples": 5}, 9.8), row({"samples": 100}, 9.4),
+        row({"per_category": True}, 3.8), row({"per_category": True, "samples": 100}, 3.4),
+        row({"per_category": True, "samples": 5}, 4.3), row({"prior_grid": 64}, 9.0),
+    ]  # fmt: skip
+    sampled = [r for r in rows if "samples" in r["provenance"]["backend_kwargs"]]
+    curves = sample_curves(rows, sampled)
+    assert {k: [(n, y) for n, y, _ in v] for k, v in curves.items()} == {
+        "hbeo-mdn-likelihood": [(5, 9.8), (25, 9.5), (100, 9.4)],
+        "hbeo-mdn-likelihood (per_category=true)": [(5, 4.3), (25, 3.8), (100, 3.4)],
+    }
