@@ -759,6 +759,7 @@ def cmd_publish(args: argparse.Namespace) -> int:
             HBEOModel,
             default_config,
             default_name,
+            is_per_category_default,
             model_path,
         )
 
@@ -776,7 +777,8 @@ def cmd_publish(args: argparse.Namespace) -> int:
         model = HBEOModel.load(model_path(name))
         if model.config.kind != args.model:
             raise UsageError(f"{args.name!r} is a {model.config.kind} model, not {args.model}")
-        sha = published.publish_hbeo(model, out, storage=args.storage)
+        one = len(model.categories) == 1 and is_per_category_default(model.config)
+        sha = published.publish_hbeo(model, out, storage=args.storage, per_category=one)
     print(f"published {args.model} -> {out} (SHA-256 {sha})")
     for name, size, digest in published.files_table(out):
         print(f"  {name:<16} {size / 1e6:6.2f} MB  {digest}")

@@ -402,11 +402,15 @@ def per_category_stem(kind: str, category: str) -> str:
     return f"{kind}-{category}"
 
 
-def publish_hbeo(model: HBEOModel, root: Path | None = None, storage: str = "float16") -> str:
-    """Publish ``model`` as ``<kind>`` (an 18-class network) or, when it is the
-    ``per-category`` recipe's one-class network of a class in :data:`PER_CATEGORY`, as
-    :func:`per_category_stem`."""
-    from beo_bench.perception.hbeo_train import is_per_category_default
+def publish_hbeo(
+    model: HBEOModel,
+    root: Path | None = None,
+    storage: str = "float16",
+    per_category: bool = False,
+) -> str:
+    """Publish ``model`` as ``<kind>`` or, with ``per_category`` (it is the
+    ``per-category`` recipe's one-class network: ``hbeo_train.is_per_category_default``)
+    of a class in :data:`PER_CATEGORY`, as :func:`per_category_stem` with its subspace."""
 
     if model.config.size != "small":
         raise UsageError(
@@ -422,7 +426,7 @@ def publish_hbeo(model: HBEOModel, root: Path | None = None, storage: str = "flo
     # the digest is of the weights as used (float32 after widening): what a run records
     meta["digest"] = state_digest(_state(arrays))
     kind, cats = model.config.kind, model.categories
-    if len(cats) == 1 and is_per_category_default(model.config):
+    if per_category:
         if cats[0] not in PER_CATEGORY:
             raise UsageError(
                 f"only the per-category networks of {', '.join(PER_CATEGORY)} are published "
