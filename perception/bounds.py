@@ -1,10 +1,12 @@
-"""The bounds every leaderboard shows: ``oracle`` (the truth) and ``random`` (chance)."""
+"""The bounds every leaderboard shows: ``oracle`` (the truth) and ``random`` (chance); and
+the oracle with controlled damage (``rot_deg``, ``trans_cm``, ``shape=class-mean``): a
+privileged diagnostic of which errors of an estimate the pick suite punishes (issue 49)."""
 
 from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -31,6 +33,41 @@ class OracleOptions:
         "hand out the instance's exact mesh for grasp planning (false: plan on its voxels "
         "like any other backend, the ceiling of a D^3 shape)",
     )
+    # the truth with controlled damage (issue 49): which errors of an estimate pick punishes
+    rot_deg: float = option(
+        0.0, "turn the true rotation by this many degrees (0-180) about rot_axis"
+    )
+    rot_axis: Literal["random", "up"] = option(
+        "random",
+        "the damage's axis: random (uniform on the sphere, drawn per view) or up (the "
+        "world's vertical, a wrong yaw)",
+    )
+    trans_cm: float = option(
+        0.0, "move the true translation this far (0-50 cm), in a direction drawn per view"
+    )
+    shape: Literal["true", "class-mean"] = option(
+        "true",
+        "the instance's own shape, or its class's mean occupancy (no mesh: planned on the "
+        "voxels) at the true pose and the class's mean size",
+    )
+    seed: int = option(0, "seeds the damage's draws, with the view's bytes")
+    mean_instances: int | None = option(
+        None, "with shape=class-mean: training instances per class in the means (null: all)"
+    )
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.rot_deg <= 180:
+            raise ValueError(f"rot_deg={self.rot_deg}: use 0 to 180")
+        if not 0 <= self.trans_cm <= 50:
+            raise ValueError(f"trans_cm={self.trans_cm}: use 0 to 50")
+        if self.rot_axis not in ("random", "up"):
+            raise ValueError(f"rot_axis={self.rot_axis!r}: use random or up")
+        if self.shape not in ("true", "class-mean"):
+            raise ValueError(f"shape={self.shape!r}: use true or class-mean")
+
+    @property
+    def damaged(self) -> bool:
+        return bool(self.rot_deg or self.trans_cm or self.shape != "true")
 
 
 class OracleBackend(Backend):
@@ -47,10 +84,23 @@ class OracleBackend(Backend):
         self.resolution = self.options.resolution
         self.mesh = self.options.mesh
         self._dataset: Dataset | None = None
+        self._means: dict[tuple[str, ...], ClassMeans] = {}
 
     def prepare(self, ctx: RunContext) -> None:
-        """Remember the run's dataset, where the views' instance keys are looked up."""
-        self._dataset = ctx.dataset
+        """Remember the run's dataset, where the views' instance keys are looked up (and
+        with ``shape=class-mean`` compute its classes' means once)."""
+        if ctx.dataset != self._dataset:
+            self._dataset = ctx.dataset
+            self._means.clear()
+        if self.options.shape == "class-mean":
+            self._class_means(tuple(ctx.categories), ctx.progress)
+
+    def _class_means(self, cats: tuple[str, ...], progress: bool = False) -> ClassMeans:
+        if cats not in self._means:
+            self._means[cats] = class_means(
+                cats, self.resolution, self.options.mean_instances, progress, self._dataset
+            )
+        return self._means[cats]
 
     def predict(self, view: View) -> Estimate:
         gt = view.ground_truth
@@ -58,10 +108,40 @@ class OracleBackend(Backend):
             raise ViewError("the oracle needs View.ground_truth (the runner fills it for it)")
         p = np.zeros(len(view.categories))
         p[gt.class_index] = 1.0
-        inst = instance_from_key(gt.key, self._dataset)
-        shape = inst.voxels(self.resolution).astype(np.float32)
         R, t, size = np.array(gt.R_cam), np.array(gt.t_cam), np.array(gt.size)
-        return Estimate(p, R, t, size, shape, mesh=inst.mesh if self.mesh else None)
+        o = self.options
+        if o.shape == "class-mean":
+            means = self._class_means(tuple(view.categories))
+            shape, size = means.shape[gt.class_index].copy(), means.size[gt.class_index].copy()
+            mesh = None
+        else:
+            inst = instance_from_key(gt.key, self._dataset)
+            shape = inst.voxels(self.resolution).astype(np.float32)
+            mesh = inst.mesh if self.mesh else None
+        if o.damaged:
+            R, t = damage(R, t, view, o)
+        return Estimate(p, R, t, size, shape, mesh=mesh)
+
+
+def damage(
+    R: np.ndarray, t: np.ndarray, view: View, o: OracleOptions
+) -> tuple[np.ndarray, np.ndarray]:
+    """The true pose (camera frame) with ``o``'s damage: turned by ``rot_deg`` about its own
+    centre (about an axis uniform on the sphere, or the world's vertical), moved by
+    ``trans_cm`` in a direction uniform on the sphere; both drawn per view (seeded by
+    ``seed`` and the view's bytes), so a run is deterministic and every view errs by
+    exactly the amount asked (before the object's symmetry, which may make a turn about its
+    own axis no error at all)."""
+    h = hashlib.sha256(np.ascontiguousarray(view.depth).tobytes())
+    h.update(np.packbits(np.asarray(view.mask, dtype=bool)).tobytes())
+    rng = np.random.default_rng([o.seed, int.from_bytes(h.digest()[:8], "little")])
+    axis, direction = rng.normal(size=3), rng.normal(size=3)
+    if o.rot_axis == "up":  # the world's +z in the camera frame
+        axis = np.asarray(view.cam_to_world, dtype=np.float64)[:3, :3].T @ np.array([0, 0, 1.0])
+    axis /= np.linalg.norm(axis)
+    direction /= np.linalg.norm(direction)
+    turn = Rotation.from_rotvec(np.radians(o.rot_deg) * axis).as_matrix()
+    return turn @ R, t + 0.01 * o.trans_cm * direction
 
 
 @dataclass(frozen=True)

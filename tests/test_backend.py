@@ -226,3 +226,33 @@ def test_swap_replaces_exactly_the_named_parts_and_hides_the_truth(views) -> Non
             B.get_backend("swap", base="spy", truth="colour")
     finally:
         B.unregister_backend("spy")
+
+
+def test_the_damaged_oracle_errs_by_exactly_the_amount_asked(views) -> None:
+    """Issue 49's sensitivity rows: ``oracle`` with ``rot_deg`` turns the truth by exactly
+    that angle (about an axis drawn per view, or the world's vertical), with ``trans_cm``
+    moves it exactly that far, the same for the same view; ``shape=class-mean`` hands out
+    the class's mean occupancy and size, and no mesh."""
+    from scipy.spatial.transform import Rotation
+
+    from beo_bench.errors import UsageError
+
+    for axis in ("random", "up"):
+        o = B.get_backend("oracle", rot_deg=30.0, rot_axis=axis, trans_cm=2.0)
+        for v in views:
+            e, gt = o.predict(v), v.ground_truth
+            delta = Rotation.from_matrix(e.rotation @ np.asarray(gt.R_cam).T)
+            assert np.degrees(delta.magnitude()) == pytest.approx(30.0, abs=1e-6)
+            moved = np.linalg.norm(np.asarray(e.translation) - gt.t_cam)
+            assert moved == pytest.approx(0.02, abs=1e-9)
+            if axis == "up":  # a turn about the world's vertical: the axis is up
+                up = np.asarray(v.cam_to_world)[:3, :3].T @ np.array([0.0, 0.0, 1.0])
+                assert abs(delta.as_rotvec() @ up) == pytest.approx(np.radians(30.0), abs=1e-6)
+            again = o.predict(v)
+            np.testing.assert_array_equal(again.rotation, e.rotation)
+    mean = B.get_backend("oracle", shape="class-mean", mean_instances=4)
+    e = mean.predict(views[0])
+    assert e.mesh is None and ((0 < e.shape) & (e.shape < 1)).any()  # an average of shapes
+    np.testing.assert_array_equal(e.rotation, views[0].ground_truth.R_cam)
+    with pytest.raises(UsageError, match="rot_deg"):
+        B.get_backend("oracle", rot_deg=200.0)

@@ -68,6 +68,26 @@ each step changes one input of the silhouette prior, or the rule that picks the 
 pairs with the likelihood on the same samples."""
 
 
+SENSITIVITY_STEPS: tuple[tuple[dict[str, Any], str], ...] = (
+    *(
+        ({"rot_deg": d}, f"the true rotation turned {d} deg about a random axis")
+        for d in (5, 15, 30, 60, 90)
+    ),
+    *(
+        (
+            {"rot_axis": "up", "rot_deg": d},
+            f"the true rotation turned {d} deg about the up axis",
+        )
+        for d in (5, 15, 30, 60, 90)
+    ),
+    *(({"trans_cm": t}, f"the true translation moved {t:g} cm") for t in (0.5, 1, 2, 4)),
+    ({"shape": "class-mean"}, "the class's mean shape and size in place of the instance's"),
+)
+"""Issue 49's sensitivity of pick: ``oracle``'s controlled damage (perception/bounds.py),
+each step one error of a known size, paired with the oracle on the same episodes. The
+options are spelt as ``--opt`` records them (``rot_deg=30``, ``trans_cm=0.5``): a row's label
+is its recorded options."""
+
 PER_CATEGORY: dict[str, Any] = {"per_category": True}
 """The option that answers each view with its class's own network (``pose-3dof-percat``'s
 class-given track)."""
@@ -138,6 +158,8 @@ ABLATIONS: tuple[Ablation, ...] = (
     Ablation(
         "oracle (mesh=false)", "oracle", "the oracle planning on its 32^3 voxels, not its mesh"
     ),
+    # pick's sensitivity (issue 49): the truth with one controlled error, against the truth
+    *(Ablation(backend_label("oracle", opts), "oracle", what) for opts, what in SENSITIVITY_STEPS),
     # chapter 4's comparison at a known pose (Table 3.1 against HBEO's figures): the learned
     # encoder against BEO's projection onto the class subspaces, on class and completion
     Ablation(
