@@ -580,6 +580,25 @@ def pick_pairs(b: Boards) -> str:
     return _table(head, rows)
 
 
+def pick_sensitivity(b: Boards) -> str:
+    """What pick punishes (issue 49): the oracle with one controlled error of a known size
+    (``oracle:rot_deg=D``, ``rot_axis=up``, ``trans_cm=T``, ``shape=class-mean``) against
+    the oracle on the same episodes, pick success and its paired change."""
+    from beo_bench.bench.ablations import SENSITIVITY_STEPS
+
+    base = b.metric("pick", "oracle", "pick_success")
+    rows = [["the truth (`oracle`)", pct(base), "-"]]
+    for opts, what in SENSITIVITY_STEPS:
+        method = backend_label("oracle", opts)
+        if not b.has("pick", method):
+            continue
+        p = b.pair("pick", method, "oracle", "pick_success", None)
+        rows.append([f"{what} (`{options_of(opts)}`)", pct(p["method_value"]), _diff(p, " pts")])
+    if len(rows) == 1:
+        raise PendingSuiteError("no sensitivity row is on the pick page")
+    return _table(["the oracle's estimate", "pick success", "- the oracle [95%]"], rows)
+
+
 def ood(b: Boards) -> str:
     """Each backend in (``pose-3dof``) and out of distribution (``pose-3dof-ood``)."""
     head = ["backend", "mean rotation error", "> 15 deg", "class accuracy", "IoU"]
@@ -1280,6 +1299,7 @@ TABLES: dict[str, Callable[[Boards], str]] = {
     "prior-ablation-percat": prior_ablation(per_category=True),
     "shape-selection": shape_selection,
     "pick-pairs": pick_pairs,
+    "pick-sensitivity": pick_sensitivity,
     "rest-prior": rest_prior,
     "ood": ood,
     "hbeo-detail": hbeo_detail,
