@@ -258,6 +258,49 @@ def obstacle_points(est: Estimate | None, view: View, cam_to_world: np.ndarray) 
     return _to_world(points, est, cam_to_world)
 
 
+PICK_ERRORS: tuple[str, ...] = (
+    "rot_err_deg", "trans_err_cm", "size_err_pct", "iou", "iou_cam", "chamfer_world_cm",
+)  # fmt: skip
+"""The errors a pick episode records of the estimate it grasped (:func:`pick_errors`)."""
+CHAMFER_SAMPLES = 2000
+
+
+def pick_errors(
+    est: Estimate,
+    gt: GroundTruth,
+    cam_to_world: np.ndarray,
+    resolution: int,
+    dataset: Dataset | None = None,
+) -> dict[str, Any]:
+    """The errors of the estimate a pick episode grasped, against its object's truth (issue
+    49: success tied to each estimate's error): rotation (deg, under the object's
+    symmetry), translation (cm), size (%), shape IoU in the canonical frame and in the
+    camera's (shape, pose and size together), and the symmetric Chamfer distance (mean of
+    both directions, cm) between the surface the grasp was planned on and the true surface,
+    both in the world frame, from :data:`CHAMFER_SAMPLES` samples of each."""
+    from scipy.spatial import cKDTree
+
+    from beo_bench.objects.processing import surface_samples
+
+    truth = truth_shape(gt.key, resolution, dataset)
+    out = pose_metrics(est, gt, truth.model_points, None)
+    out.update(score_shape(est, gt, truth))
+    inst = instance_from_key(gt.key, dataset)
+    true_est = Estimate(
+        np.ones(1), np.asarray(gt.R_cam), np.asarray(gt.t_cam), np.asarray(gt.size),
+        truth.voxels.astype(np.float32), mesh=inst.mesh,
+    )  # fmt: skip
+    planned, true = estimate_mesh(est, cam_to_world), estimate_mesh(true_est, cam_to_world)
+    chamfer = None
+    if planned is not None and true is not None:
+        a, _ = surface_samples(planned, CHAMFER_SAMPLES, seed=0)
+        b, _ = surface_samples(true, CHAMFER_SAMPLES, seed=0)
+        d_ab, d_ba = cKDTree(b).query(a)[0], cKDTree(a).query(b)[0]
+        chamfer = 100.0 * 0.5 * (float(d_ab.mean()) + float(d_ba.mean()))
+    out["chamfer_world_cm"] = chamfer
+    return {k: out.get(k) for k in PICK_ERRORS}
+
+
 Answer = tuple[Estimate | None, float, str | None]
 """A backend's answer for one view: the estimate (None: it failed), the seconds it took,
 and why it failed (None: it did not)."""

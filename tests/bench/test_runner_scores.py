@@ -63,6 +63,24 @@ def test_oracle_picks_exactly_like_the_ground_truth_planner(tmp_path) -> None:
         assert (r["success"], r["category"]) == (gt.success, gt.category), r
     assert [r["category"] for r in rows] == list(cats[:n])  # the balanced target classes
     assert s["metrics"]["pick_success"] >= 0.7  # the ceiling is about 92% (docs/objects.md)
+    # each episode records what was wrong with the estimate it grasped: nothing
+    for r in rows:
+        assert r["rot_err_deg"] == pytest.approx(0, abs=1e-6) and r["trans_err_cm"] < 1e-6
+        assert r["iou"] == 1.0 and r["iou_cam"] > 0.99 and r["chamfer_world_cm"] < 0.3
+
+
+def test_a_pick_episode_records_the_errors_of_the_estimate_it_grasped(tmp_path) -> None:
+    """Issue 49: success tied to each estimate's error. The oracle turned by 30 deg about
+    a random axis and moved by 2 cm records those errors (the turn less where the object's
+    symmetry absorbs it), and a world-frame Chamfer distance of the surface it planned on."""
+    n = 4
+    short_run(tmp_path, "pick", "oracle", n, opts={"rot_deg": 30, "trans_cm": 2})
+    rows = read_rows(tmp_path / f"pick-oracle-{n}" / "results.jsonl")
+    assert len(rows) == n
+    for r in rows:
+        assert 0 <= r["rot_err_deg"] <= 30 + 1e-6, r
+        assert r["trans_err_cm"] <= 2 + 1e-6 and r["chamfer_world_cm"] > 0.1, r
+    assert max(r["rot_err_deg"] for r in rows) > 29  # an object the turn is not lost on
 
 
 def test_icp_beats_random_on_pose_1dof(tmp_path) -> None:

@@ -18,7 +18,7 @@ from beo_bench.bench.kinds.common import (
     Rows,
 )
 from beo_bench.bench.kinds.tabletop import SceneItems, categories, view_label
-from beo_bench.bench.scoring import estimate_mesh, obstacle_points
+from beo_bench.bench.scoring import estimate_mesh, obstacle_points, pick_errors
 from beo_bench.bench.suites import Kind, Suite
 from beo_bench.bench.tally import Tally, flags
 from beo_bench.types import View
@@ -97,8 +97,12 @@ def run_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
     label = view_label(chosen)
     row["chosen_label"] = label
     row["chosen_is_target"] = label == env.target_label
-    row["chosen_category"] = items.scene_truths([chosen])[0].category
+    chosen_truth = items.scene_truths([chosen])[0]
+    row["chosen_category"] = chosen_truth.category
     cam_to_world = np.asarray(obs["cam_to_world"], dtype=np.float64)
+    # what was wrong with the estimate the grasp is planned on (issue 49: pick's success
+    # against each error; the object chosen, the target or not)
+    row.update(pick_errors(best, chosen_truth, cam_to_world, ev.suite.resolution, ev.suite.dataset))
     mesh = estimate_mesh(best, cam_to_world)
     if mesh is None:
         row.update(success=False, reason="empty_shape")
