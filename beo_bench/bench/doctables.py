@@ -596,7 +596,41 @@ def pick_sensitivity(b: Boards) -> str:
         rows.append([f"{what} (`{options_of(opts)}`)", pct(p["method_value"]), _diff(p, " pts")])
     if len(rows) == 1:
         raise PendingSuiteError("no sensitivity row is on the pick page")
-    return _table(["the oracle's estimate", "pick success", "- the oracle [95%]"], rows)
+    table = _table(["the oracle's estimate", "pick success", "- the oracle [95%]"], rows)
+    # the tolerance of each kind of error: where success falls to half the oracle's
+    tol = []
+    for what, unit, levels in (
+        ("rotation, random axis", "deg", [({"rot_deg": d}, d) for d in ROT_LEVELS]),
+        ("rotation about the up axis (yaw)", "deg",
+         [({"rot_axis": "up", "rot_deg": d}, d) for d in ROT_LEVELS]),
+        ("translation", "cm", [({"trans_cm": t}, t) for t in TRANS_LEVELS]),
+    ):  # fmt: skip
+        pts = [(0.0, base)] + [
+            (float(x), b.metric("pick", backend_label("oracle", o), "pick_success"))
+            for o, x in levels
+            if b.has("pick", backend_label("oracle", o))
+        ]
+        if len(pts) > 1:
+            t = half_success_tolerance([x for x, _ in pts], [y for _, y in pts])
+            tol.append([what, "beyond the largest error" if t is None else f"{t:.3g} {unit}"])
+    return table + "\n" + _table(["error", "tolerance (success at half the oracle's)"], tol)
+
+
+ROT_LEVELS = (5, 15, 30, 60, 90)
+TRANS_LEVELS = (0.5, 1, 2, 4)
+
+
+def half_success_tolerance(errors: list[float], success: list[float]) -> float | None:
+    """The error at which pick success first falls to half its value at the smallest error
+    (issue 49's tolerance), linearly interpolated between the measured levels (``errors``
+    ascending); None when it never does."""
+    half = success[0] / 2
+    from itertools import pairwise
+
+    for (x0, y0), (x1, y1) in pairwise(zip(errors, success, strict=True)):
+        if y1 <= half:
+            return x0 if y0 == y1 else x0 + (x1 - x0) * (y0 - half) / (y0 - y1)
+    return None
 
 
 def ood(b: Boards) -> str:

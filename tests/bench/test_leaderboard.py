@@ -812,3 +812,13 @@ def test_figure_5_3s_curves_follow_one_network_each() -> None:
         "hbeo-mdn-likelihood": [(5, 9.8), (25, 9.5), (100, 9.4)],
         "hbeo-mdn-likelihood (per_category=true)": [(5, 4.3), (25, 3.8), (100, 3.4)],
     }
+
+
+def test_pick_tolerance_is_where_success_falls_to_half() -> None:
+    """Issue 49's tolerance: the error at which pick success falls to half its value at
+    zero error, interpolated between the measured levels; None when it never does."""
+    from beo_bench.bench.doctables import half_success_tolerance
+
+    assert half_success_tolerance([0, 15, 30], [0.9, 0.6, 0.3]) == pytest.approx(22.5)
+    assert half_success_tolerance([0, 1, 2], [0.9, 0.45, 0.1]) == pytest.approx(1.0)
+    assert half_success_tolerance([0, 1], [0.9, 0.8]) is None
