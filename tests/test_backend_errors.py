@@ -43,7 +43,10 @@ def test_bad_backend_options_are_usage_errors(name, options, match) -> None:
 def test_good_option_spellings_are_accepted() -> None:
     b = B.get_backend("icp", starts=8.0, trim=1, point_to_plane="no")
     assert b.starts == 8 and b.point_to_plane is False
-    assert B.backend_options("oracle") == {"resolution": 32, "mesh": True}
+    assert B.backend_options("oracle") == {
+        "resolution": 32, "mesh": True, "rot_deg": 0.0, "rot_axis": "random", "trans_cm": 0.0,
+        "shape": "true", "seed": 0, "mean_instances": None,
+    }  # fmt: skip
 
 
 @pytest.mark.parametrize("value", ["maybe", "", 2, None, [True]])
