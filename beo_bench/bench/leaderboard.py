@@ -70,6 +70,7 @@ from beo_bench.bench.columns import (
     spec,
 )
 from beo_bench.bench.runs import backend_label
+from beo_bench.bench.scoring import PICK_ERRORS
 from beo_bench.errors import UsageError
 
 BOUNDS = {"oracle": "upper bound", "random": "lower bound"}
@@ -1174,10 +1175,15 @@ PICK_REFERENCE = "hbeo"
 PICK_MODE_PAIRS: tuple[tuple[str, str], ...] = (("hbeo-mdn-likelihood", "hbeo-mdn-posterior"),)
 """Further (A, B) pairs of a pick page: the MDN's two modes against each other."""
 PICK_METRIC = "pick_success"
-EPISODE_FIELDS: tuple[str, ...] = ("item", "category", "success", "reason", "chosen_is_target")
+EPISODE_FIELDS: tuple[str, ...] = (
+    "item", "category", "success", "reason", "chosen_is_target", *PICK_ERRORS,
+)  # fmt: skip
 """A pick run's per-episode record in its page's JSON: one short list per episode, in this
 order (the summary's ``episode_fields`` names them, ``episodes`` holds the lists), so that
-any two rows pair on the same episodes from the committed JSON alone."""
+any two rows pair on the same episodes from the committed JSON alone, and anyone can draw
+success against the grasped estimate's errors (:data:`~beo_bench.bench.scoring.
+PICK_ERRORS`, to 3 decimals; null where the episode chose nothing or its run predates
+them)."""
 PICK_METHOD_NOTE = (
     "Method against method (exploratory: every method against hbeo and the MDN's two modes "
     "against each other, on pick success over the same episodes, B - A; 95% bootstrap "
@@ -1213,6 +1219,7 @@ def episode_records(rows: Iterable[dict[str, Any]]) -> list[list[Any]]:
                 bool(r.get("success")),  # a failed episode did not pick (as the summary)
                 r.get("reason"),
                 None if found is None else bool(found),  # None: nothing was chosen
+                *(None if r.get(k) is None else round(float(r[k]), 3) for k in PICK_ERRORS),
             ]
         )
     return out

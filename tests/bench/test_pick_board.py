@@ -23,6 +23,7 @@ from beo_bench.bench.leaderboard import (
     pick_comparisons,
     regenerate,
 )
+from beo_bench.bench.scoring import PICK_ERRORS
 from tests.bench.synthetic_runs import write_run
 
 N = 60
@@ -92,10 +93,13 @@ def test_the_page_json_holds_every_runs_episodes_one_line_each(board) -> None:
         assert s["episode_fields"] == list(EPISODE_FIELDS)
         assert [r[0] for r in s["episodes"]] == list(range(N))
     icp = next(s for s in rows if s["backend"] == "icp" and s["sensor"] == "ideal")
-    assert icp["episodes"][FLIP[0]] == [int(FLIP[0]), CATS[FLIP[0] % 3], True, "success", True]
+    errors = [None] * len(PICK_ERRORS)  # these synthetic runs predate the error records
+    assert icp["episodes"][FLIP[0]] == [
+        int(FLIP[0]), CATS[FLIP[0] % 3], True, "success", True, *errors,
+    ]  # fmt: skip
     beo = episodes(next(s for s in rows if s["backend"] == "beo"))
     assert beo[0] == {"item": 0, "category": "bowl", "success": False, "reason": "no_estimate",
-                      "chosen_is_target": None}  # fmt: skip
+                      "chosen_is_target": None, **dict.fromkeys(PICK_ERRORS)}  # fmt: skip
     # one line per record: 10 runs of 60 episodes are 600 lines of the file, not 4,200
     assert sum(ln.startswith("      [") for ln in text.splitlines()) == 10 * N
 
@@ -218,3 +222,18 @@ def test_seed_replicates_give_each_learned_row_its_spread_and_judge_the_gap(tmp_
     gap = "| hbeo-mdn-likelihood | hbeo | pick success | +5.0% | 20.0% | the seeds spread as far"
     assert gap in page
     assert "| icp | pick success" not in page  # no replicates: no spread
+
+
+def test_an_episode_record_carries_the_grasped_estimates_errors() -> None:
+    """Issue 49: the page's JSON holds each episode's estimate errors (to 3 decimals), so
+    that anyone can draw success against them from the committed file alone."""
+    from beo_bench.bench.leaderboard import episode_records
+
+    errs = dict(zip(PICK_ERRORS, (31.41592, 2.71828, 5.0, 0.5, 0.25, 1.23456), strict=True))
+    row = {"item": 3, "category": "mug", "success": True, "reason": "success",
+           "chosen_is_target": True, **errs}  # fmt: skip
+    (rec,) = episode_records([row])
+    assert dict(zip(EPISODE_FIELDS, rec, strict=True)) == {
+        **{k: row[k] for k in ("item", "category", "success", "reason", "chosen_is_target")},
+        **{k: round(v, 3) for k, v in errs.items()},
+    }
