@@ -616,6 +616,55 @@ def pick_sensitivity(b: Boards) -> str:
     return table + "\n" + _table(["error", "tolerance (success at half the oracle's)"], tol)
 
 
+ERROR_BINS: dict[str, tuple[str, str, tuple[float, ...]]] = {
+    "rot_err_deg": ("rotation error", "deg", (0, 5, 15, 30, 60, 180)),
+    "trans_err_cm": ("translation error", "cm", (0, 0.5, 1, 2, 4, 100)),
+    "iou_cam": ("IoU in the camera frame", "", (0, 0.25, 0.5, 0.75, 1.0001)),
+}
+"""The bins of pick's success against each error of the grasped estimate (issue 49)."""
+
+
+def pick_vs_error(b: Boards) -> str:
+    """Pick success against each error of the estimate the episode grasped, binned, over
+    the episodes that chose their target (the committed per-episode records of
+    ``leaderboards/pick.json``): every perception backend with records pooled, then each;
+    the bounds and privileged rows left out. A cell is success (episodes)."""
+    from itertools import pairwise
+
+    from beo_bench.bench.leaderboard import episodes
+
+    rows = [
+        r for r in b.rows("pick")
+        if sensor_tag_of(r) is None and not r["provenance"].get("backend_kwargs")
+        and r["backend"] not in ("oracle", "random") and not r.get("privileged")
+    ]  # fmt: skip
+    per: dict[str, list[dict[str, Any]]] = {}
+    for r in rows:
+        eps = [e for e in episodes(r).values() if e.get("chosen_is_target")]
+        eps = [e for e in eps if e.get("rot_err_deg") is not None]
+        if eps:
+            per[r["backend"]] = eps
+    if not per:
+        raise PendingSuiteError("no pick run records its estimates' errors yet")
+    out = []
+    for key, (what, unit, edges) in ERROR_BINS.items():
+        head = [f"{what} ({unit})" if unit else what]
+        head += [f"{lo:g}-{hi:g}" if hi < 100 else f">= {lo:g}" for lo, hi in pairwise(edges)]
+        lines = []
+        for name, eps in [
+            ("every backend", [e for v in per.values() for e in v]),
+            *sorted(per.items()),
+        ]:
+            cells = []
+            for lo, hi in pairwise(edges):
+                sel = [e for e in eps if e.get(key) is not None and lo <= e[key] < hi]
+                ok = sum(bool(e["success"]) for e in sel)
+                cells.append(f"{pct(ok / len(sel))} ({len(sel)})" if sel else "-")
+            lines.append([name if name == "every backend" else f"`{name}`", *cells])
+        out.append(_table(head, lines))
+    return "\n".join(out)
+
+
 ROT_LEVELS = (5, 15, 30, 60, 90)
 TRANS_LEVELS = (0.5, 1, 2, 4)
 
@@ -1334,6 +1383,7 @@ TABLES: dict[str, Callable[[Boards], str]] = {
     "shape-selection": shape_selection,
     "pick-pairs": pick_pairs,
     "pick-sensitivity": pick_sensitivity,
+    "pick-vs-error": pick_vs_error,
     "rest-prior": rest_prior,
     "ood": ood,
     "hbeo-detail": hbeo_detail,

@@ -237,3 +237,33 @@ def test_an_episode_record_carries_the_grasped_estimates_errors() -> None:
         **{k: row[k] for k in ("item", "category", "success", "reason", "chosen_is_target")},
         **{k: round(v, 3) for k, v in errs.items()},
     }
+
+
+def test_success_against_error_bins_the_episodes_that_found_their_target(tmp_path) -> None:
+    """Issue 49's curve from the committed records: each backend's episodes that chose
+    their target, binned by the grasped estimate's error, success (episodes) per bin, and
+    every backend pooled; episodes without records (older runs) and bounds are left out."""
+    from beo_bench.bench.doctables import Boards, pick_vs_error
+
+    def rec(item: int, ok: bool, rot: float | None, found: bool = True) -> list:
+        errs = [rot, 0.3, 1.0, 0.9, 0.8, 0.2] if rot is not None else [None] * 6
+        return [item, "mug", ok, "success" if ok else "nothing_lifted", found, *errs]
+
+    def row(backend: str, recs: list) -> dict:
+        return {"backend": backend, "suite": "pick", "sensor": "ideal",
+                "provenance": {"backend_kwargs": {}}, "episode_fields": list(EPISODE_FIELDS),
+                "episodes": recs}  # fmt: skip
+
+    rows = [
+        row("hbeo", [rec(0, True, 2.0), rec(1, False, 40.0), rec(2, True, 3.0),
+                     rec(3, False, 2.0, found=False)]),
+        row("beo", [rec(0, True, 50.0), rec(1, False, 70.0), rec(2, True, None)]),
+        row("oracle", [rec(0, True, 0.0)]),
+    ]  # fmt: skip
+    (tmp_path / "pick.json").write_text(json.dumps(rows))
+    text = pick_vs_error(Boards(tmp_path))
+    rot = text.split("\n\n")[0].splitlines()
+    assert rot[0].startswith("| rotation error (deg) | 0-5 | 5-15 | 15-30 | 30-60 | >= 60 |")
+    assert rot[2] == "| every backend | 100.0% (2) | - | - | 50.0% (2) | 0.0% (1) |"
+    assert rot[3] == "| `beo` | - | - | - | 100.0% (1) | 0.0% (1) |"
+    assert rot[4] == "| `hbeo` | 100.0% (2) | - | - | 0.0% (1) | - |"
