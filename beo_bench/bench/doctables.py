@@ -619,7 +619,7 @@ def pick_sensitivity(b: Boards) -> str:
 ERROR_BINS: dict[str, tuple[str, str, tuple[float, ...]]] = {
     "rot_err_deg": ("rotation error", "deg", (0, 5, 15, 30, 60, 180)),
     "trans_err_cm": ("translation error", "cm", (0, 0.5, 1, 2, 4, 100)),
-    "iou_cam": ("IoU in the camera frame", "", (0, 0.25, 0.5, 0.75, 1.0001)),
+    "iou_cam": ("IoU in the camera frame", "", (0, 0.25, 0.5, 0.75, 1)),
 }
 """The bins of pick's success against each error of the grasped estimate (issue 49)."""
 
@@ -657,7 +657,8 @@ def pick_vs_error(b: Boards) -> str:
         ]:
             cells = []
             for lo, hi in pairwise(edges):
-                sel = [e for e in eps if e.get(key) is not None and lo <= e[key] < hi]
+                top = hi if hi == edges[-1] else np.nextafter(hi, -np.inf)  # last bin: hi in it
+                sel = [e for e in eps if e.get(key) is not None and lo <= e[key] <= top]
                 ok = sum(bool(e["success"]) for e in sel)
                 cells.append(f"{pct(ok / len(sel))} ({len(sel)})" if sel else "-")
             lines.append([name if name == "every backend" else f"`{name}`", *cells])
