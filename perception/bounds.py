@@ -83,24 +83,14 @@ class OracleBackend(Backend):
         self.options = options if options is not None else OracleOptions(**kwargs)
         self.resolution = self.options.resolution
         self.mesh = self.options.mesh
-        self._dataset: Dataset | None = None
-        self._means: dict[tuple[str, ...], ClassMeans] = {}
+        self._means = MeansCache(self.resolution, self.options.mean_instances)
 
     def prepare(self, ctx: RunContext) -> None:
         """Remember the run's dataset, where the views' instance keys are looked up (and
         with ``shape=class-mean`` compute its classes' means once)."""
-        if ctx.dataset != self._dataset:
-            self._dataset = ctx.dataset
-            self._means.clear()
+        self._means.use(ctx.dataset)
         if self.options.shape == "class-mean":
-            self._class_means(tuple(ctx.categories), ctx.progress)
-
-    def _class_means(self, cats: tuple[str, ...], progress: bool = False) -> ClassMeans:
-        if cats not in self._means:
-            self._means[cats] = class_means(
-                cats, self.resolution, self.options.mean_instances, progress, self._dataset
-            )
-        return self._means[cats]
+            self._means.get(tuple(ctx.categories), ctx.progress)
 
     def predict(self, view: View) -> Estimate:
         gt = view.ground_truth
@@ -111,16 +101,47 @@ class OracleBackend(Backend):
         R, t, size = np.array(gt.R_cam), np.array(gt.t_cam), np.array(gt.size)
         o = self.options
         if o.shape == "class-mean":
-            means = self._class_means(tuple(view.categories))
+            means = self._means.get(tuple(view.categories))
             shape, size = means.shape[gt.class_index].copy(), means.size[gt.class_index].copy()
             mesh = None
         else:
-            inst = instance_from_key(gt.key, self._dataset)
+            inst = instance_from_key(gt.key, self._means.dataset)
             shape = inst.voxels(self.resolution).astype(np.float32)
             mesh = inst.mesh if self.mesh else None
         if o.damaged:
             R, t = damage(R, t, view, o)
         return Estimate(p, R, t, size, shape, mesh=mesh)
+
+
+def view_rng(seed: int, view: View) -> np.random.Generator:
+    """A generator seeded by ``seed`` and the view's depth and mask bytes: the same view
+    draws the same numbers in any process."""
+    h = hashlib.sha256(np.ascontiguousarray(view.depth).tobytes())
+    h.update(np.packbits(np.asarray(view.mask, dtype=bool)).tobytes())
+    return np.random.default_rng([seed, int.from_bytes(h.digest()[:8], "little")])
+
+
+class MeansCache:
+    """The class means (:func:`class_means`) of each class list of one dataset, computed
+    once: what ``random`` and the damaged ``oracle`` hand out as a shape."""
+
+    def __init__(self, resolution: int, instances: int | None) -> None:
+        self.resolution, self.instances = resolution, instances
+        self.dataset: Dataset | None = None
+        self._means: dict[tuple[str, ...], ClassMeans] = {}
+
+    def use(self, dataset: Dataset | None) -> None:
+        """Another dataset's means are not these."""
+        if dataset != self.dataset:
+            self.dataset = dataset
+            self._means.clear()
+
+    def get(self, cats: tuple[str, ...], progress: bool = False) -> ClassMeans:
+        if cats not in self._means:
+            self._means[cats] = class_means(
+                cats, self.resolution, self.instances, progress, self.dataset
+            )
+        return self._means[cats]
 
 
 def damage(
@@ -132,9 +153,7 @@ def damage(
     ``seed`` and the view's bytes), so a run is deterministic and every view errs by
     exactly the amount asked (before the object's symmetry, which may make a turn about its
     own axis no error at all)."""
-    h = hashlib.sha256(np.ascontiguousarray(view.depth).tobytes())
-    h.update(np.packbits(np.asarray(view.mask, dtype=bool)).tobytes())
-    rng = np.random.default_rng([o.seed, int.from_bytes(h.digest()[:8], "little")])
+    rng = view_rng(o.seed, view)
     axis, direction = rng.normal(size=3), rng.normal(size=3)
     if o.rot_axis == "up":  # the world's +z in the camera frame
         axis = np.asarray(view.cam_to_world, dtype=np.float64)[:3, :3].T @ np.array([0, 0, 1.0])
@@ -168,36 +187,21 @@ class RandomBackend(Backend):
         self.seed = self.options.seed
         self.resolution = self.options.resolution
         self.mean_instances = self.options.mean_instances
-        self._dataset: Dataset | None = None
-        self._means: dict[tuple[str, ...], ClassMeans] = {}
-
-    def _rng(self, view: View) -> np.random.Generator:
-        h = hashlib.sha256(np.ascontiguousarray(view.depth).tobytes())
-        h.update(np.packbits(np.asarray(view.mask, dtype=bool)).tobytes())
-        return np.random.default_rng([self.seed, int.from_bytes(h.digest()[:8], "little")])
+        self._means = MeansCache(self.resolution, self.mean_instances)
 
     def prepare(self, ctx: RunContext) -> None:
         """Compute (or load) the class means of the run's classes and dataset once (with a
         progress bar where ``ctx.progress``)."""
-        if ctx.dataset != self._dataset:  # another dataset's means are not these
-            self._dataset = ctx.dataset
-            self._means.clear()
-        self._class_means(tuple(ctx.categories), ctx.progress)
-
-    def _class_means(self, cats: tuple[str, ...], progress: bool = False) -> ClassMeans:
-        if cats not in self._means:
-            self._means[cats] = class_means(
-                cats, self.resolution, self.mean_instances, progress, self._dataset
-            )
-        return self._means[cats]
+        self._means.use(ctx.dataset)
+        self._means.get(tuple(ctx.categories), ctx.progress)
 
     def predict(self, view: View) -> Estimate:
         pts = view.points()
         if len(pts) == 0:
             raise ViewError("the mask has no pixel with valid depth: nothing to estimate from")
         cats = view.categories
-        means = self._class_means(cats)
-        rng = self._rng(view)
+        means = self._means.get(tuple(cats))
+        rng = view_rng(self.seed, view)
         c = int(rng.integers(len(cats)))
         R = Rotation.random(random_state=rng).as_matrix()
         # the class it drew gets twice the others' probability: argmax is that uniformly

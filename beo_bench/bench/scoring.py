@@ -283,8 +283,18 @@ def pick_errors(
     from beo_bench.objects.processing import surface_samples
 
     truth = truth_shape(gt.key, resolution, dataset)
-    out = pose_metrics(est, gt, truth.model_points, None)
-    out.update(score_shape(est, gt, truth))
+    sym, pred = gt.symmetry, resample(est.shape, resolution)
+    # only the errors recorded (score_pose / score_shape add EDT, F-score, MSSD: not needed)
+    out: dict[str, Any] = {
+        "rot_err_deg": metrics.rotation_error(est.rotation, gt.R_cam, sym),
+        "trans_err_cm": metrics.translation_error(est.translation, gt.t_cam, gt.R_cam, sym),
+        "size_err_pct": metrics.size_error(est.size, gt.size),
+        "iou": metrics.voxel_iou(pred, truth.voxels),
+        "iou_cam": metrics.camera_frame_iou(
+            pred, (est.rotation, est.translation), est.size, truth.voxels,
+            (gt.R_cam, gt.t_cam), gt.size, resolution=resolution,
+        ),
+    }  # fmt: skip
     inst = instance_from_key(gt.key, dataset)
     true_est = Estimate(
         np.ones(1), np.asarray(gt.R_cam), np.asarray(gt.t_cam), np.asarray(gt.size),
