@@ -127,6 +127,10 @@ class Capabilities:
     model: str | None = None
     """The kind of trained model it loads (``beo``, ``hbeo``, ``hbeo-mdn``; None: none),
     whose content digest every run records."""
+    grasp: str = "best"
+    """How ``pick`` plans from its estimates: ``best``, on the estimate's own pose; or
+    ``robust``, the grasp most likely to hold across ``Estimate.pose_samples`` weighted by
+    ``pose_weights`` (:func:`beo_bench.grasping.robust_order`)."""
 
     @property
     def wants_class_hint(self) -> bool:

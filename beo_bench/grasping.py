@@ -558,3 +558,134 @@ def _score(
         + W_HEIGHT * height
         + W_DEPTH * deeper
     )
+
+
+AUDIT_FRICTION = 0.4
+"""The friction coefficient of the analytic audit: GraspNet-1Billion (Fang et al., CVPR
+2020, sec. 4.2) scores a grasp by the smallest of mu = 0.1, 0.2, ..., 1.0 at which it is in
+force closure, and 0.4 is the middle of its range; it is also the planner's own cone
+(``FRICTION_CONE_DEG``, rounded)."""
+_PAD_X = (-0.35, 0.0, 0.35)
+"""Where the closing rays leave each pad across its width (fractions of ``finger_width``)."""
+_PAD_Z = 7
+"""How many closing rays leave each pad along its length."""
+CONTACT_PATCH = 0.002
+"""Rays that meet the surface within this distance (m) of a pad's first touch form its
+contact patch, whose mean point and mean normal are the contact."""
+
+
+def closure_friction(
+    mesh: trimesh.Trimesh,
+    poses: np.ndarray,
+    half_openings: np.ndarray,
+    gripper: GripperGeometry = GRIPPER,
+) -> np.ndarray:
+    """(K,) the smallest friction coefficient at which each parallel-jaw grasp holds the
+    object ``mesh`` in force closure (``inf``: it cannot). ``poses`` (K, 4, 4) are gripper
+    frames in the mesh's frame, ``half_openings`` (K,) their pad positions (m).
+
+    An analytic check independent of the simulator and of the planner's sampling, in the
+    style of GraspNet-1Billion's evaluation (Fang et al. 2020, after Dex-Net: Mahler et al.
+    2017): each finger closes along the gripper's y axis from its open position and stops at
+    its first contact with the surface (the shortest of a grid of rays across its pad); two
+    point contacts with friction mu are in force closure when the line between them lies
+    in both friction cones (Nguyen 1988), i.e. mu >= tan of the larger angle between that
+    line and a contact's inward normal. A finger that touches nothing before the centre
+    line, or that starts inside the object, makes no closure. A pad's contact is the mean
+    point and mean normal of the rays that meet the surface within ``CONTACT_PATCH`` of its
+    first touch (a soft pad pressed into a curved surface).
+    """
+    poses = np.asarray(poses, dtype=np.float64).reshape(-1, 4, 4)
+    half = np.asarray(half_openings, dtype=np.float64).reshape(-1)
+    k = len(poses)
+    out = np.full(k, np.inf)
+    if k == 0:
+        return out
+    xs = np.asarray(_PAD_X) * gripper.finger_width
+    zs = np.linspace(gripper.finger_tip - gripper.finger_length, gripper.finger_tip, _PAD_Z)
+    grid = np.array([(x, z) for x in xs for z in zs])  # (G, 2) pad points (x, z)
+    n_grid = len(grid)
+    contact = np.full((k, 2, 3), np.nan)
+    normal = np.full((k, 2, 3), np.nan)
+    sign_flip = -1.0 if mesh.volume < 0 else 1.0  # marching-cubes meshes may be inside-out
+    for side, s in enumerate((1.0, -1.0)):  # the left pad at +y closes along -y
+        local = np.zeros((k, n_grid, 3))
+        local[..., 0], local[..., 2] = grid[:, 0], grid[:, 1]
+        local[..., 1] = s * half[:, None]
+        origins = np.einsum("kij,kgj->kgi", poses[:, :3, :3], local) + poses[:, None, :3, 3]
+        direction = np.repeat(-s * poses[:, None, :3, 1], n_grid, axis=1)
+        loc, ray, tri = mesh.ray.intersects_location(
+            origins.reshape(-1, 3), direction.reshape(-1, 3), multiple_hits=False
+        )
+        flat_travel = np.full(k * n_grid, np.inf)
+        flat_travel[ray] = np.einsum(
+            "ij,ij->i", loc - origins.reshape(-1, 3)[ray], direction.reshape(-1, 3)[ray]
+        )
+        hit_at = np.full((k * n_grid, 3), np.nan)
+        hit_at[ray] = loc
+        hit_n = np.full((k * n_grid, 3), np.nan)
+        hit_n[ray] = sign_flip * mesh.face_normals[tri]
+        travel = flat_travel.reshape(k, n_grid)
+        nearest = travel.min(axis=1)
+        # the contact patch: every ray within CONTACT_PATCH of the first touch (a pad squeezed
+        # at the grip force sinks about that far into the contact; a single ray would take
+        # one facet's normal for a curved surface's)
+        patch = travel <= nearest[:, None] + CONTACT_PATCH
+        dirs = direction.reshape(k, n_grid, 3)
+        hits = hit_at.reshape(k, n_grid, 3)
+        norms = hit_n.reshape(k, n_grid, 3)
+        facing = np.einsum("kgi,kgi->kg", np.nan_to_num(norms), dirs) < 0
+        # the pad reaches the surface before the centre line, and first meets a front face
+        # (a back face first: it started inside the object)
+        ok = (nearest <= half) & np.all(facing | ~patch, axis=1)
+        pw = patch[ok][..., None]
+        mean_n = np.where(pw, norms[ok], 0.0).sum(axis=1)
+        mean_n /= np.maximum(np.linalg.norm(mean_n, axis=1), 1e-12)[:, None]
+        contact[ok, side] = np.where(pw, hits[ok], 0.0).sum(axis=1) / pw.sum(axis=1)
+        normal[ok, side] = mean_n
+    both = ~np.isnan(contact[:, :, 0]).any(axis=1)
+    line = contact[both, 1] - contact[both, 0]  # from the left contact to the right one
+    length = np.linalg.norm(line, axis=1)
+    line = line / np.maximum(length, 1e-12)[:, None]
+    # the left finger pushes along +line, so its inward normal -n_left should be near +line
+    cos_l = np.einsum("ij,ij->i", -normal[both, 0], line)
+    cos_r = np.einsum("ij,ij->i", -normal[both, 1], -line)
+    cos = np.clip(np.minimum(cos_l, cos_r), -1.0, 1.0)
+    mu = np.where(cos > 1e-9, np.tan(np.arccos(cos)), np.inf)
+    out[both] = np.where(length > 1e-6, mu, np.inf)
+    return out
+
+
+def robust_order(
+    grasps: list[Grasp],
+    mesh: trimesh.Trimesh,
+    sample_poses: np.ndarray,
+    weights: np.ndarray,
+    gripper: GripperGeometry = GRIPPER,
+    seed: int = 0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The grasps (planned on one estimate) re-ranked by how likely each is to hold across
+    an estimate's pose samples: the weighted share of samples for which the grasp is in
+    force closure at the planner's own cone (``FRICTION_CONE_DEG``, :func:`closure_friction`)
+    and its swept hand clear of the surface, with the object's surface ``mesh`` (its own
+    frame, metres) placed at each of ``sample_poses`` (N, 4, 4, object -> world) weighted by
+    ``weights`` (N,). Returns the order (a stable sort: the planner's ranking breaks ties)
+    and each grasp's share."""
+    k, n = len(grasps), len(sample_poses)
+    share = np.zeros(k)
+    if k == 0 or n == 0:
+        return np.arange(k), share
+    world = np.stack([g.pose for g in grasps])  # (K, 4, 4)
+    inv = np.linalg.inv(np.asarray(sample_poses, dtype=np.float64))  # world -> object
+    local = np.einsum("nij,kjl->knil", inv, world).reshape(-1, 4, 4)  # (K*N) in object frames
+    half = np.repeat([g.opening / 2 for g in grasps], n)
+    mu = closure_friction(mesh, local, half, gripper)
+    holds = mu <= np.tan(np.radians(FRICTION_CONE_DEG))
+    points, _ = _surface_samples(mesh, 1024, seed)
+    fam = _Families(local[:, :3, :3], local[:, :3, 3], 2 * half, np.zeros(len(half), int))
+    centres, halves = _swept_boxes(gripper, half)
+    hit = _collides(fam, np.zeros(1), centres, halves + COLLISION_MARGIN, points)[:, 0]
+    ok = (holds & ~hit).reshape(k, n)
+    w = np.asarray(weights, dtype=np.float64)
+    share = ok.astype(np.float64) @ (w / w.sum())
+    return np.argsort(-share, kind="stable"), share

@@ -139,7 +139,12 @@ class BEOPickEnv(gym.Env):
     bool; the key Stable-Baselines3 and Gymnasium-Robotics read), ``reason`` ("success",
     "wrong_class", "nothing_lifted", "inside_table", ...), ``lifted_label``,
     ``lifted_category``, ``lift_height``, ``finger_contacts``, ``colliding_label`` and
-    ``attempt``.
+    ``attempt``. When something was lifted, the hold is audited by a shake (+-2 g along x, y
+    and z in turn, 0.6 s; ``scenes/execute.py``) that does not change the reward: ``info``
+    then holds ``shake_held`` (still lifted afterwards), ``slip_cm`` (how far the object
+    moved in the hand), and, from the end of the hold, ``hold_contacts`` and ``grip_n``
+    (per finger: contacts with the lifted object and their normal force, N); they are None
+    and empty when nothing was lifted.
 
     ## Starting State
 
@@ -521,6 +526,10 @@ class BEOPickEnv(gym.Env):
             "lift_height": outcome.lift_height,
             "finger_contacts": outcome.touched,
             "colliding_label": outcome.colliding_label,
+            "hold_contacts": outcome.contacts,
+            "grip_n": outcome.grip_n,
+            "shake_held": outcome.shake_held,
+            "slip_cm": outcome.slip_cm,
             "attempt": self._attempts,
         }
         if not terminated:

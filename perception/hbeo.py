@@ -112,6 +112,13 @@ class HBEOOptions:
         "`beo-bench train`, never here)",
     )
 
+    grasp: Literal["best", "robust"] = option(
+        "best",
+        "hbeo-mdn modes, pick only: plan the grasp on the chosen sample's pose (best), or "
+        "choose the planned grasp most likely to hold across the N weighted pose samples "
+        "(robust)",
+    )
+
     # chapter 5's ablation (issue 48): what the silhouette prior could do with better
     # inputs, and the dissertation's two baselines; hbeo-mdn-posterior only
     select: Literal["score", "prior", "oracle"] = option(
@@ -190,6 +197,8 @@ class HBEOOptions:
             )
         if self.samples < 1:
             raise ValueError(f"samples={self.samples}: draw at least one rotation sample")
+        if self.grasp not in ("best", "robust"):
+            raise ValueError(f"grasp={self.grasp!r}: use best or robust")
         if self.device not in DEVICES:
             raise ValueError(f"device {self.device!r}: use auto, cpu or cuda")
 
@@ -216,6 +225,7 @@ def hbeo_capabilities(mode: Mode, options: HBEOOptions) -> Capabilities:
         model="hbeo" if mode == "hbeo" else "hbeo-mdn",
         privileged=truth,
         diagnostic=truth,
+        grasp=options.grasp,
     )
 
 
@@ -236,6 +246,10 @@ class HBEOBackend(Backend):
             raise UsageError(
                 f"{NAMES[mode]} has no silhouette prior: "
                 f"{', '.join(sorted(o.prior_options()))} are hbeo-mdn-posterior's options"
+            )
+        if mode == "hbeo" and o.grasp != "best":
+            raise UsageError(
+                "hbeo has no pose samples to plan over: grasp=robust is an hbeo-mdn option"
             )
         self.mode = mode
         self.device = resolve_device(o.device)

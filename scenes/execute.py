@@ -4,6 +4,9 @@ Phases (simulated time): check the pre-grasp and grasp poses; approach from the 
 offset along the gripper's +z with the fingers open (0.3 s); close with force-limited
 fingers (0.3 s); lift 15 cm straight up (0.5 s); hold (1 s). The outcome is read from the
 objects' heights: an object is lifted when it ends at least 10 cm above its rest height.
+Then, when something was lifted, a shake audits the hold without changing the outcome: the
+hand is accelerated at +-2 g along the world x, y and z axes in turn (``SHAKE_*``), and the
+record says whether the object is still up afterwards and how far it slipped in the hand.
 A grasp that would start inside the table or an object fails before any motion, with the
 reason in the outcome, and leaves the scene untouched.
 """
@@ -27,6 +30,15 @@ HOLD_S = 1.0
 LIFT_SUCCESS = 0.10
 """An object counts as lifted when it ends this far above its rest height (docs/design.md)."""
 PENETRATION_TOL = 0.001
+SHAKE_G = 2.0
+"""Peak acceleration of the shake, in g. A pick-and-place arm moving at full speed reaches
+about 1-2 g at the tool (a Franka Panda's joint limits give up to ~13 m/s^2 at the flange:
+Franka Emika, "Robot and interface specifications"); 2 g is the upper end."""
+SHAKE_HZ = 5.0
+"""Each axis is shaken for one period of a raised cosine at this frequency: 0.2 s, so the
+whole shake lasts 0.6 s, with a displacement of at most 4 cm."""
+SHAKE_SETTLE_S = 0.2
+"""The hand then holds still this long before the object is looked at again."""
 
 
 @dataclass
@@ -38,6 +50,10 @@ class GraspOutcome:
     lift_height: float = 0.0  # rise of the lifted (or highest-rising) object (m)
     touched: dict[str, list[int]] = field(default_factory=dict)  # finger -> object labels
     colliding_label: int = 0  # for pregrasp_in_collision: the object hit (0: table/none)
+    contacts: dict[str, int] = field(default_factory=dict)  # finger -> contacts at hold's end
+    grip_n: dict[str, float] = field(default_factory=dict)  # finger -> normal force (N) then
+    shake_held: bool | None = None  # still lifted after the shake (None: nothing was lifted)
+    slip_cm: float | None = None  # how far the lifted object moved in the hand's frame
 
 
 def _box_corners(g: GripperGeometry, half_opening: float, T: np.ndarray) -> np.ndarray:
@@ -97,6 +113,64 @@ def _finger_touches(scene: Scene) -> dict[str, list[int]]:
     return {k: sorted(v) for k, v in out.items()}
 
 
+def _finger_load(scene: Scene, label: int) -> tuple[dict[str, int], dict[str, float]]:
+    """Per finger: how many contacts it has with object ``label`` and their total normal
+    force (N, from ``mj_contactForce``)."""
+    m, d = scene.model, scene.data
+    fingers = {m.geom(f"finger_{s}").id: s for s in ("left", "right")}
+    count = {"left": 0, "right": 0}
+    force = {"left": 0.0, "right": 0.0}
+    f6 = np.zeros(6)
+    for i in range(d.ncon):
+        c = d.contact[i]
+        g1, g2 = int(c.geom1), int(c.geom2)
+        finger, other = (g1, g2) if g1 in fingers else (g2, g1)
+        if finger not in fingers or int(scene.geom_labels[other]) != label or c.dist > 0:
+            continue
+        mujoco.mj_contactForce(m, d, i, f6)
+        count[fingers[finger]] += 1
+        force[fingers[finger]] += abs(float(f6[0]))  # the normal component comes first
+    return count, {k: round(v, 3) for k, v in force.items()}
+
+
+def _hand_pose(scene: Scene) -> np.ndarray:
+    d, a = scene.data, scene.hand_qpos_adr
+    T = np.eye(4)
+    mat = np.empty(9)
+    mujoco.mju_quat2Mat(mat, d.qpos[a + 3 : a + 7])
+    T[:3, :3], T[:3, 3] = mat.reshape(3, 3), d.qpos[a : a + 3]
+    return T
+
+
+def shake(scene: Scene, label: int, rest_heights: np.ndarray) -> tuple[bool, float]:
+    """Shake the hand holding object ``label`` (``SHAKE_G`` along world x, y, z in turn:
+    x(t) = A (1 - cos wt) over one period, so the hand starts and ends at rest, with
+    a(t) = A w^2 cos wt peaking at +-SHAKE_G), hold ``SHAKE_SETTLE_S``, and return whether
+    the object is still lifted (``LIFT_SUCCESS``) and how far (cm) it moved in the hand's
+    frame."""
+    m, d = scene.model, scene.data
+    i = label - 1
+    mujoco.mj_forward(m, d)  # mj_step leaves body poses one step behind qpos
+    before = np.linalg.inv(_hand_pose(scene)) @ scene.object_pose(i)
+    w = 2 * np.pi * SHAKE_HZ
+    amplitude = SHAKE_G * 9.81 / w**2
+    start = d.mocap_pos[scene.hand_mocap].copy()
+    n = _steps(scene, 1.0 / SHAKE_HZ)
+    for axis in range(3):
+        for k in range(1, n + 1):
+            offset = np.zeros(3)
+            offset[axis] = amplitude * (1.0 - np.cos(w * k * m.opt.timestep))
+            d.mocap_pos[scene.hand_mocap] = start + offset
+            mujoco.mj_step(m, d)
+    d.mocap_pos[scene.hand_mocap] = start
+    for _ in range(_steps(scene, SHAKE_SETTLE_S)):
+        mujoco.mj_step(m, d)
+    mujoco.mj_forward(m, d)
+    after = np.linalg.inv(_hand_pose(scene)) @ scene.object_pose(i)
+    held = bool(scene.object_heights()[i] - rest_heights[i] >= LIFT_SUCCESS)
+    return held, 100.0 * float(np.linalg.norm(after[:3, 3] - before[:3, 3]))
+
+
 def _steps(scene: Scene, seconds: float) -> int:
     return max(1, round(seconds / scene.model.opt.timestep))
 
@@ -152,8 +226,17 @@ def execute_grasp(
     rise = scene.object_heights() - rest_heights
     best = int(np.argmax(rise)) if len(rise) else -1
     if best >= 0 and rise[best] >= LIFT_SUCCESS:
+        contacts, grip = _finger_load(scene, best + 1)
+        held, slip = shake(scene, best + 1, rest_heights)
         return GraspOutcome(
-            reason="lifted", lifted_label=best + 1, lift_height=float(rise[best]), touched=touched
+            reason="lifted",
+            lifted_label=best + 1,
+            lift_height=float(rise[best]),
+            touched=touched,
+            contacts=contacts,
+            grip_n=grip,
+            shake_held=held,
+            slip_cm=round(slip, 3),
         )
     return GraspOutcome(
         reason="nothing_lifted",

@@ -230,3 +230,62 @@ def test_table_height_must_be_finite() -> None:
         plan_grasps(standing_box(), float("nan"))
     assert isinstance(info.value, BeoBenchError)
     assert isinstance(info.value, ValueError)
+
+
+# -- the analytic audit (closure_friction) and the robust planner (robust_order) -----------
+
+
+def _grip(yaw_deg: float = 0.0, x: float = 0.0) -> np.ndarray:
+    """A gripper frame at the origin (shifted ``x`` along world x), turned ``yaw_deg``
+    about its approach axis (z)."""
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_euler("z", yaw_deg, degrees=True).as_matrix()
+    T[0, 3] = x
+    return T
+
+
+def test_closure_friction_of_a_squeezed_box_is_zero_and_grows_with_a_slant() -> None:
+    from beo_bench.grasping import closure_friction
+
+    box = trimesh.creation.box([0.04, 0.04, 0.04])
+    mu = closure_friction(box, np.stack([_grip(), _grip(30.0)]), np.array([0.03, 0.035]))
+    assert mu[0] == pytest.approx(0.0, abs=1e-9)  # faces square to the pads
+    # 30 degrees off: the pads meet opposite edges, and their line leaves any 0.4 cone
+    assert mu[1] > np.tan(np.radians(30.0))
+
+
+def test_closure_friction_of_a_sphere_uses_the_patch_not_one_facet() -> None:
+    from beo_bench.grasping import AUDIT_FRICTION, closure_friction
+
+    sphere = trimesh.creation.icosphere(3, radius=0.02)
+    mu = closure_friction(sphere, _grip()[None], np.array([0.03]))[0]
+    assert mu < 0.1 < AUDIT_FRICTION
+
+
+@pytest.mark.parametrize(
+    "pose, half, why",
+    [
+        (_grip(x=0.1), 0.03, "the object is not between the pads"),
+        (_grip(), 0.01, "the pads start inside the object"),
+    ],
+)
+def test_closure_friction_is_infinite_without_two_contacts(pose, half, why) -> None:
+    from beo_bench.grasping import closure_friction
+
+    box = trimesh.creation.box([0.04, 0.04, 0.04])
+    assert np.isinf(closure_friction(box, pose[None], np.array([half]))[0]), why
+
+
+def test_robust_order_prefers_the_grasp_that_holds_across_the_samples() -> None:
+    """A 6 x 3 x 3 cm bar seen at yaw 0 (weight 0.3) or yaw 90 (0.7): a grasp across its
+    3 cm side holds only at yaw 0 (at 90 degrees its pads start inside the bar); one
+    across the 6 cm length at 8 cm opening holds at both. The planner's first grasp loses."""
+    from beo_bench.grasping import robust_order
+
+    bar = trimesh.creation.box([0.06, 0.03, 0.03])
+    across = Grasp(np.zeros(3), np.eye(3), opening=0.05, width=0.03, score=2.0)
+    along = Grasp(np.zeros(3), _grip(90.0)[:3, :3], opening=0.08, width=0.06, score=1.0)
+    poses = np.stack([np.eye(4), _grip(90.0)])
+    order, share = robust_order([across, along], bar, poses, np.array([0.3, 0.7]))
+    assert share == pytest.approx([0.3, 1.0])
+    assert order.tolist() == [1, 0]

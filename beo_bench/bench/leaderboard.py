@@ -69,6 +69,7 @@ from beo_bench.bench.columns import (
     board_columns,
     spec,
 )
+from beo_bench.bench.kinds.pick import AUDIT_FIELDS
 from beo_bench.bench.runs import backend_label
 from beo_bench.bench.scoring import PICK_ERRORS
 from beo_bench.errors import UsageError
@@ -894,6 +895,8 @@ _3DOF = (*_beo_over_plain_icp("Figure 4.3"),
          Primary("hbeo", "beo", "class_acc", "class-free", _HBEO_OVER_BEO))  # fmt: skip
 PICK_METHODS: tuple[str, ...] = ("beo", "hbeo-mdn-likelihood", "hbeo-mdn-posterior", "icp",
                                  "icp-plain")  # fmt: skip
+ROBUST = "grasp=robust"
+"""The option of a row whose grasp is planned over its pose samples (``Capabilities.grasp``)."""
 PRIMARY_COMPARISONS: dict[str, tuple[Primary, ...]] = {
     "known-pose": _KNOWN_POSE,
     "modelnet10-known-pose": _KNOWN_POSE,
@@ -932,6 +935,16 @@ PRIMARY_COMPARISONS: dict[str, tuple[Primary, ...]] = {
             "pick_success",
             None,
             "pick: the MDN's two modes",
+            None,
+        ),
+        # declared before its runs: does planning over the posterior's samples pick more
+        # often than planning on its single best sample (the same estimates)?
+        Primary(
+            f"hbeo-mdn-posterior ({ROBUST})",
+            "hbeo-mdn-posterior",
+            "pick_success",
+            None,
+            "pick: a grasp planned over the MDN's pose samples",
             None,
         ),
     ),
@@ -1172,11 +1185,19 @@ def gap_table(rows: list[dict[str, Any]]) -> str:
 PICK_REFERENCE = "hbeo"
 """The row every other method of a pick page is paired against, episode by episode (issue
 47: the page says whether hbeo, the MDN and icp differ at picking)."""
-PICK_MODE_PAIRS: tuple[tuple[str, str], ...] = (("hbeo-mdn-likelihood", "hbeo-mdn-posterior"),)
+PICK_MODE_PAIRS: tuple[tuple[str, str], ...] = (
+    ("hbeo-mdn-likelihood", "hbeo-mdn-posterior"),
+    ("hbeo-mdn-likelihood", f"hbeo-mdn-likelihood ({ROBUST})"),
+    ("hbeo-mdn-posterior", f"hbeo-mdn-posterior ({ROBUST})"),
+)
 """Further (A, B) pairs of a pick page: the MDN's two modes against each other."""
 PICK_METRIC = "pick_success"
+EPISODE_AUDIT: tuple[str, ...] = (*AUDIT_FIELDS, "plan_ms", "grasp_share")
+"""What an episode records of its executed grasp (:data:`~beo_bench.bench.kinds.pick.
+AUDIT_FIELDS`: the shake, the contacts, the analytic force-closure check) and of planning
+it (milliseconds; the robust planner's share of pose samples the grasp holds in)."""
 EPISODE_FIELDS: tuple[str, ...] = (
-    "item", "category", "success", "reason", "chosen_is_target", *PICK_ERRORS,
+    "item", "category", "success", "reason", "chosen_is_target", *PICK_ERRORS, *EPISODE_AUDIT,
 )  # fmt: skip
 """A pick run's per-episode record in its page's JSON: one short list per episode, in this
 order (the summary's ``episode_fields`` names them, ``episodes`` holds the lists), so that
@@ -1220,9 +1241,17 @@ def episode_records(rows: Iterable[dict[str, Any]]) -> list[list[Any]]:
                 r.get("reason"),
                 None if found is None else bool(found),  # None: nothing was chosen
                 *(None if r.get(k) is None else round(float(r[k]), 3) for k in PICK_ERRORS),
+                *(_record(r.get(k)) for k in EPISODE_AUDIT),
             ]
         )
     return out
+
+
+def _record(value: Any) -> Any:
+    """A recorded value as the page's JSON keeps it: bools as bools, numbers to 3 decimals."""
+    if value is None or isinstance(value, bool):
+        return value
+    return round(float(value), 3)
 
 
 def attach_episodes(rows: list[Row]) -> None:

@@ -13,6 +13,7 @@ import pytest
 from scipy.stats import binomtest
 
 from beo_bench.bench.leaderboard import (
+    EPISODE_AUDIT,
     EPISODE_FIELDS,
     Row,
     Section,
@@ -93,13 +94,15 @@ def test_the_page_json_holds_every_runs_episodes_one_line_each(board) -> None:
         assert s["episode_fields"] == list(EPISODE_FIELDS)
         assert [r[0] for r in s["episodes"]] == list(range(N))
     icp = next(s for s in rows if s["backend"] == "icp" and s["sensor"] == "ideal")
-    errors = [None] * len(PICK_ERRORS)  # these synthetic runs predate the error records
+    # these synthetic runs predate the error and audit records
+    errors = [None] * (len(PICK_ERRORS) + len(EPISODE_AUDIT))
     assert icp["episodes"][FLIP[0]] == [
         int(FLIP[0]), CATS[FLIP[0] % 3], True, "success", True, *errors,
     ]  # fmt: skip
     beo = episodes(next(s for s in rows if s["backend"] == "beo"))
     assert beo[0] == {"item": 0, "category": "bowl", "success": False, "reason": "no_estimate",
-                      "chosen_is_target": None, **dict.fromkeys(PICK_ERRORS)}  # fmt: skip
+                      "chosen_is_target": None, **dict.fromkeys(PICK_ERRORS),
+                      **dict.fromkeys(EPISODE_AUDIT)}  # fmt: skip
     # one line per record: 10 runs of 60 episodes are 600 lines of the file, not 4,200
     assert sum(ln.startswith("      [") for ln in text.splitlines()) == 10 * N
 
@@ -230,13 +233,20 @@ def test_an_episode_record_carries_the_grasped_estimates_errors() -> None:
     from beo_bench.bench.leaderboard import episode_records
 
     errs = dict(zip(PICK_ERRORS, (31.41592, 2.71828, 5.0, 0.5, 0.25, 1.23456), strict=True))
+    audit = {"lifted_chosen": True, "shake_held": False, "slip_cm": 12.34567,
+             "contacts_left": 4, "contacts_right": 2, "fc_mu": 0.45678, "force_closure": False,
+             "plan_ms": 61.23456, "grasp_share": None}  # fmt: skip
+    assert set(audit) == set(EPISODE_AUDIT)
     row = {"item": 3, "category": "mug", "success": True, "reason": "success",
-           "chosen_is_target": True, **errs}  # fmt: skip
+           "chosen_is_target": True, **errs, **audit}  # fmt: skip
     (rec,) = episode_records([row])
-    assert dict(zip(EPISODE_FIELDS, rec, strict=True)) == {
+    got = dict(zip(EPISODE_FIELDS, rec, strict=True))
+    assert got == {
         **{k: row[k] for k in ("item", "category", "success", "reason", "chosen_is_target")},
         **{k: round(v, 3) for k, v in errs.items()},
+        **{k: v if v is None or isinstance(v, bool) else round(v, 3) for k, v in audit.items()},
     }
+    assert got["shake_held"] is False and got["contacts_left"] == 4
 
 
 def test_success_against_error_bins_the_episodes_that_found_their_target(tmp_path) -> None:
@@ -247,7 +257,8 @@ def test_success_against_error_bins_the_episodes_that_found_their_target(tmp_pat
 
     def rec(item: int, ok: bool, rot: float | None, found: bool = True) -> list:
         errs = [rot, 0.3, 1.0, 0.9, 0.8, 0.2] if rot is not None else [None] * 6
-        return [item, "mug", ok, "success" if ok else "nothing_lifted", found, *errs]
+        audit = [None] * len(EPISODE_AUDIT)
+        return [item, "mug", ok, "success" if ok else "nothing_lifted", found, *errs, *audit]
 
     def row(backend: str, recs: list) -> dict:
         return {"backend": backend, "suite": "pick", "sensor": "ideal",

@@ -272,3 +272,30 @@ def test_info_carries_is_success_for_rl_libraries() -> None:
     _, reward, _, _, info = e.step(grasp.action)
     e.close()
     assert info["is_success"] is info["success"] is True and reward == 1.0
+
+
+def test_the_shake_audits_the_hold_and_shakes_loose_a_marginal_grip() -> None:
+    """A lifted object is shaken (+-2 g along x, y, z): the seed-0 box stays put and
+    ``info`` records the shake, each finger's contacts and grip. Then, with the pads'
+    friction lowered until the measured grip just carries the box's weight (it stays at
+    rest: slip under 0.5 cm without the shake, measured), the shake drops it."""
+    from beo_bench.scenes.execute import LIFT_SUCCESS, shake
+
+    e = gym.make("BEOPick-v0", image_size=(64, 48))
+    e.reset(seed=0)
+    u = e.unwrapped
+    (grasp, *_) = u.ground_truth_grasps()
+    _, _, _, _, info = e.step(grasp.action)
+    assert info["success"] and info["shake_held"] is True and 0 <= info["slip_cm"] < 1.0
+    assert min(info["hold_contacts"].values()) >= 1 and min(info["grip_n"].values()) > 1.0
+    scene, label = u.scene, info["lifted_label"]
+    m = scene.model
+    mass = float(m.body_subtreemass[scene.body_ids[label - 1]])
+    mu = mass * 9.81 / sum(info["grip_n"].values())  # friction of the pads, both sides
+    for side in ("left", "right"):
+        m.geom_friction[m.geom(f"finger_{side}").id, 0] = mu
+    rest = u._rest
+    assert scene.object_heights()[label - 1] - rest[label - 1] >= LIFT_SUCCESS
+    held, slip = shake(scene, label, rest)
+    e.close()
+    assert not held and slip > 5.0

@@ -3,6 +3,7 @@ object and executed in simulation (the ``pick`` suite)."""
 
 from __future__ import annotations
 
+import time
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -18,13 +19,28 @@ from beo_bench.bench.kinds.common import (
     Rows,
 )
 from beo_bench.bench.kinds.tabletop import SceneItems, categories, view_label
-from beo_bench.bench.scoring import estimate_mesh, obstacle_points, pick_errors
+from beo_bench.bench.scoring import (
+    estimate_mesh,
+    local_mesh,
+    obstacle_points,
+    pick_errors,
+)
 from beo_bench.bench.suites import Kind, Suite
 from beo_bench.bench.tally import Tally, flags
-from beo_bench.types import View
+from beo_bench.geometry import rigid
+from beo_bench.grasping import (
+    AUDIT_FRICTION,
+    Grasp,
+    closure_friction,
+    plan_grasps,
+    robust_order,
+)
+from beo_bench.objects import instance_from_key
+from beo_bench.types import GroundTruth, View
 
 if TYPE_CHECKING:
     from beo_bench.bench.evaluate import Evaluator
+    from beo_bench.objects.dataset import Dataset
 
 
 def target_class(index: int, n_classes: int) -> int:
@@ -67,8 +83,6 @@ def run_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
     cubes on ``shape``) placed by its estimated pose and size, with the other objects'
     estimated surfaces as obstacles (their observed points where the backend failed); the
     env executes the best grasp once."""
-    from beo_bench.grasping import plan_grasps
-
     items = ev.items
     assert isinstance(items, PickItems)
     env = items.env
@@ -112,15 +126,69 @@ def run_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
         for j, (e, v) in enumerate(zip(estimates, views, strict=True))
         if j != k
     ]
+    t0 = time.perf_counter()
     grasps = plan_grasps(
         mesh, env.table.table_height, np.concatenate(obstacles) if obstacles else None
     )
-    if not grasps:
+    grasp = grasps[0] if grasps else None
+    if grasps and ev.ctx.backend.capabilities.grasp == "robust" and best.pose_samples is not None:
+        c2w_t = cam_to_world @ rigid(np.eye(3), np.asarray(best.translation))
+        poses = np.stack([c2w_t @ rigid(R, np.zeros(3)) for R in best.pose_samples])
+        weights = np.ones(len(poses)) if best.pose_weights is None else best.pose_weights
+        order, share = robust_order(grasps, local_mesh(best), poses, weights)
+        grasp = grasps[int(order[0])]
+        row["grasp_share"] = round(float(share[order[0]]), 4)
+    row["plan_ms"] = 1000 * (time.perf_counter() - t0)
+    if grasp is None:
         row.update(success=False, reason="no_grasp")
         return [row]
-    _, reward, _, _, info = env.step(grasps[0].action)
+    _, reward, _, _, info = env.step(grasp.action)
     row.update(success=bool(reward > 0), reason=str(info["reason"]))
+    row.update(grasp_audit(grasp, info, label, chosen_truth, cam_to_world, ev.suite.dataset))
     return [row]
+
+
+AUDIT_FIELDS = (
+    "lifted_chosen", "shake_held", "slip_cm", "contacts_left", "contacts_right", "fc_mu",
+    "force_closure",
+)  # fmt: skip
+"""What a pick row records of its executed grasp besides the outcome: the simulator's side
+(whether it lifted the object the grasp was planned on, the shake, each finger's contacts
+at the end of the hold) and the analytic side (the friction its contacts on the chosen
+object's true surface need, and whether that is within ``AUDIT_FRICTION``)."""
+
+
+def grasp_audit(
+    grasp: Grasp,
+    info: dict[str, Any],
+    label: int,
+    truth: GroundTruth,
+    cam_to_world: np.ndarray,
+    dataset: Dataset | None,
+) -> dict[str, Any]:
+    """The :data:`AUDIT_FIELDS` of an executed ``grasp`` of object ``label`` whose step
+    returned ``info``: the analytic check (:func:`~beo_bench.grasping.closure_friction`)
+    takes the chosen object's true mesh at its true pose, as the scene held it when the
+    hand moved."""
+    contacts = info.get("hold_contacts") or {}
+    out: dict[str, Any] = {
+        "lifted_chosen": int(info.get("lifted_label") or 0) == label,
+        "shake_held": info.get("shake_held"),
+        "slip_cm": info.get("slip_cm"),
+        "contacts_left": contacts.get("left"),
+        "contacts_right": contacts.get("right"),
+        "fc_mu": None,
+        "force_closure": None,
+    }
+    if info.get("reason") in ("inside_table", "pregrasp_in_collision"):
+        return out  # never executed: nothing to audit
+    obj = cam_to_world @ rigid(np.asarray(truth.R_cam), np.asarray(truth.t_cam))
+    local = np.linalg.inv(obj) @ grasp.pose
+    mesh = instance_from_key(truth.key, dataset).mesh
+    mu = float(closure_friction(mesh, local[None], np.array([grasp.opening / 2]))[0])
+    out["fc_mu"] = round(mu, 4) if np.isfinite(mu) else None
+    out["force_closure"] = bool(mu <= AUDIT_FRICTION)
+    return out
 
 
 REASON_ORDER = (
