@@ -219,3 +219,29 @@ def test_each_run_of_all_ends_with_its_failures(capfd, tmp_path, plugin) -> None
     at = next(i for i, line in enumerate(lines) if line.startswith(head))
     assert lines[at + 1].startswith("  2 x ModelMissingError: no model file at /models/x.pt")
     assert "every one of the 2 views of run pose-1dof@class-free" in captured.err
+
+
+def test_the_pick_report_shows_the_grasp_audits_disagreements_first() -> None:
+    """Issue 49: episodes whose simulated outcome and force-closure check disagree lead
+    the pick report (either way round), then failures by reason, then successes; the card
+    says both checks and the shake."""
+    from beo_bench.bench.kinds.pick import rank_rows
+    from beo_bench.bench.report import row_errors
+    from beo_bench.bench.suites import get_suite
+
+    rows = [
+        {"item": 0, "success": True, "reason": "success", "lifted_chosen": True,
+         "force_closure": True, "fc_mu": 0.1, "shake_held": True, "slip_cm": 0.01},
+        {"item": 1, "success": False, "reason": "nothing_lifted", "lifted_chosen": False,
+         "force_closure": False, "fc_mu": None},
+        {"item": 2, "success": True, "reason": "success", "lifted_chosen": True,
+         "force_closure": False, "fc_mu": 0.9, "shake_held": False, "slip_cm": 12.0},
+        {"item": 3, "success": False, "reason": "no_grasp"},
+        {"item": 4, "success": False, "reason": "nothing_lifted", "lifted_chosen": False,
+         "force_closure": True, "fc_mu": 0.2},
+    ]  # fmt: skip
+    assert rank_rows(get_suite("pick"), rows).order == [2, 4, 3, 1, 0]
+    shown = dict(row_errors(rows[2], ["mug"]))
+    assert shown["force closure at mu 0.4"] == "no (mu >= 0.90)"
+    assert shown["lifted what it aimed at"] == "yes"
+    assert shown["after the shake"] == "dropped, slipped 12.0 cm"

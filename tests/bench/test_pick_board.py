@@ -278,3 +278,88 @@ def test_success_against_error_bins_the_episodes_that_found_their_target(tmp_pat
     assert rot[2] == "| every backend | 100.0% (2) | - | - | 50.0% (2) | 0.0% (1) |"
     assert rot[3] == "| `beo` | - | - | - | 100.0% (1) | 0.0% (1) |"
     assert rot[4] == "| `hbeo` | 100.0% (2) | - | - | 0.0% (1) | - |"
+
+
+def _audit_page(tmp_path):
+    """A pick page whose rows record the grasp audit: hbeo with 4 executed grasps (two
+    disagreements, one at each side) and one never executed, the oracle with 2."""
+
+    def rec(item, ok, lifted, mu, held=None, slip=None, found=True, rot=5.0) -> list:
+        fc = None if lifted is None else (mu is not None and mu <= 0.4)
+        audit = dict.fromkeys(EPISODE_AUDIT)
+        touch = 4 if ok else None
+        audit.update(lifted_chosen=lifted, force_closure=fc, fc_mu=mu, shake_held=held,
+                     slip_cm=slip, contacts_left=touch, contacts_right=touch and 2)  # fmt: skip
+        errs = [rot, 0.3, 1.0, 0.9, 0.8, 0.2]
+        return [item, "mug", ok, "success" if ok else "nothing_lifted", found, *errs,
+                *(audit[k] for k in EPISODE_AUDIT)]  # fmt: skip
+
+    def row(backend: str, recs: list) -> dict:
+        return {"backend": backend, "suite": "pick", "sensor": "ideal",
+                "provenance": {"backend_kwargs": {}}, "episode_fields": list(EPISODE_FIELDS),
+                "episodes": recs}  # fmt: skip
+
+    rows = [
+        row("hbeo", [rec(0, True, True, 0.1, True, 0.02), rec(1, True, True, 0.9, False, 9.0),
+                     rec(2, False, False, 0.2), rec(3, False, False, None),
+                     rec(4, False, None, None)]),
+        row("oracle", [rec(0, True, True, 0.0, True, 0.5), rec(1, True, True, 0.3, True, 0.1)]),
+    ]  # fmt: skip
+    (tmp_path / "pick.json").write_text(json.dumps(rows))
+    return tmp_path
+
+
+def test_the_audit_table_counts_agreement_and_the_shake_from_the_records(tmp_path) -> None:
+    from beo_bench.bench.doctables import Boards, pick_audit
+
+    audit, shake = pick_audit(Boards(_audit_page(tmp_path))).split("\n\n")
+    lines = audit.splitlines()
+    # every row: 6 executed grasps, 4 lifted, 4 in closure at 0.4, 4 agree; at the pads'
+    # 1.2 the 0.9 grasp closes too: 5 agree
+    assert lines[2] == "| every row | 6 | 66.7% | 66.7% | 66.7% | 0.25 | 1 | 1 | 83.3% |"
+    assert lines[3] == "| `hbeo` | 4 | 50.0% | 50.0% | 50.0% | 0.00 | 1 | 1 | 75.0% |"
+    assert lines[4] == "| `oracle` | 2 | 100.0% | 100.0% | 100.0% | 0.00 | 0 | 0 | 100.0% |"
+    s = shake.splitlines()
+    assert s[2] == "| `hbeo` | 40.0% | 20.0% | 1 | 0.02 | 2 |"
+    assert s[3] == "| `oracle` | 100.0% | 100.0% | 0 | 0.30 | 2 |"
+
+
+def test_each_backends_tolerance_comes_from_its_own_binned_episodes(tmp_path) -> None:
+    from beo_bench.bench.doctables import Boards, half_success_tolerance, pick_tolerance
+
+    text = pick_tolerance(Boards(_audit_page(tmp_path)))
+    # hbeo: every episode that found its target sits in the 0-5 deg bin: success never
+    # falls from the first bin, so no tolerance; the oracle is left out
+    assert "| `hbeo` | 5 | never halves | never halves | never halves |" in text
+    assert "oracle" not in text
+    assert half_success_tolerance([2.0, 10.0, 40.0], [0.8, 0.6, 0.2]) == pytest.approx(
+        10.0 + 30.0 * (0.6 - 0.4) / 0.4
+    )
+
+
+def test_the_sensitivity_tolerance_per_category_reads_each_rows_categories(tmp_path) -> None:
+    """Issue 49, per category where n allows: the mug loses half of the oracle's success
+    between 15 and 30 deg of rotation; the can's oracle picks under a third (no curve)."""
+    from beo_bench.bench.doctables import Boards, _sensitivity_per_category
+    from beo_bench.bench.suites import get_suite
+
+    seed = get_suite("pick").seed
+
+    def row(kwargs: dict, mug: float, can: float) -> dict:
+        per = {"mug": {"pick_success": mug, "n": 28}, "can": {"pick_success": can, "n": 28}}
+        return {"backend": "oracle", "suite": "pick", "sensor": "ideal", "seed": seed,
+                "track": None, "n": 56, "provenance": {"backend_kwargs": kwargs},
+                "per_category": per}  # fmt: skip
+
+    rows = [row({}, 1.0, 0.25)] + [
+        row({"rot_deg": d}, m, 0.2) for d, m in ((5, 1.0), (15, 0.8), (30, 0.2), (60, 0.1))
+    ]
+    (tmp_path / "pick.json").write_text(json.dumps(rows))
+    lines = _sensitivity_per_category(Boards(tmp_path)).splitlines()
+    assert (
+        lines[0]
+        == "| category | episodes | the oracle | rotation (deg) | yaw (deg) | translation (cm) |"
+    )
+    assert lines[2] == "| can | 28 | 25.0% | - | - | - |"
+    # 0.8 at 15 deg, 0.2 at 30: 0.5 at 15 + 15 * 0.3 / 0.6 = 22.5 deg; no yaw rows: "-"
+    assert lines[3] == "| mug | 28 | 100.0% | 22.5 | - | - |"

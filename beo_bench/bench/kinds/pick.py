@@ -206,18 +206,35 @@ REASON_ORDER = (
 backend's own failures first, then what its estimate made impossible, then misses."""
 
 
+def audit_disagrees(row: dict[str, Any]) -> bool:
+    """Whether the simulator and the analytic check disagree on an episode's executed
+    grasp: it lifted what it aimed at without force closure at ``AUDIT_FRICTION``, or the
+    other way round (False where the grasp was not audited)."""
+    fc = row.get("force_closure")
+    return fc is not None and bool(fc) != bool(row.get("lifted_chosen"))
+
+
 def rank_rows(suite: Suite, rows: Rows) -> Ranking:
-    """Failed episodes first, in :data:`REASON_ORDER` (an unknown reason after them),
-    then the successes; by item within each."""
+    """The episodes where the simulated and the analytic grasp checks disagree first, then
+    the failed ones in :data:`REASON_ORDER` (an unknown reason after them), then the
+    successes; by item within each."""
 
     def key(i: int) -> tuple[int, int]:
         r = rows[i]
         said = str(r.get("reason") or "")
         rank = REASON_ORDER.index(said) if said in REASON_ORDER else len(REASON_ORDER)
-        return (len(REASON_ORDER) + 1 if r.get("success") else rank, int(r["item"]))
+        if audit_disagrees(r):
+            rank = -1
+        elif r.get("success"):
+            rank = len(REASON_ORDER) + 1
+        return (rank, int(r["item"]))
 
     order = sorted(range(len(rows)), key=key)
-    return Ranking("failed episodes first (by reason), then the successes", order)
+    return Ranking(
+        "the episodes where the simulation and force closure at mu 0.4 disagree first, then "
+        "failed episodes (by reason), then the successes",
+        order,
+    )
 
 
 def report_case(items: Items, row: dict[str, Any], predict: Predict | None) -> ReportCase:
