@@ -25,10 +25,13 @@ from beo_bench.bench.compare import sensor_tag_of
 from beo_bench.bench.leaderboard import (
     DISSERTATION_MODELNET10,
     DISSERTATION_PROTOCOL,
+    ERROR_BINS,
     NOT_RUN,
     PRIMARY_COMPARISONS,
     Primary,
     confused_pairs,
+    error_bins,
+    found_target_episodes,
     ordering_verdict,
     primary_comparisons,
 )
@@ -648,14 +651,6 @@ def _sensitivity_per_category(b: Boards) -> str:
     return _table(["category", "episodes", "the oracle", *levels], rows)
 
 
-ERROR_BINS: dict[str, tuple[str, str, tuple[float, ...]]] = {
-    "rot_err_deg": ("rotation error", "deg", (0, 5, 15, 30, 60, 180)),
-    "trans_err_cm": ("translation error", "cm", (0, 0.5, 1, 2, 4, 100)),
-    "iou_cam": ("IoU in the camera frame", "", (0, 0.25, 0.5, 0.75, 1)),
-}
-"""The bins of pick's success against each error of the grasped estimate (issue 49)."""
-
-
 def pick_vs_error(b: Boards) -> str:
     """Pick success against each error of the estimate the episode grasped, binned, over
     the episodes that chose their target (the committed per-episode records of
@@ -698,21 +693,6 @@ def pick_vs_error(b: Boards) -> str:
     return "\n".join(out)
 
 
-def _binned(
-    eps: list[dict[str, Any]], key: str, edges: tuple[float, ...]
-) -> list[tuple[float, float]]:
-    """(median error, success rate) of each non-empty bin of ``eps`` by ``key``."""
-    from itertools import pairwise
-
-    out = []
-    for lo, hi in pairwise(edges):
-        top = hi if hi == edges[-1] else np.nextafter(hi, -np.inf)
-        sel = [e for e in eps if e.get(key) is not None and lo <= e[key] <= top]
-        if sel:
-            out.append((float(np.median([e[key] for e in sel])), _rate(sel)))
-    return out
-
-
 def _rate(eps: list[dict[str, Any]], key: str = "success") -> float:
     return sum(bool(e[key]) for e in eps) / len(eps)
 
@@ -739,7 +719,6 @@ def pick_tolerance(b: Boards) -> str:
     binned by the grasped estimate's error (:data:`ERROR_BINS`), the error at which success
     falls to half its value in the first bin (:func:`half_success_tolerance` over the bins'
     median errors; IoU's bins read from 1 down)."""
-    from beo_bench.bench.leaderboard import episodes
 
     per: dict[str, list[dict[str, Any]]] = {}
     for r in b.rows("pick"):
@@ -747,8 +726,7 @@ def pick_tolerance(b: Boards) -> str:
             continue
         if r["backend"] in ("oracle", "random") or r.get("privileged"):
             continue
-        eps = [e for e in episodes(r).values() if e.get("chosen_is_target")]
-        eps = [e for e in eps if e.get("rot_err_deg") is not None]
+        eps = found_target_episodes(r)
         if eps:
             per[r["backend"]] = eps
     if not per:
@@ -761,8 +739,8 @@ def pick_tolerance(b: Boards) -> str:
         *sorted(per.items()),
     ]:
         cells = [name if name == "every backend" else f"`{name}`", str(len(eps))]
-        for key, (_, _, edges) in ERROR_BINS.items():
-            pts = _binned(eps, key, edges)
+        for key in ERROR_BINS:
+            pts = [(x, y) for x, y, _ in error_bins(eps, key)]
             if key == "iou_cam":  # better is larger: walk the bins from the top
                 pts = [(1 - x, y) for x, y in reversed(pts)]
             t = half_success_tolerance([x for x, _ in pts], [y for _, y in pts]) if pts else None

@@ -494,6 +494,74 @@ def _slug(text: str) -> str:
     return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in text).strip("_")
 
 
+ERROR_BINS: dict[str, tuple[str, str, tuple[float, ...]]] = {
+    "rot_err_deg": ("rotation error", "deg", (0, 5, 15, 30, 60, 180)),
+    "trans_err_cm": ("translation error", "cm", (0, 0.5, 1, 2, 4, 100)),
+    "iou_cam": ("IoU in the camera frame", "", (0, 0.25, 0.5, 0.75, 1)),
+}
+"""The bins of pick's success against each error of the grasped estimate (issue 49)."""
+
+
+def error_bins(eps: list[dict[str, Any]], key: str) -> list[tuple[float, float, int]]:
+    """(median error, success rate, episodes) of each non-empty bin of ``eps`` by ``key``
+    (:data:`ERROR_BINS`; the last bin holds its upper edge)."""
+    from itertools import pairwise
+
+    edges = ERROR_BINS[key][2]
+    out = []
+    for lo, hi in pairwise(edges):
+        top = hi if hi == edges[-1] else np.nextafter(hi, -np.inf)
+        sel = [e for e in eps if e.get(key) is not None and lo <= e[key] <= top]
+        if sel:
+            rate = sum(bool(e["success"]) for e in sel) / len(sel)
+            out.append((float(np.median([e[key] for e in sel])), rate, len(sel)))
+    return out
+
+
+def found_target_episodes(s: dict[str, Any]) -> list[dict[str, Any]]:
+    """A pick row's episodes that chose their target and record its estimate's errors."""
+    eps = [e for e in episodes(s).values() if e.get("chosen_is_target")]
+    return [e for e in eps if e.get("rot_err_deg") is not None]
+
+
+def _pick_error_plot(out: Path, prefix: str, title: str, summaries: list[dict[str, Any]]) -> str:
+    """Pick success against each error of the grasped estimate, binned (each point at its
+    bin's median error, sized by its episodes): every perception row pooled, then each."""
+    import matplotlib.pyplot as plt
+
+    per = {label(s): found_target_episodes(s) for s in summaries}
+    per = {k: v for k, v in per.items() if v}
+    fig, axes = plt.subplots(1, len(ERROR_BINS), figsize=(13, 4), constrained_layout=True)
+    pooled = [e for v in per.values() for e in v]
+    for ax, (key, (what, unit, _)) in zip(axes, ERROR_BINS.items(), strict=True):
+        for name, eps in [("every row", pooled), *per.items()]:
+            pts = error_bins(eps, key)
+            if not pts:
+                continue
+            x, y, n = (np.array(v) for v in zip(*pts, strict=True))
+            bold = name == "every row"
+            ax.plot(
+                x,
+                y,
+                "k-" if bold else "-",
+                lw=2.5 if bold else 1,
+                label=name,
+                zorder=3 if bold else 2,
+            )
+            ax.scatter(x, y, s=4 + 40 * n / max(n.max(), 1), color="k" if bold else None, zorder=4)
+        ax.set_xlabel(f"{what} ({unit})" if unit else what)
+        ax.set_ylim(0, 1)
+        if key == "trans_err_cm":
+            ax.set_xscale("symlog", linthresh=0.5)
+    axes[0].set_ylabel("pick success (episodes that chose their target)")
+    axes[-1].legend(fontsize="x-small")
+    fig.suptitle(f"{title}: success against the grasped estimate's error")
+    name = f"{prefix}_success_vs_error.png"
+    _savefig(fig, out / name)
+    plt.close(fig)
+    return name
+
+
 def _plots(out: Path, prefix: str, title: str, rows: list[Row]) -> list[str]:
     """The rotation-error CDF, error against samples and confusion plots of one section;
     file names start with ``prefix`` (the suite, and its track)."""
@@ -525,6 +593,9 @@ def _plots(out: Path, prefix: str, title: str, rows: list[Row]) -> list[str]:
     sampled = [s for s in with_rot if "samples" in _kwargs(s)]
     if sampled:
         written.append(_error_vs_samples(out, prefix, title, with_rot, sampled))
+    perceiving = [s for s in ordered if not is_bound(s) and s["backend"] not in DIAGNOSTIC]
+    if any(found_target_episodes(s) for s in perceiving):
+        written.append(_pick_error_plot(out, prefix, title, perceiving))
     drawn: set[str] = set()
     for r in _ordered(rows):
         conf = r.summary["metrics"].get("confusion")

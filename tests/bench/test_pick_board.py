@@ -363,3 +363,17 @@ def test_the_sensitivity_tolerance_per_category_reads_each_rows_categories(tmp_p
     assert lines[2] == "| can | 28 | 25.0% | - | - | - |"
     # 0.8 at 15 deg, 0.2 at 30: 0.5 at 15 + 15 * 0.3 / 0.6 = 22.5 deg; no yaw rows: "-"
     assert lines[3] == "| mug | 28 | 100.0% | 22.5 | - | - |"
+
+
+def test_the_pick_page_plots_success_against_error_from_the_records(tmp_path) -> None:
+    """The page's plot reads the same records as results.md's tables: a PNG of three
+    panels, drawn only from episodes that chose their target and record their errors."""
+    from beo_bench.bench.leaderboard import _pick_error_plot, error_bins, found_target_episodes
+
+    rows = json.loads((_audit_page(tmp_path) / "pick.json").read_text())
+    hbeo = found_target_episodes(rows[0])
+    assert len(hbeo) == 5  # every record chose its target and has a rotation error
+    assert error_bins(hbeo, "rot_err_deg") == [(5.0, 0.4, 5)]  # all in the 5-15 deg bin
+    name = _pick_error_plot(tmp_path, "pick", "pick", rows)
+    assert name == "pick_success_vs_error.png"
+    assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
