@@ -45,8 +45,8 @@ from beo_bench.bench.fieldscores import bop_model, score_bop
 from beo_bench.bench.scoring import base_row, pose_metrics, viewpoints
 from beo_bench.bench.suites import Kind, Suite
 from beo_bench.bop import protocol
-from beo_bench.bop.results import BopEstimate, read_results
-from beo_bench.errors import UsageError
+from beo_bench.bop.results import BopEstimate, nearest_rotation, read_results
+from beo_bench.errors import BeoBenchError, UsageError
 from beo_bench.names import check_name
 from beo_bench.types import Estimate, GroundTruth, View
 
@@ -55,6 +55,22 @@ if TYPE_CHECKING:
 
 NO_ESTIMATE = "no estimate in the results file"
 """A view's failure when the results file has no estimate of its object in its image."""
+
+
+def check_method(name: str) -> str:
+    """``name`` as a scored file's method name; a :class:`UsageError` for a name no row may
+    take: an invalid one, or a backend's (``icp``, ``oracle``, ...: the file would stand on
+    the leaderboard as that backend, a baseline or a bound)."""
+    from beo_bench.backend import list_backends
+
+    name = check_name(name, "method name (--method)")
+    if name in list_backends():  # the in-tree ones, and any registered in this process
+        raise UsageError(
+            f"--method {name}: {name!r} is the name of a beo-bench backend, and a scored "
+            f"file's row must not stand for it: pass --method {name}-bop (or another name of "
+            "your method), or rename the file (its name up to the first _ is the default)"
+        )
+    return name
 
 
 def method_name(path: Path) -> str:
@@ -92,11 +108,13 @@ def as_exported(view: View, suite: Suite) -> View:
 
 
 def _estimate(e: BopEstimate, gt: GroundTruth) -> Estimate:
-    """A BOP estimate as the scoring functions take it: its pose; the true size (a BOP
-    method is given the model); no class or shape (never scored: ``pose_only``)."""
+    """A BOP estimate as the scoring functions take it: its pose (``R`` as its nearest
+    rotation: the file's is a rotation within ``ROTATION_TOL``, printed to a few decimals);
+    the true size (a BOP method is given the model); no class or shape (never scored:
+    ``pose_only``)."""
     return Estimate(
         class_probs=np.ones(1),
-        rotation=np.asarray(e.R, dtype=np.float64),
+        rotation=nearest_rotation(e.R),
         translation=np.asarray(e.t_mm, dtype=np.float64) / 1000.0,
         size=np.asarray(gt.size, dtype=np.float64),
         shape=np.zeros((1, 1, 1)),
@@ -223,6 +241,43 @@ def _sha256(path: Path) -> str:
     return h.hexdigest()
 
 
+def _check_out(out: Path, record: dict[str, Any]) -> None:
+    """Refuse an ``out`` (claimed and locked by the caller) that holds anything but an
+    earlier score of the same method on the same suite: a ``run`` of a backend, another
+    method's score, or results without a run record. Nothing in it is touched."""
+    from beo_bench.bench.runner import RECORD_NAME, RESULTS_NAME, SUMMARY_NAME, _read_record
+    from beo_bench.bench.runs import CorruptRunError, RunUsageError
+
+    old = _read_record(out / RECORD_NAME)  # a damaged or foreign one: CorruptRunError
+    if old is None:
+        held = [n for n in (RESULTS_NAME, SUMMARY_NAME) if (out / n).exists()]
+        if held:
+            raise CorruptRunError(
+                f"--out {out} holds {', '.join(held)} but no {RECORD_NAME}, so what wrote them "
+                "cannot be checked and they are not overwritten: choose another --out"
+            )
+        return
+    if not old.get("bop_results"):
+        raise RunUsageError(
+            f"--out {out} holds a run of backend {old.get('backend')!r} (`beo-bench run`), "
+            "not a scored results file: choose another --out (a score never replaces a run)"
+        )
+    mine = {k: record[k] for k in ("suite", "backend")}
+    if {k: old.get(k) for k in mine} != mine:
+        raise RunUsageError(
+            f"--out {out} holds the score of method {old.get('backend')!r} on "
+            f"{(old.get('suite') or {}).get('name')!r}, not of {record['backend']!r} on "
+            f"{record['suite'].get('name')!r}: choose another --out"
+        )
+
+
+def _json(obj: Any, indent: int | None = None) -> str:
+    """``obj`` as JSON text with no NaN or infinity (never valid JSON): a ValueError."""
+    from beo_bench.bench.pool import jsonable
+
+    return json.dumps(obj, indent=indent, sort_keys=True, default=jsonable, allow_nan=False)
+
+
 def score_results(
     suite: Suite,
     results: Path | str,
@@ -231,16 +286,20 @@ def score_results(
     progress: bool = False,
 ) -> Summary:
     """Score the BOP results CSV ``results`` on ``suite`` into the run directory ``out``
-    (new, empty, or an earlier score of the same file's: rewritten); returns the summary."""
+    (new, empty, or an earlier score of the same method on the same suite: rewritten);
+    returns the summary. The file is checked before ``out`` is made; then ``out`` is
+    claimed (its marker) and locked (``run.lock``) as ``run`` does, and refused when it
+    holds a ``run`` of a backend or another method's score (:func:`_check_out`)."""
+    from beo_bench.atomic import atomic_write_bytes
     from beo_bench.bench.runner import (
         RECORD_NAME,
+        REPORT_NAME,
         RESULTS_NAME,
         SUMMARY_NAME,
         _identity,
         _run_dir,
         lock_run_dir,
         machine_provenance,
-        write_json_atomic,
     )
     from beo_bench.bench.runs import RunConfig
     from beo_bench.bench.summary import summarise
@@ -255,7 +314,7 @@ def score_results(
     path = Path(results)
     if not path.is_file():
         raise UsageError(f"--bop-results {path}: no such file: give the results CSV to score")
-    name = check_name(method or method_name(path), "method name (--method)")
+    name = check_method(method or method_name(path))
     if suite.class_hint:
         suite = suite.with_overrides(track="class-given")  # the object is given
     items = open_items(suite)
@@ -267,12 +326,7 @@ def score_results(
             "--categories and --objects the export was made with)"
         )
         estimates = read_results(path, set(ids.info), known_images, scope)
-        rows = score_rows(suite, estimates, ids, items, progress)
-    finally:
-        items.close()
-    digest = _sha256(path)
-    out = _run_dir(Path(out))
-    with lock_run_dir(out):
+        digest = _sha256(path)
         record = {
             **_identity(RunConfig(suite, name, {}, False)),
             "model_digest": digest,
@@ -281,26 +335,42 @@ def score_results(
             "privileged": False,
             "bop_results": {"file": path.name, "sha256": digest, "estimates": len(estimates)},
         }
-        write_json_atomic(out / RECORD_NAME, record)
-        text = "".join(json.dumps(r, sort_keys=True) + "\n" for r in rows)
-        from beo_bench.atomic import atomic_write_bytes
-
-        atomic_write_bytes(out / RESULTS_NAME, text)
-        summary = summarise(
-            suite,
-            name,
-            rows,
-            uses_class_hint=False,
-            model_digest=digest,
-            provenance={
-                **machine_provenance(),
-                "suite": suite.record(),
-                "backend_kwargs": {},
-                "bop_results": record["bop_results"],
-                "library_version": LIBRARY_VERSION,
-                "model_digest": digest,
-                "privileged": False,
-            },
-        )
-        write_json_atomic(out / SUMMARY_NAME, summary.to_json())
+        out = _run_dir(Path(out))
+        with lock_run_dir(out):  # held from the check to the last write: one writer
+            _check_out(out, record)
+            rows = score_rows(suite, estimates, ids, items, progress)
+            summary = summarise(
+                suite,
+                name,
+                rows,
+                uses_class_hint=False,
+                model_digest=digest,
+                provenance={
+                    **machine_provenance(),
+                    "suite": suite.record(),
+                    "backend_kwargs": {},
+                    "bop_results": record["bop_results"],
+                    "library_version": LIBRARY_VERSION,
+                    "model_digest": digest,
+                    "privileged": False,
+                },
+            )
+            # every text made before any is written: a number JSON cannot hold stops the
+            # score with the directory as it was
+            try:
+                texts = {
+                    RECORD_NAME: _json(record, indent=2) + "\n",
+                    RESULTS_NAME: "".join(_json(r) + "\n" for r in rows),
+                    SUMMARY_NAME: _json(summary.to_json(), indent=2) + "\n",
+                }
+            except ValueError as e:
+                raise BeoBenchError(
+                    f"{path}: a score came out as NaN or infinite ({e}), which JSON cannot "
+                    f"hold; nothing was written to {out}: please report it with the file"
+                ) from None
+            (out / REPORT_NAME).unlink(missing_ok=True)  # an earlier score's: now stale
+            for file_name, text in texts.items():
+                atomic_write_bytes(out / file_name, text)
+    finally:
+        items.close()
     return summary

@@ -80,13 +80,28 @@ PRIVILEGED_MARK = "privileged: given the truth"
 one of the :data:`BOUNDS`: such rows are listed with the bounds and never ranked or paired."""
 
 
+SCORED_MARK = "scored file"
+"""How the row of a scored BOP results file (``beo-bench score``) is marked: ``m (scored
+file)``. Such a row is a method's, whatever its name: never a bound or a baseline."""
+
+
+def is_scored_file(s: dict[str, Any]) -> bool:
+    """Whether the run is a scored results file's (its provenance's ``bop_results``)."""
+    prov = s.get("provenance") or {}
+    return isinstance(prov, dict) and bool(prov.get("bop_results"))
+
+
 def is_bound(s: dict[str, Any]) -> bool:
     """Whether a run is a bound, not a method: ``oracle``, ``random``, or any backend that
-    was handed the truth (its summary's ``privileged``)."""
+    was handed the truth (its summary's ``privileged``); never a scored file's."""
+    if is_scored_file(s):
+        return False
     return s["backend"] in BOUNDS or bool(s.get("privileged"))
 
 
 def _bound_mark(s: dict[str, Any]) -> str | None:
+    if is_scored_file(s):
+        return None
     if s["backend"] in BOUNDS:
         return BOUNDS[s["backend"]]
     return PRIVILEGED_MARK if s.get("privileged") else None
@@ -187,8 +202,10 @@ def load_rows(runs: Path) -> list[Row]:
 
 
 def label(s: dict[str, Any]) -> str:
-    """A summary's row name: the backend and its options."""
-    return backend_label(s["backend"], _kwargs(s))
+    """A summary's row name: the backend and its options; a scored file's method marked
+    (:data:`SCORED_MARK`), so it never reads, or pairs, as an in-tree backend."""
+    name = backend_label(s["backend"], _kwargs(s))
+    return f"{name} ({SCORED_MARK})" if is_scored_file(s) else name
 
 
 def _kwargs(s: dict[str, Any]) -> dict[str, Any]:
@@ -812,6 +829,8 @@ class Verdict:
 
 
 def _is_method(s: dict[str, Any]) -> bool:
+    if is_scored_file(s):
+        return True
     return not is_bound(s) and s["backend"] not in (*BASELINES, *DIAGNOSTIC)
 
 

@@ -822,3 +822,30 @@ def test_pick_tolerance_is_where_success_falls_to_half() -> None:
     assert half_success_tolerance([0, 15, 30], [0.9, 0.6, 0.3]) == pytest.approx(22.5)
     assert half_success_tolerance([0, 1, 2], [0.9, 0.45, 0.1]) == pytest.approx(1.0)
     assert half_success_tolerance([0, 1], [0.9, 0.8]) is None
+
+
+def test_a_scored_file_is_marked_and_never_a_baseline_or_a_bound(tmp_path) -> None:
+    """A scored BOP results file named like an in-tree backend (``icp``, ``oracle``; `score`
+    now refuses those names, an older one did not) is a method's row marked as a scored file:
+    beside the real icp run both are listed, and it is neither the baseline nor the upper
+    bound (issue 50)."""
+    from beo_bench.bench.leaderboard import is_bound, label
+
+    runs = tmp_path / "runs"
+    write_run(runs / "icp", "icp", _rows(0.5))
+    for name, scale in (("icp", 0.7), ("oracle", 0.0)):
+        path = runs / f"scored-{name}" / "summary.json"
+        write_run(path.parent, name, _rows(scale))
+        s = json.loads(path.read_text())
+        s["provenance"]["bop_results"] = {"file": f"{name}_x.csv", "sha256": "0" * 64}
+        path.write_text(json.dumps(s))
+        assert label(s) == f"{name} (scored file)" and not is_bound(s)
+    regenerate(runs, tmp_path / "board")
+    md = (tmp_path / "board" / "pose-1dof.md").read_text()
+    names = [r.split(" | ")[0].lstrip("| ") for r in _table(md, "seed 2000")]
+    assert sorted(names) == ["icp", "icp (scored file)", "oracle (scored file)"], names
+    paired = json.loads((tmp_path / "board" / "pose-1dof_paired.json").read_text())
+    assert {(v["method"], v["baseline"]) for v in paired} == {
+        ("icp (scored file)", "icp"),
+        ("oracle (scored file)", "icp"),
+    }

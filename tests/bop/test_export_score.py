@@ -326,9 +326,9 @@ def _assert_perfect(summary: dict, rows: list[dict], n_views: int) -> None:
 
 def test_oracle_results_score_perfectly_on_pose_3dof(pose_export, tmp_path) -> None:
     suite, root = pose_export
-    summary, rows = score(suite, oracle_estimates(root), tmp_path, "oracle")
+    summary, rows = score(suite, oracle_estimates(root), tmp_path, "truth")
     _assert_perfect(summary, rows, 4)
-    assert summary["track"] == "class-given" and summary["backend"] == "oracle"
+    assert summary["track"] == "class-given" and summary["backend"] == "truth"
     assert [r["ms"] for r in rows] == [250.0] * 4  # 0.25 s per image of one view
 
 
@@ -339,7 +339,7 @@ def test_oracle_results_score_perfectly_on_tabletop(tmp_path) -> None:
     ests = oracle_estimates(root)
     targets = read_targets(root)
     assert len(ests) == len(targets) >= 2
-    summary, rows = score(suite, ests, tmp_path, "oracle")
+    summary, rows = score(suite, ests, tmp_path, "truth")
     _assert_perfect(summary, rows, len(targets))
     assert summary["track"] is None  # tabletop has no tracks
     assert {r["item"] for r in rows} == {0, 1}
@@ -562,7 +562,7 @@ def test_a_missing_results_file_is_a_usage_error(tmp_path, capsys) -> None:
 @pytest.mark.slow  # icp builds its class means (a cold asset cache: ~15 s)
 def test_a_scored_run_pairs_with_an_icp_run(three, tmp_path, capsys) -> None:
     _, root, _ = three
-    csv = tmp_path / "oracle_beo-pose-3dof-test.csv"
+    csv = tmp_path / "truth_beo-pose-3dof-test.csv"
     write_results(csv, oracle_estimates(root))
     bop, icp = tmp_path / "bop", tmp_path / "icp"
     rc = _score(csv, bop)
@@ -650,3 +650,122 @@ def test_score_leaves_a_barely_visible_instance_out_of_bops_matching(monkeypatch
     seen = bopscore._Target(1, None, 7, 0.9)  # type: ignore[arg-type]
     bopscore._match([hidden, seen], [est], get_suite("tabletop"), 0, 0)
     assert hidden.shares == {"vsd": 0.5, "mssd": 0.5, "mspd": 0.5}  # 1 of 2 targets found
+
+
+# -- 7. attacks on `score` (issue 50) ----------------------------------------------------------
+def _one_line_error(capsys) -> str:
+    err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
+    assert len(err) == 1 and err[0].startswith("beo-bench: error:"), err
+    return err[0]
+
+
+def test_a_rotation_printed_to_4_decimals_is_scored(three, tmp_path, capsys) -> None:
+    """R to 4 decimals is within ROTATION_TOL (1e-3) but not the renderer's 1e-6: it scores
+    (as its nearest rotation), where it once ended in a ValueError traceback."""
+    _, root, _ = three
+    lines = [HEADER]
+    for e in oracle_estimates(root):
+        R = " ".join(f"{x:.4f}" for x in np.asarray(e.R).reshape(-1))
+        t = " ".join(f"{x:.4f}" for x in np.asarray(e.t_mm))
+        lines.append(f"{e.scene_id},{e.im_id},{e.obj_id},1.0,{R},{t},0.25")
+    csv = tmp_path / "rounded_beo-pose-3dof-test.csv"
+    csv.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "run"
+    assert _score(csv, out) == 0, capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["failures"] == 0
+    assert summary["metrics"]["rot_err_deg_mean"] < 0.05
+
+
+def test_score_refuses_a_run_directory(three, tmp_path, capsys) -> None:
+    """--out at a `run` directory (the same marker) was silently replaced; now refused with
+    one line naming --out, and nothing in it touched."""
+    from beo_bench.bench.runner import _run_dir
+
+    _, root, _ = three
+    out = _run_dir(tmp_path / "icp-run")  # a run's directory: marked, with its files
+    (out / "run.json").write_text(
+        json.dumps({"suite": {"name": "pose-3dof"}, "backend": "icp", "backend_kwargs": {}})
+    )
+    for name in ("results.jsonl", "summary.json", "report.html"):
+        (out / name).write_text(f"the run's {name}\n")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}  # (run.lock: the lock's own)
+    csv = tmp_path / "mine_beo-pose-3dof-test.csv"
+    write_results(csv, oracle_estimates(root))
+    capsys.readouterr()
+    assert _score(csv, out) == 2
+    err = _one_line_error(capsys)
+    assert f"--out {out}" in err and "run of backend 'icp'" in err, err
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.name != "run.lock"} == before
+
+
+def test_score_refuses_another_methods_score_and_rewrites_its_own(three, tmp_path, capsys) -> None:
+    _, root, _ = three
+    ests = oracle_estimates(root)
+    mine, other = tmp_path / "mine_x.csv", tmp_path / "other_x.csv"
+    write_results(mine, ests)
+    write_results(other, ests)
+    out = tmp_path / "run"
+    assert _score(mine, out) == 0
+    (out / "report.html").write_text("an earlier report")
+    assert _score(mine, out) == 0  # an earlier score of its own: rewritten, the report gone
+    assert not (out / "report.html").exists()
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    capsys.readouterr()
+    assert _score(other, out) == 2
+    err = _one_line_error(capsys)
+    assert f"--out {out}" in err and "method 'mine'" in err, err
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.name != "run.lock"} == {
+        k: v for k, v in before.items() if k != "run.lock"
+    }
+
+
+def test_a_second_score_into_a_locked_directory_is_refused(three, tmp_path, capsys) -> None:
+    from beo_bench.bench.runner import _run_dir, lock_run_dir
+
+    _, root, _ = three
+    csv = tmp_path / "mine_x.csv"
+    write_results(csv, oracle_estimates(root))
+    out = _run_dir(tmp_path / "run")
+    with lock_run_dir(out):  # another score (or run) holds it
+        capsys.readouterr()
+        assert _score(csv, out) == 1
+        err = _one_line_error(capsys)
+        assert "in use by another run" in err and str(out) in err, err
+    assert not (out / "summary.json").exists()
+
+
+@pytest.mark.parametrize("method", ["icp", "oracle"])
+def test_a_scored_file_cannot_take_a_backends_name(three, tmp_path, capsys, method) -> None:
+    """`--method icp` (or a file named icp_...) stood on the leaderboard as the baseline,
+    `oracle` as the upper bound: refused, with a name to use instead."""
+    _, root, _ = three
+    csv = tmp_path / "mine_x.csv"
+    write_results(csv, oracle_estimates(root))
+    out = tmp_path / "run"
+    capsys.readouterr()
+    argv = ["score", "--suite", "pose-3dof", "--episodes", "3", "--bop-results", str(csv)]
+    assert main([*argv, "--method", method, "--out", str(out)]) == 2
+    err = _one_line_error(capsys)
+    assert f"--method {method}" in err and f"--method {method}-bop" in err, err
+    assert not out.exists()
+    named = tmp_path / f"{method}_beo-pose-3dof-test.csv"
+    write_results(named, oracle_estimates(root))
+    assert _score(named, out) == 2
+    assert "is the name of a beo-bench backend" in _one_line_error(capsys)
+
+
+def test_a_scored_rows_json_is_valid(three, tmp_path) -> None:
+    """No NaN or infinity reaches run.json, results.jsonl or summary.json (strict JSON)."""
+    suite, root, _ = three
+    summary, _ = score(suite, oracle_estimates(root, time=1e-9), tmp_path)
+
+    def strict(text: str) -> object:
+        return json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in JSON"))
+
+    out = tmp_path / "run-m"
+    strict((out / "run.json").read_text())
+    strict((out / "summary.json").read_text())
+    for line in (out / "results.jsonl").read_text().splitlines():
+        strict(line)
+    assert np.isfinite(summary["metrics"]["views_per_s"])

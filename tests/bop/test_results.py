@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from beo_bench.bop import files as bf
-from beo_bench.bop.results import HEADER, BopEstimate, read_results, write_results
+from beo_bench.bop import results as br
+from beo_bench.bop.results import HEADER, BopEstimate, nearest_rotation, read_results, write_results
 from beo_bench.errors import BopFormatError
 from beo_bench.geometry import axis_angle
 
@@ -111,7 +112,19 @@ BAD = {
         r"0\.0201 > 0\.001",
     ),
     "reflection": ([_row(R=REFLECTION)], 2, r"det R = -1, not \+1 within 0\.001"),
-    "negative time": ([_row(time="-2")], 2, r"time -2: must be seconds >= 0, or -1"),
+    "negative time": ([_row(time="-2")], 2, r"time -2: must be seconds within \[1e-09, 1e\+06\]"),
+    # a time of 0 made the rate infinite (Infinity in summary.json), 1e300 went into
+    # results.jsonl as Infinity ms (issue 50, attack 5)
+    "zero time": ([_row(time="0")], 2, r"time 0: must be seconds within \[1e-09, 1e\+06\], or -1"),
+    "huge time": ([_row(time="1e300")], 2, r"time 1e\+300: must be seconds within"),
+    "huge t": ([_row(t="0 0 1e300")], 2, r"t '0 0 1e300': each entry must be within"),
+    # an unclosed quote on line 3 is named there, not where the reader gave up (attack 6)
+    "unclosed quote": (
+        [_row(), '1,0,5,"0.9', _row(R=R1), _row(im=0, R=R0, t="1 1 1")],
+        3,
+        r"quoted field starts on this line",
+    ),
+    "unclosed quote at the end": ([_row(), '1,0,5,"0.9,1 0 0'], 3, r"not closed"),
     "time differs": (
         [_row(), _row(R=R1, time="0.5")],
         3,
@@ -161,3 +174,71 @@ def test_rotation_tolerance(tmp_path: Path) -> None:
     np.testing.assert_allclose(e.R, R0, atol=1e-5)
     with pytest.raises(BopFormatError, match=r":2: R is not a rotation"):
         read_results(_csv(tmp_path, HEADER, _row(R=np.diag([1.0, 1.0, 1.002]))))
+
+
+def test_a_rotation_printed_to_4_decimals_scores_as_its_nearest_rotation(tmp_path: Path) -> None:
+    """Within ROTATION_TOL (1e-3) but not within the renderer's 1e-6: accepted as written
+    and projected onto the nearest rotation before anything renders it (issue 50, attack 1)."""
+    from beo_bench.bop.render import render_depth
+
+    rounded = np.round(R0, 4)
+    assert 1e-6 < np.abs(rounded @ rounded.T - np.eye(3)).max() < br.ROTATION_TOL
+    row = _row().split(",")
+    row[4] = " ".join(f"{x:.4f}" for x in R0.reshape(-1))
+    (e,) = read_results(_csv(tmp_path, HEADER, ",".join(row)))
+    np.testing.assert_array_equal(e.R, rounded)  # the file's R, as written
+    R = nearest_rotation(e.R)
+    np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
+    assert np.linalg.det(R) == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(R, R0, atol=1e-4)
+    np.testing.assert_array_equal(nearest_rotation(np.eye(3)), np.eye(3))
+    box = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    faces = np.array(
+        [
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 6, 7],
+            [4, 7, 5],
+            [0, 4, 5],
+            [0, 5, 1],
+            [2, 3, 7],
+            [2, 7, 6],
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3],
+        ]
+    )
+    K = np.array([[50.0, 0, 16], [0, 50.0, 16], [0, 0, 1]])
+    with pytest.raises(ValueError, match="proper rotation"):
+        render_depth(box, faces, e.R, [0, 0, 10], K, 32, 32)
+    assert render_depth(box, faces, R, [0, 0, 10], K, 32, 32).max() > 0
+
+
+def test_a_bad_second_line_ends_the_reading(tmp_path: Path) -> None:
+    """A big file with a bad line 2 is refused at line 2 without reading the rest: past the
+    first megabyte the file is not UTF-8 (and then 50 MB of holes), which a reader of the
+    whole file trips over before it sees line 2 (issue 50, attack 2)."""
+    path = tmp_path / "big_dataset-test.csv"
+    pad = (_row() + "\n") * (1_000_000 // (len(_row()) + 1))
+    with path.open("wb") as f:
+        f.write(f"{HEADER}\n{_row(score='high')}\n{pad}".encode())
+        f.write(b"\xff\xfe not UTF-8 \xff\n")
+        f.truncate(50_000_000)
+    with pytest.raises(BopFormatError) as info:
+        read_results(path)
+    assert str(info.value).startswith(f"{path}:2: score 'high' is not a number"), info.value
+
+
+def test_a_line_longer_than_the_limit_is_refused(tmp_path: Path) -> None:
+    path = _csv(tmp_path, HEADER, _row(), "9" * (br.MAX_LINE_CHARS + 5))
+    with pytest.raises(BopFormatError, match=r":3: line longer than 10000 characters"):
+        read_results(path)
+
+
+def test_more_estimates_than_the_limit_are_refused(tmp_path: Path, monkeypatch) -> None:
+    monkeypatch.setattr(br, "MAX_ESTIMATES", 2)
+    rows = [_row(), _row(R=R1), "", _row(t="1 2 3")]
+    assert len(read_results(_csv(tmp_path, HEADER, *rows[:3]))) == 2
+    with pytest.raises(BopFormatError, match=r":5: more than 2 estimates"):
+        read_results(_csv(tmp_path, HEADER, *rows))
