@@ -28,6 +28,7 @@ breaks the format or cannot be scored.
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import math
 from collections.abc import Collection, Iterable, Iterator
@@ -71,16 +72,16 @@ MAX_TIME_S = 1e6
 """The longest time (s) an image may take (about 11.6 days)."""
 MAX_T_MM = 1e9
 """The largest ``|t|`` entry (mm, 1000 km): beyond it the projections overflow."""
-MAX_ESTIMATES = 200_000
+MAX_ESTIMATES = 100_000
 """The most estimates a results file may hold (every estimate is kept in memory while the
-file is scored: about 1 kB each). BOP's matching uses, per image and object, only as many
+file is scored: about 0.7 kB each). BOP's matching uses, per image and object, only as many
 estimates as there are instances; keep the highest-scored ones."""
 MAX_LINE_CHARS = 10_000
 """The longest line (characters) of a results file; a BOP line is about 250."""
 _FIELDS = HEADER.split(",")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class BopEstimate:
     """One line of a results CSV: object ``obj_id`` in image ``im_id`` of scene
     ``scene_id`` at pose (``R``, ``t_mm``), model to camera frame."""
@@ -262,7 +263,10 @@ def _read(
         e = _estimate(path, line, row, obj_ids, images, scope)
         ids = np.array([e.scene_id, e.im_id, e.obj_id], dtype=np.float64)
         # + 0.0: -0.0 and 0.0 are one number, as they were when the key held floats
-        key = (np.concatenate([ids, e.R.reshape(-1), e.t_mm]) + 0.0).tobytes()
+        # a 16-byte digest of it keeps the memory of a long file small
+        key = hashlib.blake2b(
+            (np.concatenate([ids, e.R.reshape(-1), e.t_mm]) + 0.0).tobytes(), digest_size=16
+        ).digest()
         if key in seen:
             raise _fail(
                 path,

@@ -654,7 +654,8 @@ def test_score_leaves_a_barely_visible_instance_out_of_bops_matching(monkeypatch
 
 # -- 7. attacks on `score` (issue 50) ----------------------------------------------------------
 def _one_line_error(capsys) -> str:
-    err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
+    lines = capsys.readouterr().err.splitlines()
+    err = [x for x in lines if x.strip() and "it/s]" not in x]  # not the progress bar's
     assert len(err) == 1 and err[0].startswith("beo-bench: error:"), err
     return err[0]
 
@@ -755,17 +756,21 @@ def test_a_scored_file_cannot_take_a_backends_name(three, tmp_path, capsys, meth
     assert "is the name of a beo-bench backend" in _one_line_error(capsys)
 
 
-def test_a_scored_rows_json_is_valid(three, tmp_path) -> None:
-    """No NaN or infinity reaches run.json, results.jsonl or summary.json (strict JSON)."""
-    suite, root, _ = three
-    summary, _ = score(suite, oracle_estimates(root, time=1e-9), tmp_path)
+def test_no_infinity_is_ever_written(three, tmp_path, capsys, monkeypatch) -> None:
+    """A time of 0 once wrote views_per_s: Infinity into summary.json (not JSON). The reader
+    now refuses it (test_results.py); with that bound lifted, the writer still refuses any
+    non-finite number, in one line, with nothing written."""
+    from beo_bench.bop import results as br
 
-    def strict(text: str) -> object:
-        return json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in JSON"))
-
-    out = tmp_path / "run-m"
-    strict((out / "run.json").read_text())
-    strict((out / "summary.json").read_text())
-    for line in (out / "results.jsonl").read_text().splitlines():
-        strict(line)
-    assert np.isfinite(summary["metrics"]["views_per_s"])
+    _, root, _ = three
+    csv = tmp_path / "mine_x.csv"
+    write_results(csv, oracle_estimates(root, time=0.5))
+    csv.write_text(csv.read_text().replace(",0.5\n", ",0\n"))
+    capsys.readouterr()
+    out = tmp_path / "run"
+    assert _score(csv, out) == 2
+    assert ":2: time 0: must be seconds within" in _one_line_error(capsys)
+    monkeypatch.setattr(br, "MIN_TIME_S", 0.0)
+    assert _score(csv, out) == 1
+    assert "NaN or infinite" in _one_line_error(capsys)
+    assert not {"run.json", "results.jsonl", "summary.json"} & {p.name for p in out.iterdir()}

@@ -124,6 +124,11 @@ BAD = {
         3,
         r"quoted field starts on this line",
     ),
+    "quote closed lines later": (
+        [_row(), '1,0,5,"0.9', _row(R=R1), 'abc",1 2 3,0.25'],
+        3,
+        r"quoted field starts on this line and runs on to line 5",
+    ),
     "unclosed quote at the end": ([_row(), '1,0,5,"0.9,1 0 0'], 3, r"not closed"),
     "time differs": (
         [_row(), _row(R=R1, time="0.5")],
