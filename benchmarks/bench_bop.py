@@ -95,7 +95,8 @@ def export_and_score() -> None:
                 for im_id, image in read_scene(root, "test", sid).images.items()
                 for g in image.gt
             ]
-            csv = Path(tmp) / f"oracle_{name}.csv"
+            # the truth, named "truth": a scored file may not take the backend name "oracle"
+            csv = Path(tmp) / f"truth_{name}.csv"
             write_results(csv, ests)
             t0 = time.perf_counter()
             summary = score_results(suite, csv, Path(tmp) / f"run-{name}")
