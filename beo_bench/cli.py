@@ -553,7 +553,9 @@ def cmd_export(args: argparse.Namespace) -> int:
 
     suite, _ = _run_suite(args)
     train = suite.size if args.train_items is None else args.train_items
-    done = export_bop(suite, Path(args.dir), train_items=train, progress=True)
+    done = export_bop(
+        suite, Path(args.dir), train_items=train, progress=True, withhold_gt=args.withhold_gt
+    )
     shown = ", ".join(
         f"{n} {split} image{'' if n == 1 else 's'}" for split, n in done.images.items()
     )
@@ -561,8 +563,18 @@ def cmd_export(args: argparse.Namespace) -> int:
         f"{done.root}: BOP dataset of {suite.name}"
         f"{'' if suite.sensor_tag is None else '~' + suite.sensor_tag} ({shown}, "
         f"{done.objects} object models, "
-        f"{done.targets} targets in test_targets_bop19.json)"
+        f"{done.targets} targets in test_targets_bop19.json"
+        f"{'; test ground truth withheld' if args.withhold_gt else ''})"
     )
+    if done.removed:
+        print(f"removed {done.removed} file(s) of the earlier export that this one replaced")
+    if done.kept:
+        print(
+            f"beo-bench: warning: kept {len(done.kept)} file(s) of the earlier export that "
+            f"changed since it wrote them ({', '.join(done.kept[:3])}"
+            f"{', ...' if len(done.kept) > 3 else ''}): remove them yourself if unwanted",
+            file=sys.stderr,
+        )
     return 0
 
 
@@ -1269,6 +1281,12 @@ def _add_export(sub: Any, data: argparse.ArgumentParser) -> None:
         metavar="N",
         help="training images drawn from the split's training instances (default: as many as "
         "the test images; 0: none)",
+    )
+    ex.add_argument(
+        "--withhold-gt",
+        action="store_true",
+        help="write the test split as the BOP challenge does: images, cameras and targets, "
+        "no scene_gt.json, scene_gt_info.json or masks (`beo-bench score` does not need them)",
     )
     ex.add_argument("dir", metavar="DIR", help="a new or empty folder (or an earlier export's)")
     ex.set_defaults(func=cmd_export)

@@ -16,6 +16,13 @@ the training items): the ids of a shorter export (``--episodes``) are those of t
 and ``beo-bench score`` finds them again from the suite alone (:func:`object_ids`). The
 training split (``train/``) has ``--train-items`` items of the same protocol drawn from the
 split's training instances, with another seed.
+
+``--withhold-gt`` writes the test split as the BOP challenge ships one: images, cameras and
+the targets, but no ``scene_gt.json``, ``scene_gt_info.json`` or masks (``beo-bench score``
+never reads them: it draws the suite's items again). The export writes into its folder
+through :func:`beo_bench.bop.files.export_dir`: one export at a time, never through a
+symbolic link, and a re-export removes the files of the earlier one that it does not write
+again (and only those: a file the user put or changed there stays).
 """
 
 from __future__ import annotations
@@ -197,6 +204,10 @@ class ExportSummary:
     """Images per split folder (``test``, ``train``)."""
     objects: int
     targets: int
+    removed: int = 0
+    """Files of the earlier export in the folder that this one replaced by none."""
+    kept: tuple[str, ...] = ()
+    """Files of the earlier export this one did not write, left because they changed."""
 
 
 def _w2c(cam_to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -211,6 +222,7 @@ def _write_split(
     ids: ObjectIds,
     targets: list[Any] | None,
     progress: bool,
+    withhold_gt: bool = False,
 ) -> int:
     """Write ``suite``'s items into ``ROOT/folder``; the scored views' targets go to
     ``targets`` (None: a training split has none). Returns the images written."""
@@ -236,7 +248,13 @@ def _write_split(
             if writer is None or writer.scene_id != scene_id:
                 if writer is not None:
                     writer.close()
-                writer = SceneWriter(root, folder, scene_id, depth_scale=DEPTH_SCALES[suite.kind])
+                writer = SceneWriter(
+                    root,
+                    folder,
+                    scene_id,
+                    depth_scale=DEPTH_SCALES[suite.kind],
+                    withhold_gt=withhold_gt,
+                )
             h, w = img.depth.shape
             gts: list[GtInstance] = []
             counts: dict[int, int] = {}
@@ -269,21 +287,23 @@ def _write_split(
 
 
 def export_bop(
-    suite: Suite, out: Any, train_items: int = 0, progress: bool = False
+    suite: Suite,
+    out: Any,
+    train_items: int = 0,
+    progress: bool = False,
+    withhold_gt: bool = False,
 ) -> ExportSummary:
     """Write ``suite``'s items (test split) and ``train_items`` training items as a BOP
     dataset in ``out`` (a new or empty folder, or an earlier export's: see
-    ``beo_bench.bop.files.claim_dataset_dir``); the module docstring says what goes where."""
-    import json
-
-    from beo_bench.atomic import atomic_write_bytes
+    ``beo_bench.bop.files.export_dir``); the module docstring says what goes where.
+    ``withhold_gt``: the test split without its ground truth (poses, masks)."""
     from beo_bench.bop.files import (
         CATEGORY_MAP_NAME,
         MODELS_DIR,
         MODELS_INFO_NAME,
         TARGETS_NAME,
         ObjectEntry,
-        claim_dataset_dir,
+        export_dir,
         model_info,
         model_path,
         write_category_map,
@@ -291,29 +311,55 @@ def export_bop(
         write_models_info,
         write_targets,
     )
+
+    with export_dir(out, extra=(EXPORT_RECORD_NAME,)) as ledger:
+        root = ledger.root
+        record = root / EXPORT_RECORD_NAME
+        # the files every export writes: refused before anything is written when not ours
+        for name in (MODELS_INFO_NAME, CATEGORY_MAP_NAME):
+            ledger.check(root / MODELS_DIR / name)
+        ledger.check(root / TARGETS_NAME)
+        ledger.check(record)
+        if record.exists():
+            # rewritten when complete: a folder without it is unfinished (a record that is
+            # not ours is refused when the export comes to write it)
+            ledger.remove(record)
+        ids = ObjectIds()
+        targets: list[Any] = []
+        written = {"test": _write_split(root, "test", suite, ids, targets, progress, withhold_gt)}
+        if train_items > 0:
+            train = training_suite(suite, train_items)
+            written["train"] = _write_split(root, "train", train, ids, None, progress)
+        infos, entries = {}, {}
+        for obj_id, info in ids.info.items():
+            inst = instance_from_key(info["key"], suite.dataset)
+            mesh = inst.mesh
+            v, f = np.asarray(mesh.vertices), np.asarray(mesh.faces)
+            write_model_ply(model_path(root, obj_id), v, f)
+            infos[obj_id] = model_info(v, inst.symmetry)
+            entries[obj_id] = ObjectEntry(info["category"], info["split"], info["key"])
+        write_models_info(root / MODELS_DIR / MODELS_INFO_NAME, infos)
+        write_category_map(root / MODELS_DIR / CATEGORY_MAP_NAME, entries)
+        write_targets(root / TARGETS_NAME, targets)
+        meta = _record(suite, train_items, withhold_gt)
+        removed, kept = ledger.finish()  # the earlier export's files this one did not write
+        _store_record(record, meta)
+        ledger.finish()  # the record listed
+    return ExportSummary(root, written, len(ids.info), len(targets), removed, tuple(kept))
+
+
+def _store_record(path: Any, meta: dict[str, Any]) -> None:
+    import json
+
+    from beo_bench.bop.files import write_file
+
+    write_file(path, json.dumps(meta, indent=2, sort_keys=True) + "\n")
+
+
+def _record(suite: Suite, train_items: int, withhold_gt: bool) -> dict[str, Any]:
     from beo_bench.objects import LIBRARY_VERSION
 
-    root = claim_dataset_dir(out)
-    record = root / EXPORT_RECORD_NAME
-    if record.exists():
-        record.unlink()  # ours (the folder carries the marker): rewritten when complete
-    ids = ObjectIds()
-    targets: list[Any] = []
-    written = {"test": _write_split(root, "test", suite, ids, targets, progress)}
-    if train_items > 0:
-        train = training_suite(suite, train_items)
-        written["train"] = _write_split(root, "train", train, ids, None, progress)
-    infos, entries = {}, {}
-    for obj_id, info in ids.info.items():
-        inst = instance_from_key(info["key"], suite.dataset)
-        mesh = inst.mesh
-        write_model_ply(model_path(root, obj_id), np.asarray(mesh.vertices), np.asarray(mesh.faces))
-        infos[obj_id] = model_info(np.asarray(mesh.vertices), inst.symmetry)
-        entries[obj_id] = ObjectEntry(info["category"], info["split"], info["key"])
-    write_models_info(root / MODELS_DIR / MODELS_INFO_NAME, infos)
-    write_category_map(root / MODELS_DIR / CATEGORY_MAP_NAME, entries)
-    write_targets(root / TARGETS_NAME, targets)
-    meta = {
+    return {
         "suite": suite.name,
         "suite_version": suite.version,
         "sensor": suite.sensor,
@@ -322,8 +368,7 @@ def export_bop(
         "image_size": list(suite.image_size),
         "depth_scale": DEPTH_SCALES[suite.kind],
         "library_version": LIBRARY_VERSION,
+        "withhold_gt": withhold_gt,
         "images": "item i is image i % 1000 of scene i // 1000; ground truth j of an image is "
         "the item's scored view j (the targets); later ones are objects no view scores",
     }
-    atomic_write_bytes(record, json.dumps(meta, indent=2, sort_keys=True) + "\n")
-    return ExportSummary(root, written, len(ids.info), len(targets))
