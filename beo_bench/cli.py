@@ -515,6 +515,8 @@ def cmd_gate(args: argparse.Namespace) -> int:
     written = gate.write_reports(report, args.json, args.junit, args.markdown)
     for path in written:
         print(f"wrote {path}")
+    for blind in report.cannot_fail:  # loud, also where stdout is not read: a pass of these
+        _show_warning(f"gate cannot fail: {blind.line()}", UserWarning, "", 0)  # means nothing
     if not report.passed:
         worst = "; ".join(v.line() for v in report.regressions)
         raise gate.GateFailure(f"gate failed: regression in {worst}")
@@ -1366,7 +1368,9 @@ def _add_gate(sub: Any, data: argparse.ArgumentParser) -> None:
         "margin, Holm-corrected over every test; a regression is a metric worse than the "
         "baseline by more than its margin with adjusted p at most --alpha (docs/benchmark.md, "
         "'A regression gate').",
-        epilog="exit status: 0 no regression, 3 a regression (the reports are written "
+        epilog="exit status: 0 no regression (a test or suite with too few items to fail "
+        "after the correction is a warning line, 'gate cannot fail', and CANNOT FAIL in every "
+        "report), 3 a regression (the reports are written "
         "first), 2 a usage error (runs that do not pair with the baseline: another suite, "
         "version, seed, track, sensor or items), 1 a failure (a damaged results file)",
     )

@@ -11,6 +11,7 @@ out-of-distribution degradation) is chosen here too, by key, checked against
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -105,6 +106,36 @@ METRICS: tuple[MetricSpec, ...] = (
 
 BY_KEY: dict[str, MetricSpec] = {m.key: m for m in METRICS}
 
+_RATES = (
+    "gross_err_rate", "acc_10deg5cm", "ar_bop", "ar_vsd", "ar_mssd", "ar_mspd", "acc_5deg2cm",
+    "acc_5deg5cm", "acc_10deg2cm", "iou3d_25", "iou3d_50", "iou3d_75", "class_acc", "iou_mean",
+    "iou_cam_mean", "fscore_mean", "pick_success", "target_found_rate", "failure_rate",
+    "sample_near_true_gross_rate", "half_turn_gross_rate",
+)  # fmt: skip
+RANGES: dict[str, tuple[float, float]] = {
+    **dict.fromkeys(_RATES, (0.0, 1.0)),
+    # degrees: a rotation is at most a half turn away (a failure scores 180)
+    "rot_err_deg_mean": (0.0, 180.0),
+    "rot_err_deg_median": (0.0, 180.0),
+    "sample_best_err_deg_mean": (0.0, 180.0),
+    # the caps a view's value is clipped at (bench.tally: TRANSLATION_CAP_CM, SIZE_CAP_PCT,
+    # MSSD_CAP_CM, CHAMFER_CAP; tests/bench/test_gate.py checks they agree)
+    "trans_err_cm_mean": (0.0, 50.0),
+    "size_err_pct_mean": (0.0, 100.0),
+    "mssd_cm_mean": (0.0, 100.0),
+    "chamfer_l1_mean": (0.0, math.sqrt(3.0)),
+}
+"""Each metric's range of a view's value (a mean over views lies in it too): rates and
+scores in [0, 1], errors at least 0 and at most the cap a view is clipped at. A metric not
+listed (the MSPD and EDT errors, whose caps depend on the suite; ranks; times) is any
+finite number >= 0 (:func:`value_range`). A baseline file's values are checked against
+it."""
+
+
+def value_range(key: str) -> tuple[float, float]:
+    """The range of metric ``key``'s values (:data:`RANGES`; else ``[0, inf)``, finite)."""
+    return RANGES.get(key, (0.0, math.inf))
+
 
 def _keys(*keys: str) -> tuple[str, ...]:
     """``keys``, each of which must have a spec in :data:`METRICS` (a typo fails on import,
@@ -114,6 +145,8 @@ def _keys(*keys: str) -> tuple[str, ...]:
         raise KeyError(f"no MetricSpec for {missing}: add them to METRICS")
     return keys
 
+
+_keys(*RANGES)  # a typo in RANGES fails on import
 
 SUMMARY_PER_CATEGORY: tuple[str, ...] = _keys(
     "pick_success", "class_acc", "rot_err_deg_mean", "rot_err_deg_median", "gross_err_rate",

@@ -63,8 +63,8 @@ import numpy as np
 
 from beo_bench.atomic import atomic_write_bytes
 from beo_bench.bench import compare
-from beo_bench.bench.columns import BY_KEY, METRICS, MetricSpec
-from beo_bench.errors import ThresholdError, UsageError
+from beo_bench.bench.columns import BY_KEY, METRICS, MetricSpec, value_range
+from beo_bench.errors import CorruptDataError, ThresholdError, UsageError
 
 BASELINE_FORMAT = "beo-bench-baseline"
 BASELINE_VERSION = 1
@@ -280,11 +280,40 @@ def _comparable_record(record: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in upgrade_record(record).items() if k not in UNSCORED_RECORD_KEYS}
 
 
+def _check_results(where: Path, summary: dict[str, Any]) -> None:
+    """Refuse a run whose ``results.jsonl`` is damaged (:class:`CorruptDataError`, exit
+    status 1): lines that do not parse, a torn last line, an item's rows incomplete or
+    twice, or fewer items than its summary covers. Read past, the lost items would leave
+    the test (and could flip its verdict) or read as a run of other items."""
+    from beo_bench.bench.runner import scan_rows
+
+    results = where / compare.RESULTS_NAME
+    if not results.is_file():
+        return  # compare.run_from says so
+    scan = scan_rows(results)
+    damage = scan.report(results)
+    size = compare._size(summary)
+    if not damage and size is not None:
+        lost = set(range(size)) - {int(r["item"]) for r in scan.rows}
+        if lost:
+            damage = (
+                f"{results}: holds no rows of {len(lost)} of the {size} items its summary "
+                f"covers (items {_span(frozenset(lost))})"
+            )
+    if damage:
+        raise CorruptDataError(
+            f"{damage}: the results file is damaged, so the gate cannot pair its items; run "
+            "the same `beo-bench run` command again with --resume (it scores the lost items "
+            "again and rewrites the summary), then gate it"
+        )
+
+
 def scored_run(where: Path, summary: dict[str, Any]) -> ScoredRun:
     """The :class:`ScoredRun` of a run directory and its loaded summary (the rows of the
     items the summary covers)."""
     from beo_bench.bench.runs import backend_label
 
+    _check_results(where, summary)
     run = compare.run_from(where, summary)
     values = {k: v for k, v in compare.view_values(run).items() if k in BY_KEY and BY_KEY[k].paired}
     prov = summary.get("provenance", {})
@@ -403,6 +432,23 @@ def _bad_file(path: Path, why: str) -> GateUsageError:
     )
 
 
+def _item_order(i: str) -> tuple[int, str]:
+    return (int(i), i) if i.lstrip("-").isdigit() else (0, i)
+
+
+def _checked(key: str, item: str, x: Any) -> float:
+    """A baseline value of metric ``key`` (null is read as NaN before): a number in the
+    metric's range (:func:`beo_bench.bench.columns.value_range`), else a ValueError naming
+    the item."""
+    if isinstance(x, bool) or not isinstance(x, int | float):
+        raise ValueError(f"{key} of item {item} is {x!r}, not a number")
+    lo, hi = value_range(key)
+    value = float(x)
+    if not (math.isfinite(value) and lo <= value <= hi):
+        raise ValueError(f"{key} of item {item} is {x!r}, outside its range [{lo:g}, {hi:g}]")
+    return value
+
+
 def _entry_run(path: Path, k: int, e: Any) -> ScoredRun:
     """Entry ``k`` of the baseline file ``path`` as a :class:`ScoredRun`."""
     if not isinstance(e, dict):
@@ -412,6 +458,9 @@ def _entry_run(path: Path, k: int, e: Any) -> ScoredRun:
         values: dict[str, dict[ViewKey, float]] = {}
         for key, per_item in e["values"].items():
             vals: dict[ViewKey, float] = {}
+            missing = sorted(e["views"].keys() - per_item.keys(), key=_item_order)
+            if missing:  # dropped silently, the item would leave the test and flip it
+                raise ValueError(f"{key} has no values for item {missing[0]}, which it scored")
             for i, xs in per_item.items():
                 order = e["views"][i]
                 if len(xs) != len(order):
@@ -419,7 +468,7 @@ def _entry_run(path: Path, k: int, e: Any) -> ScoredRun:
                         f"{key} of item {i} has {len(xs)} values for {len(order)} views"
                     )
                 for v, x in zip(order, xs, strict=True):
-                    vals[(int(i), int(v))] = math.nan if x is None else float(x)
+                    vals[(int(i), int(v))] = math.nan if x is None else _checked(key, i, x)
             values[str(key)] = vals
         return ScoredRun(
             source=f"{path}#{e['label']}",
@@ -846,6 +895,51 @@ class Verdict:
         )
 
 
+def smallest_p(units: int, permutations: int = DEFAULT_PERMUTATIONS) -> float:
+    """The smallest p-value the one-sided sign-flip test can give on ``units`` units: every
+    unit worse, only the observed pattern reaches its sum, ``2^-units`` exactly up to
+    :data:`EXACT_MAX_ITEMS` differing units; above it ``1 / (1 + permutations)`` (the
+    observed pattern counts). A regression confined to a suite of ``units`` items, the
+    other units no worse than the margin, cannot reach a smaller p pooled either: flipping
+    the other units' (non-positive) differences only raises the sum, so at least one
+    pattern of the suite's ``2^units`` reaches the observed sum for each of theirs."""
+    exact = 2.0**-units
+    return exact if units <= EXACT_MAX_ITEMS else max(exact, 1.0 / (1 + int(permutations)))
+
+
+@dataclass(frozen=True)
+class CannotFail:
+    """A test, or a suite in it, too small to fail the gate: the smallest p its items allow
+    (:func:`smallest_p`) is above the smallest threshold Holm's correction gives a test
+    (``alpha / tests``), so a regression of it alone, however large, passes."""
+
+    backend: str
+    metric: str
+    suite: str
+    """The suite label, or ``... (the whole test)`` when the whole pooled test cannot fail."""
+    n_items: int
+    p_min: float
+    threshold: float
+
+    def line(self) -> str:
+        return (
+            f"{self.backend} {BY_KEY[self.metric].label} of {self.suite}: {self.n_items} items "
+            f"allow p >= {self.p_min:.3g}, above the corrected threshold {self.threshold:.3g} "
+            "(alpha / tests): a regression confined to it cannot fail the gate; gate it alone "
+            "(fewer --metrics) or with more items (--episodes)"
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "backend": self.backend,
+            "metric": self.metric,
+            "suite": self.suite,
+            "items": self.n_items,
+            "p_min": self.p_min,
+            "threshold": self.threshold,
+        }
+
+
 @dataclass(frozen=True)
 class GateReport:
     """What a gate found: a verdict per (backend, metric), in the order tested."""
@@ -866,6 +960,28 @@ class GateReport:
     @property
     def passed(self) -> bool:
         return not self.regressions
+
+    @property
+    def cannot_fail(self) -> tuple[CannotFail, ...]:
+        """The tests, and each test's suites, whose item count cannot reach significance
+        after the correction (:class:`CannotFail`): a pass says nothing about them."""
+        if not self.verdicts:
+            return ()
+        o = self.options
+        threshold = o.alpha / len(self.verdicts)  # Holm's first (smallest) threshold
+        out = []
+        for v in self.verdicts:
+            whole = smallest_p(v.n_items, o.permutations)
+            if whole > threshold:
+                out.append(CannotFail(v.backend, v.metric, f"{v.where()} (the whole test)",
+                                      v.n_items, whole, threshold))  # fmt: skip
+                continue
+            for part in v.parts:
+                p_min = max(whole, smallest_p(part.n_items, o.permutations))
+                if p_min > threshold:
+                    out.append(CannotFail(v.backend, v.metric, part.suite, part.n_items, p_min,
+                                          threshold))  # fmt: skip
+        return tuple(out)
 
     def method(self) -> str:
         o = self.options
@@ -892,6 +1008,7 @@ class GateReport:
             "verdicts": [v.to_json() for v in self.verdicts],
             "skipped": [s.to_json() for s in self.skipped],
             "not_run": list(self.not_run),
+            "cannot_fail": [c.to_json() for c in self.cannot_fail],
         }
 
     def junit_xml(self) -> str:
@@ -922,6 +1039,7 @@ class GateReport:
         skips = [(s.suite, s.metric, s.why) for s in self.skipped]
         skips += [(label, "run", "the baseline has this suite; no run of it was gated")
                   for label in self.not_run]  # fmt: skip
+        skips += [(c.suite, c.metric, f"cannot fail: {c.line()}") for c in self.cannot_fail]
         for suite, name, why in skips:
             ts = ET.SubElement(root, "testsuite", name=suite, tests="1", failures="0",
                                errors="0", skipped="1")  # fmt: skip
@@ -977,6 +1095,10 @@ class GateReport:
             lines += ["", f"Skipped (the suite does not measure the metric): {said}."]
         if self.not_run:
             lines += ["", f"Not gated (in the baseline, no run given): {', '.join(self.not_run)}."]
+        if self.cannot_fail:
+            lines += ["", "**Cannot fail** (too few items for the corrected threshold; a pass "
+                      "says nothing about them):", ""]  # fmt: skip
+            lines += [f"- {c.line()}" for c in self.cannot_fail]
         return "\n".join(lines) + "\n"
 
     def text(self) -> str:
@@ -990,12 +1112,19 @@ class GateReport:
         lines += [f"  skipped        {s.suite}: {s.metric} ({s.why})" for s in self.skipped]
         if self.not_run:
             lines.append(f"  not gated (no run given): {', '.join(self.not_run)}")
+        blind = self.cannot_fail
+        lines += [f"  CANNOT FAIL   {c.line()}" for c in blind]
         n = len(self.regressions)
         lines.append(
             f"gate: pass ({len(self.verdicts)} tests, no regression)"
             if self.passed
             else f"gate: {n} regression{'s' * (n != 1)} in {len(self.verdicts)} tests"
         )
+        if blind:
+            lines[-1] += (
+                f"; WARNING: {len(blind)} test{'s' * (len(blind) != 1)} or suite"
+                f"{'s' * (len(blind) != 1)} cannot fail it (CANNOT FAIL above)"
+            )
         return "\n".join(lines)
 
 

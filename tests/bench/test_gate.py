@@ -464,3 +464,138 @@ def test_each_backend_is_tested_apart(tmp_path) -> None:
         ("beo", "regression", 30),
         ("icp", "no difference", 30),
     ]
+
+
+# -- tests too small to fail (issue 50, attack 11) ---------------------------------------------
+def _collapse(tmp_path: Path, n: int) -> tuple[Path, Path]:
+    """IoU and F-score falling from 1 to 0 on every one of ``n`` items."""
+    a, b = tmp_path / f"a{n}", tmp_path / f"b{n}"
+    write_run(a, "beo", [pose_row(i, iou=1.0, fscore=1.0) for i in range(n)], track="class-free")
+    write_run(b, "beo", [pose_row(i, iou=0.0, fscore=0.0) for i in range(n)], track="class-free")
+    return a, b
+
+
+def test_a_gate_whose_items_cannot_reach_the_corrected_threshold_says_so(tmp_path, capsys) -> None:
+    """The smallest p of n items is 2^-n; Holm's smallest threshold alpha / tests. Six items
+    and two metrics: 1/64 <= 0.025, the collapse fails (3) and nothing is said. Five items
+    and two metrics: 1/32 > 0.025, the same collapse cannot fail: it fails alone (3) and
+    passes with two (0) -- loudly, on stderr and in every report."""
+    assert gate.smallest_p(6) == 1 / 64 and gate.smallest_p(40, 999) == 1 / 1000
+    two = ["--metrics", "iou_mean", "fscore_mean"]
+    a6, b6 = _collapse(tmp_path, 6)
+    assert main(["gate", str(b6), "--baseline", str(a6), *two]) == 3
+    out = capsys.readouterr()
+    assert "CANNOT FAIL" not in out.out and "cannot fail" not in out.err
+    r6 = gate.gate(gate.load_runs([b6]), gate.load_baseline(a6), GateOptions(("iou_mean",
+                   "fscore_mean")))  # fmt: skip
+    assert r6.cannot_fail == ()
+
+    a5, b5 = _collapse(tmp_path, 5)
+    assert main(["gate", str(b5), "--baseline", str(a5), "--metrics", "iou_mean"]) == 3
+    capsys.readouterr()
+    files = [str(tmp_path / f) for f in ("g.json", "g.xml", "g.md")]
+    argv = ["gate", str(b5), "--baseline", str(a5), *two, "--json", files[0], "--junit",
+            files[1], "--markdown", files[2]]  # fmt: skip
+    assert main(argv) == 0
+    out = capsys.readouterr()
+    warned = [ln for ln in out.err.splitlines() if "gate cannot fail" in ln]
+    assert len(warned) == 2 and all("5 items allow p >= 0.0312" in w for w in warned), out.err
+    assert "above the corrected threshold 0.025" in warned[0] and "--episodes" in warned[0]
+    assert out.out.count("  CANNOT FAIL   ") == 2 and "WARNING: 2 tests or suites" in out.out
+    report = json.loads(Path(files[0]).read_text())
+    assert report["passed"]
+    assert [c["metric"] for c in report["cannot_fail"]] == ["iou_mean", "fscore_mean"]
+    assert report["cannot_fail"][0]["p_min"] == 1 / 32
+    skipped = [s.get("message", "") for s in ET.parse(files[1]).iter("skipped")]
+    assert sum(m.startswith("cannot fail") for m in skipped) == 2
+    assert "**Cannot fail**" in Path(files[2]).read_text()
+
+
+def test_a_small_suite_pooled_with_large_ones_is_named_as_unable_to_fail(tmp_path) -> None:
+    """Pooled with a 30-item suite, the 6-item suite's own collapse cannot reach 1/64 on
+    its own under four tests (threshold 0.0125): the report names it; the pooled test and
+    the large suite can fail."""
+    for suite, n in (("pose-1dof", 30), ("pose-3dof", 6)):
+        write_run(tmp_path / "base" / suite, "beo", [pose_row(i) for i in range(n)], suite,
+                  track="class-free")  # fmt: skip
+        write_run(tmp_path / "runs" / suite, "beo", [pose_row(i) for i in range(n)], suite,
+                  track="class-free")  # fmt: skip
+    r = gate.gate(gate.load_runs([tmp_path / "runs"]), gate.load_baseline(tmp_path / "base"))
+    assert len(r.verdicts) == 4 and r.passed
+    assert {(c.suite, c.n_items) for c in r.cannot_fail} == {("pose-3dof@class-free", 6)}
+    assert len(r.cannot_fail) == 4  # once per test it joins
+
+
+# -- damaged inputs (issue 50, attacks 12-14) ---------------------------------------------------
+def _collapsed_baseline(tmp_path: Path) -> tuple[Path, Path, dict]:
+    """A baseline file of 6 items and a run whose IoU collapsed on every item (exit 3)."""
+    a, b = _collapse(tmp_path, 6)
+    gate.write_baseline(gate.load_runs([a]), tmp_path / "base.json")
+    return b, tmp_path / "base.json", json.loads((tmp_path / "base.json").read_text())
+
+
+def test_a_baseline_missing_an_items_value_is_refused_not_dropped(tmp_path, capsys) -> None:
+    """Deleting one item's value used to drop the item from the test silently: 5 items,
+    p = 1/32 > 0.025, and the verdict flipped from 3 to 0."""
+    b, path, obj = _collapsed_baseline(tmp_path)
+    two = ["--metrics", "iou_mean", "fscore_mean"]
+    assert main(["gate", str(b), "--baseline", str(path), *two]) == 3
+    capsys.readouterr()
+    del obj["runs"][0]["values"]["iou_mean"]["3"]
+    path.write_text(json.dumps(obj))
+    assert main(["gate", str(b), "--baseline", str(path), *two]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "iou_mean has no values for item 3" in err[0], err
+    assert str(path) in err[0] and "beo-bench baseline" in err[0]
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "said"),
+    [
+        ("iou_mean", 7.5, "iou_mean of item 2 is 7.5, outside its range [0, 1]"),
+        ("trans_err_cm_mean", 1e308, "trans_err_cm_mean of item 2 is 1e+308, outside"),
+        ("rot_err_deg_mean", -3.0, "rot_err_deg_mean of item 2 is -3.0, outside its range"),
+        ("edt_err_mean", 1e999, "edt_err_mean of item 2 is inf, outside"),
+        ("class_acc", "1", "class_acc of item 2 is '1', not a number"),
+    ],
+)
+def test_a_baseline_value_out_of_its_range_is_refused(tmp_path, capsys, key, value, said) -> None:
+    b, path, obj = _collapsed_baseline(tmp_path)
+    obj["runs"][0]["values"][key]["2"] = [value]
+    path.write_text(json.dumps(obj))
+    assert main(["gate", str(b), "--baseline", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and said in err[0] and str(path) in err[0], err
+
+
+def test_the_ranges_agree_with_the_caps_a_view_is_clipped_at() -> None:
+    from beo_bench.bench import tally
+    from beo_bench.bench.columns import value_range
+
+    assert value_range("trans_err_cm_mean")[1] == tally.TRANSLATION_CAP_CM
+    assert value_range("size_err_pct_mean")[1] == tally.SIZE_CAP_PCT
+    assert value_range("mssd_cm_mean")[1] == tally.MSSD_CAP_CM
+    assert value_range("chamfer_l1_mean")[1] == tally.CHAMFER_CAP
+    assert value_range("rot_err_deg_mean")[1] == tally.WORST_ROTATION_DEG
+    assert value_range("pick_success") == (0.0, 1.0)
+
+
+@pytest.mark.parametrize("side", ["run", "baseline"])
+@pytest.mark.parametrize(
+    "damage",
+    [
+        lambda text: text.replace("\n", "\n{not json\n", 1),  # a damaged line
+        lambda text: "".join(text.splitlines(keepends=True)[:-1]),  # an item's rows lost
+        lambda text: text + '{"item": 2',  # a torn last line
+    ],
+)
+def test_a_damaged_results_file_exits_1_saying_so(tmp_path, capsys, side, damage) -> None:
+    """It used to exit 2 with "run it with --episodes 20"; the help says 1 for a damaged
+    results file."""
+    a, b = _run(tmp_path / "a"), _run(tmp_path / "b")
+    results = (b if side == "run" else a) / "results.jsonl"
+    results.write_text(damage(results.read_text()))
+    assert main(["gate", str(b), "--baseline", str(a)]) == 1
+    err = [ln for ln in capsys.readouterr().err.strip().splitlines() if "warning" not in ln]
+    assert len(err) == 1 and "the results file is damaged" in err[0], err
+    assert str(results) in err[0] and "--resume" in err[0] and "--episodes" not in err[0]
