@@ -225,11 +225,15 @@ def hash_split(text: str) -> str:
 
 
 def subdirs(path: Path) -> list[str]:
-    """Names of the visible sub-folders of ``path``, sorted ([] if it cannot be listed)."""
+    """Names of the visible sub-folders of ``path``, sorted ([] if it cannot be listed); a
+    name that is not valid UTF-8 is skipped with a warning."""
+    from beo_bench.objects.walk import valid_name
+
     try:
-        return sorted(e.name for e in os.scandir(path) if e.is_dir() and not e.name.startswith("."))
+        names = [e.name for e in os.scandir(path) if e.is_dir() and not e.name.startswith(".")]
     except OSError:
         return []
+    return sorted(n for n in names if valid_name(path / n))
 
 
 # --------------------------------------------------------------------------------------

@@ -3,9 +3,12 @@ root are skipped with a warning and never followed, and every scan is bounded.
 
 A dataset folder is input the user may not have made: a link ``ROOT/evil -> /`` made a scan
 that followed links walk the whole file system (438 meshes from elsewhere as class "evil",
-4.9 GB in 180 s), and a file link to ``/etc/passwd`` was opened and parsed. So a link is
-taken only when its target resolves inside the root (a dataset may link its own files), a
-directory reached twice (a link loop inside the root) is walked once, folders deeper than
+4.9 GB in 180 s), and a file link to ``/etc/passwd`` was opened and parsed. So a file link
+is taken only when its target resolves inside the root (a dataset may link its own files);
+a folder link below a category folder is never taken, with a warning (``bowl/up -> ..``
+made every other category's files bowls; a link to a folder inside the category is reached
+by the scan anyway, so following it would scan it twice); a directory reached twice is
+walked once, folders deeper than
 :data:`MAX_DEPTH` below a category are not searched, and a scan that visits more than
 :func:`max_files` entries stops with :class:`~beo_bench.errors.DatasetTooLargeError`.
 """
@@ -34,8 +37,9 @@ MAX_FILES_ENV = "BEO_BENCH_MAX_FILES"
 
 
 class DatasetScanWarning(UserWarning):
-    """A part of a dataset folder that a scan skipped: a link out of the root, a folder
-    beyond :data:`MAX_DEPTH`."""
+    """A part of a dataset folder that a scan skipped: a link out of the root, a folder link
+    below a category folder, a folder beyond :data:`MAX_DEPTH`, a name that is not valid
+    UTF-8."""
 
 
 def max_files() -> int:
@@ -96,7 +100,7 @@ def walk_files(top: Path, root: Path, suffixes: tuple[str, ...]) -> Iterator[Pat
                     f"(the dataset scan's limit): point --objects at the dataset's own folder, "
                     f"or set {MAX_FILES_ENV}=N to raise the limit"
                 )
-            if e.name.startswith("."):
+            if e.name.startswith(".") or not valid_name(e.path):
                 continue
             path = Path(e.path)
             if e.is_symlink() and not inside(path, root):
@@ -106,6 +110,9 @@ def walk_files(top: Path, root: Path, suffixes: tuple[str, ...]) -> Iterator[Pat
                 is_dir = e.is_dir()
             except OSError:
                 continue
+            if is_dir and e.is_symlink():
+                warn_folder_link(e.path, str(top))
+                continue
             if is_dir:
                 if depth + 1 > MAX_DEPTH:
                     _warn_deep(e.path)
@@ -114,6 +121,55 @@ def walk_files(top: Path, root: Path, suffixes: tuple[str, ...]) -> Iterator[Pat
             elif path.suffix.lower() in suffixes and e.is_file():
                 found.append(path)
     return iter(sorted(found))
+
+
+def printable(path: str | Path) -> str:
+    """``path`` as text that can be printed and encoded: bytes that are not valid UTF-8
+    (held by Python as lone surrogates) as ``\\xff`` escapes."""
+    return os.fsencode(path).decode("utf-8", "backslashreplace")
+
+
+def valid_name(path: str | Path) -> bool:
+    """Whether ``path`` is valid UTF-8 (a name that is not cannot be a key, hashed or
+    printed); warns once, with the name escaped (:func:`printable`), when it is not."""
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        _warn_undecodable(printable(path))
+        return False
+    return True
+
+
+@functools.lru_cache(maxsize=1024)
+def _warn_undecodable(shown: str) -> None:
+    warnings.warn(
+        f"{shown} has a name that is not valid UTF-8: skipped (rename it, e.g. with `convmv` "
+        "or by hand, to use it)",
+        DatasetScanWarning,
+        stacklevel=3,
+    )
+
+
+@functools.lru_cache(maxsize=4096)
+def warn_folder_link(path: str, top: str) -> None:
+    """Warn once per process about a folder link inside the root, which a scan skips."""
+    try:
+        target = os.readlink(path)
+    except OSError:
+        target = "?"
+    real = os.path.realpath(path)
+    where = (
+        "inside its category folder, whose own scan reaches it"
+        if Path(real).is_relative_to(os.path.realpath(top))
+        else f"outside its category folder {top}"
+    )
+    warnings.warn(
+        f"{path} is a symbolic link to the folder {target} ({where}): skipped (folder links "
+        f"are never followed inside a dataset, so no file is scanned twice or counted in "
+        f"another category; copy or move the files in to use them)",
+        DatasetScanWarning,
+        stacklevel=2,
+    )
 
 
 @functools.lru_cache(maxsize=1024)

@@ -11,7 +11,6 @@ import json
 import os
 import re
 import shutil
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -308,20 +307,24 @@ def test_a_modelnet_file_link_out_of_the_root_is_never_read(tmp_path, monkeypatc
     ]
 
 
-def test_a_link_inside_the_root_is_followed_once(tmp_path) -> None:
+def test_a_folder_link_inside_the_root_is_skipped_and_said(tmp_path) -> None:
+    """Issue 50, attack 15: ``ball/loop_up -> ..`` made the block files ball instances (and
+    ``ball/loop -> ../block`` likewise); a link to a folder inside the category is reached
+    anyway. Each is skipped with a warning naming it; a file link inside the root is still
+    taken."""
     root = make_folder(tmp_path / "data")
-    os.symlink(root / "block", root / "ball" / "loop")  # inside: allowed, and a loop is not
+    os.symlink("..", root / "ball" / "loop_up")
+    os.symlink(root / "block", root / "ball" / "loop")
     os.symlink(root / "ball", root / "ball" / "self")
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # nothing to warn about
+    os.symlink(root / "block" / "b0.stl", root / "ball" / "linked.stl")
+    with pytest.warns(walk.DatasetScanWarning) as caught:
         files = [f.path for f in check_dataset(open_dataset(root)).files]
-    assert files == [
-        "ball/ball.obj",
-        "ball/loop/b0.stl",
-        "ball/loop/b1.stl",
-        "block/b0.stl",
-        "block/b1.stl",
-    ]
+    said = " | ".join(str(w.message) for w in caught)
+    for link in ("loop_up", "loop", "self"):
+        assert f"{root / 'ball' / link} is a symbolic link to the folder" in said, said
+    assert "outside its category folder" in said and "whose own scan reaches it" in said
+    assert files == ["ball/ball.obj", "ball/linked.stl", "block/b0.stl", "block/b1.stl"]
+    assert f"{root / 'ball' / 'loop_up'} is a symbolic link to the folder .. (outside" in said
 
 
 def test_the_scan_is_bounded(tmp_path, monkeypatch) -> None:
@@ -520,3 +523,29 @@ def test_with_no_usable_file_skip_bad_is_not_suggested(tmp_path) -> None:
     (root / "junk" / "a.obj").write_text("nothing\n")
     summary = check_dataset(open_dataset(root)).summary()
     assert summary.endswith("fix them, none is usable") and "run on the other" not in summary
+
+
+def test_a_name_that_is_not_utf8_is_skipped_with_its_name_escaped(tmp_path, capsys) -> None:
+    """Issue 50, attack 16: a file name with the byte 0xff gave a UnicodeEncodeError
+    traceback in `objects` and `run` (its key was hashed as text)."""
+    root = make_folder(tmp_path / "data")
+    box = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
+    box.export(os.fsdecode(bytes(root / "block") + b"/b\xff.stl"))
+    (root / os.fsdecode(b"ca\xfft")).mkdir()
+    box.export(os.fsdecode(bytes(root) + b"/ca\xfft/c.stl"))
+    with pytest.warns(walk.DatasetScanWarning) as caught:
+        d = open_dataset(root)
+        files = [f.path for f in check_dataset(d).files]
+    said = " | ".join(str(w.message) for w in caught)
+    assert f"{root}/block/b\\xff.stl has a name that is not valid UTF-8: skipped" in said, said
+    assert f"{root}/ca\\xfft has a name that is not valid UTF-8" in said
+    assert d.categories() == ("ball", "block")
+    assert files == ["ball/ball.obj", "block/b0.stl", "block/b1.stl"]
+    walk._warn_undecodable.cache_clear()
+    from beo_bench.objects import layouts
+
+    layouts.top_dirs.cache_clear()
+    layouts.dir_entries.cache_clear()
+    assert main(["objects", "--objects", str(root), "--categories", "ball"]) == 0
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "b\\xff.stl has a name that is not valid UTF-8" in err

@@ -18,6 +18,7 @@ import numpy as np
 from beo_bench.objects.dataset_load import Entry, LoadOptions, unit_hash
 from beo_bench.objects.registry import categories as registered_categories
 from beo_bench.objects.registry import get_category
+from beo_bench.objects.walk import valid_name
 from beo_bench.types import Mat3
 
 MODELNET_VAL_SHARE = 0.10
@@ -61,6 +62,7 @@ class ModelNetLayout:
             Entry(f"{dirname}/{folder}/{f.stem}", cat, modelnet_split(folder, f.stem), f)
             for folder in FOLDERS
             for f in sorted((root / dirname / folder).glob("*.off"))
+            if valid_name(f)
         ]
 
     def key_ok(self, parts: Sequence[str]) -> bool:
