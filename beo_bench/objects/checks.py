@@ -51,9 +51,10 @@ from beo_bench.objects.meshfile import (
     UnknownSizeWarning,
 )
 
-CHECK_VERSION = 1
+CHECK_VERSION = 2
 """Version of the verdicts' cache: bumped when loading (repair, scaling) changes what a file
-gives, so that no verdict of an older rule is reused."""
+gives, so that no verdict of an older rule is reused (2: a file whose extent is outside
+:data:`~beo_bench.objects.meshfile.FILE_EXTENT_LIMITS` is a size error before the repair)."""
 
 NEAR_LIMIT = 3.0
 """A loaded object whose largest extent is under this many times

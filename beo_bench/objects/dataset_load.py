@@ -26,6 +26,7 @@ from beo_bench.errors import ImplausibleSizeError, InvalidKeyError
 from beo_bench.objects import cache, processing
 from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.meshfile import (
+    FILE_EXTENT_LIMITS,
     MAX_DIAGONAL,
     MIN_EXTENT,
     UNIT_MODES,
@@ -326,12 +327,25 @@ def build_mesh(
         T[:3, :3] = R
         mesh.apply_transform(T)
     t["native_extents"] = tuple(float(e) for e in mesh.extents)
+    size = opts.size_for(category)
+    largest = max(t["native_extents"])
+    lo, hi = FILE_EXTENT_LIMITS
+    if not (np.isfinite(largest) and lo <= largest <= hi):  # before the repair, which fails
+        given = isinstance(size, float) or (size is None and units == "normalised")
+        if given and np.isfinite(largest) and largest > 0:
+            mesh.apply_scale(1.0 / largest)  # the size sets the scale anyway: a unit extent
+        else:
+            t["stage"] = "scale"
+            raise ImplausibleSizeError(
+                f"{path}: its largest extent, {largest:.4g} file units, is outside the "
+                f"{lo:g} to {hi:g} file units a mesh is read at (no units make it a tabletop "
+                "object): pass --size <metres> for its largest extent, or rescale the file"
+            )
     t["stage"] = "repair"
     mesh = processing.repair(mesh, what=path, mode=opts.repair)
     # centre and scale after the repair, which may move the bounds (voxel remeshing)
     mesh.apply_translation(-mesh.bounds.mean(axis=0))
     t["stage"] = "scale"
-    size = opts.size_for(category)
     if size is None and units == "auto":  # resolved here, so that messages say which
         t["detected"] = True
         units = detected_units(mesh, path, category)

@@ -56,6 +56,16 @@ at most half the diagonal), so placement can never push it off; beyond it, objec
 placed hanging over the edge, fell off and gave episodes with no visible target."""
 
 
+FILE_EXTENT_LIMITS = (1e-6, 1e6)
+"""The largest extent, in file units, that a file is repaired and scaled at as it is: every
+reading of ``--units`` that can give a tabletop object lies far inside it (0.01 units read
+as metres to 700 read as millimetres), and the repair's geometry (voxel pitch, manifold
+tolerances) breaks down far outside it (a mesh scaled by 1e30 failed inside trimesh). A file
+outside it, or with an extent that is not finite, is an
+:class:`~beo_bench.errors.ImplausibleSizeError` before the repair, naming ``--units`` and
+``--size``; with ``size`` given it is first scaled to a unit extent, so ``--size`` loads
+it."""
+
 UNITS: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
 """Metres per file unit of the units a file may be stated to be in (``in``: inches, common in
 CAD exports)."""

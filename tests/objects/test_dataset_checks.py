@@ -549,3 +549,26 @@ def test_a_name_that_is_not_utf8_is_skipped_with_its_name_escaped(tmp_path, caps
     assert main(["objects", "--objects", str(root), "--categories", "ball"]) == 0
     err = capsys.readouterr().err
     assert "Traceback" not in err and "b\\xff.stl has a name that is not valid UTF-8" in err
+
+
+def test_an_absurdly_scaled_mesh_is_a_size_error_naming_units_and_size(tmp_path) -> None:
+    """Issue 50, attack 17: a mesh scaled by 1e30 said "repairing it failed (TypeError...)"
+    and advised --repair voxel, which advised --repair solid. Its extent is checked first:
+    a size error naming --units and --size, and --size loads it."""
+    root = tmp_path / "data"
+    (root / "thing").mkdir(parents=True)
+    trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(root / "thing" / "good.stl")
+    huge = trimesh.creation.icosphere(2, radius=0.05)
+    huge.apply_scale(1e30)
+    huge.export(root / "thing" / "huge.stl")
+    for repair in ("basic", "voxel", "solid"):
+        (bad,) = check_dataset(open_dataset(root, units="m", repair=repair)).bad
+        assert bad.kind == "size", (repair, bad)
+        assert "e+28 file units" in str(bad.problem) and "repair" not in str(bad.problem)
+        assert (
+            "--units" in str(bad.fix)
+            and "--size" in str(bad.fix)
+            and "--repair" not in str(bad.fix)
+        )
+    fixed = check_dataset(open_dataset(root, size=0.1))
+    assert fixed.bad == () and len(fixed.files) == 2
