@@ -71,6 +71,14 @@ DEFAULT_NUM_POINTS = 4096
 """Points per observation in ``obs_mode="pointcloud"`` when ``num_points`` is not given
 (ManiSkill's and PointNet's usual size)."""
 
+MAX_NUM_POINTS = 2**20
+"""The most points an observation may hold (``num_points``; 1,048,576): 16 MiB of float32
+points and labels per observation, and every pixel of a 1024 x 1024 image. Points beyond an
+image's pixel count only repeat pixels (see :meth:`BEOPickEnv._sample_points`), so more
+adds no information, while ``num_points=10**9`` took 22 GB at the first ``reset`` and was
+killed for memory; a fixed cap rather than the pixel count keeps the bound the same at
+every image size. More is an :class:`~beo_bench.errors.EnvConfigError` at ``gym.make``."""
+
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 """What a copy of the env restores of the physics: everything ``mj_step`` reads (time,
 qpos, qvel, actuator state, warm start, controls, applied forces, mocap poses)."""
@@ -195,7 +203,8 @@ class BEOPickEnv(gym.Env):
     - ``min_target_pixels``: the least visible pixels of the target (50 at 640x480,
       scaled with the image area);
     - ``obs_mode``: "image" or "pointcloud";
-    - ``num_points``: points per observation (pointcloud mode only; 4096).
+    - ``num_points``: points per observation (pointcloud mode only; 4096; at most
+      :data:`MAX_NUM_POINTS`, 2**20).
 
     ## Version History
 
@@ -312,6 +321,11 @@ class BEOPickEnv(gym.Env):
             )
         if num_points is not None and _whole(num_points, "num_points") < 1:
             raise EnvConfigError(f"num_points={num_points}: give at least 1 point")
+        if num_points is not None and int(num_points) > MAX_NUM_POINTS:
+            raise EnvConfigError(
+                f"num_points={num_points}: give at most {MAX_NUM_POINTS:,} points (MAX_NUM_POINTS, "
+                "2**20: more only repeats pixels and would exhaust memory at reset)"
+            )
         self.num_points = DEFAULT_NUM_POINTS if num_points is None else int(num_points)
         # labels 0..k: one byte per pixel while they fit, as the renderer gives them (a
         # 640x480 observation 2.46 -> 1.54 MB)

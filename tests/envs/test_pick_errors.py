@@ -129,3 +129,15 @@ def test_step_before_reset() -> None:
             e.unwrapped.ground_truth()
     finally:
         e.close()
+
+
+def test_num_points_is_bounded_at_make() -> None:
+    """Issue 50, attack 18: num_points=10**9 took 22 GB at reset and was killed for
+    memory; it is refused at make, naming the limit."""
+    from beo_bench.envs.pick import MAX_NUM_POINTS
+
+    assert MAX_NUM_POINTS == 2**20
+    for n in (10**9, MAX_NUM_POINTS + 1):
+        with pytest.raises(EnvConfigError, match=r"give at most 1,048,576 points \(MAX_NUM_POINTS"):
+            gym.make("BEOPick-v0", obs_mode="pointcloud", num_points=n, **SMALL)
+    gym.make("BEOPick-v0", obs_mode="pointcloud", num_points=MAX_NUM_POINTS, **SMALL).close()
