@@ -849,3 +849,22 @@ def test_a_scored_file_is_marked_and_never_a_baseline_or_a_bound(tmp_path) -> No
         ("icp (scored file)", "icp"),
         ("oracle (scored file)", "icp"),
     }
+
+
+def test_a_second_regeneration_into_the_same_directory_is_refused(tmp_path) -> None:
+    """Issue 50: `leaderboard` takes run's lock discipline: while one regeneration holds
+    the directory, another is refused naming the holder's PID, and writes nothing."""
+    import os
+
+    from beo_bench import outdir
+    from beo_bench.bench.leaderboard import LOCK_NAME
+    from beo_bench.bench.runs import RunError
+
+    out = tmp_path / "board"
+    regenerate(tmp_path / "no-runs", out)  # an empty leaderboard directory, marked
+    before = sorted(p.name for p in out.iterdir())
+    with outdir.locked(out / LOCK_NAME, RuntimeError):
+        with pytest.raises(RunError, match=f"another process \\(PID {os.getpid()}"):
+            regenerate(tmp_path / "no-runs", out)
+    assert sorted(p.name for p in out.iterdir()) == before
+    regenerate(tmp_path / "no-runs", out)  # the lock is free again
