@@ -45,7 +45,7 @@ from beo_bench.bench.fieldscores import bop_model, score_bop
 from beo_bench.bench.scoring import base_row, pose_metrics, viewpoints
 from beo_bench.bench.suites import Kind, Suite
 from beo_bench.bop import protocol
-from beo_bench.bop.results import BopEstimate, nearest_rotation, read_results
+from beo_bench.bop.results import BopEstimate, check_head, nearest_rotation, read_results
 from beo_bench.errors import BeoBenchError, UsageError
 from beo_bench.names import check_name
 from beo_bench.types import Estimate, GroundTruth, View
@@ -315,6 +315,7 @@ def score_results(
     if not path.is_file():
         raise UsageError(f"--bop-results {path}: no such file: give the results CSV to score")
     name = check_method(method or method_name(path))
+    check_head(path)  # a file broken near its top is refused before the suite is built
     if suite.class_hint:
         suite = suite.with_overrides(track="class-given")  # the object is given
     items = open_items(suite)

@@ -150,11 +150,11 @@ def nearest_rotation(R: np.ndarray) -> np.ndarray:
     return np.asarray(U @ Vt, dtype=np.float64)
 
 
-def _lines(f: io.TextIOBase, path: Path) -> Iterator[str]:
+def _lines(f: io.TextIOBase, path: Path, limit: int | None = None) -> Iterator[str]:
     """The lines of ``f``, one at a time, each at most :data:`MAX_LINE_CHARS` long (a
-    longer one is refused without reading the rest of it)."""
+    longer one is refused without reading the rest of it); at most ``limit`` of them."""
     number = 0
-    while True:
+    while limit is None or number < limit:
         text = f.readline(MAX_LINE_CHARS + 1)
         if not text:
             return
@@ -167,6 +167,24 @@ def _lines(f: io.TextIOBase, path: Path) -> Iterator[str]:
                 "250): is this a results CSV?",
             )
         yield text
+
+
+HEAD_LINES = 1000
+"""How many lines :func:`check_head` reads."""
+
+
+def check_head(path: Path | str) -> None:
+    """Check the first :data:`HEAD_LINES` lines of a results CSV as :func:`read_results`
+    does, less what needs the suite (object ids, images): ``score`` calls it before it
+    builds the suite's items (seconds), so that a file broken near its top is refused at
+    once."""
+    path = Path(path)
+    try:
+        f = path.open(encoding="utf-8-sig", newline="")
+    except OSError as e:
+        raise BopFormatError(f"{path}: cannot be read as a UTF-8 CSV ({e})") from None
+    with f:
+        _read(f, path, None, None, "", limit=HEAD_LINES)
 
 
 def read_results(
@@ -206,9 +224,11 @@ def _read(
     known_obj_ids: Collection[int] | None,
     known_images: Collection[tuple[int, int]] | None,
     scope: str,
+    limit: int | None = None,
 ) -> list[BopEstimate]:
-    """:func:`read_results` of the open file ``f``, a line at a time."""
-    reader = csv.reader(_lines(f, path), strict=True)
+    """:func:`read_results` of the open file ``f``, a line at a time (its first ``limit``
+    lines)."""
+    reader = csv.reader(_lines(f, path, limit), strict=True)
     estimates: list[BopEstimate] = []
     header_seen = False
     seen: dict[bytes, int] = {}

@@ -247,3 +247,19 @@ def test_more_estimates_than_the_limit_are_refused(tmp_path: Path, monkeypatch) 
     assert len(read_results(_csv(tmp_path, HEADER, *rows[:3]))) == 2
     with pytest.raises(BopFormatError, match=r":5: more than 2 estimates"):
         read_results(_csv(tmp_path, HEADER, *rows))
+
+
+def test_score_refuses_a_bad_line_2_before_it_builds_the_suite(tmp_path: Path, monkeypatch) -> None:
+    """Issue 50: a file broken near its top is refused at once (check_head), before the
+    suite's items are drawn (seconds); the rest of a huge file is never read."""
+    from beo_bench.bench import bopscore
+    from beo_bench.bench.suites import get_suite
+
+    def no_suite(*_a: object, **_k: object) -> None:
+        raise AssertionError("the suite was built before the file's head was checked")
+
+    monkeypatch.setattr(bopscore, "open_items", no_suite)
+    path = _csv(tmp_path, HEADER, "1,0,5,high,1 0 0 0 1 0 0 0 1,0 0 0,-1")
+    with pytest.raises(BopFormatError, match=":2: "):
+        bopscore.score_results(get_suite("pose-3dof"), path, tmp_path / "out", method="m")
+    assert not (tmp_path / "out").exists()
