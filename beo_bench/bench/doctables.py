@@ -819,9 +819,9 @@ def _audit_row(name: str, done: list[dict[str, Any]]) -> list[str]:
     ]  # fmt: skip
 
 
-ROBUST_PAIRS: tuple[tuple[str, str], ...] = (
-    ("hbeo-mdn-likelihood", "hbeo-mdn-likelihood (grasp=robust)"),
-    ("hbeo-mdn-posterior", "hbeo-mdn-posterior (grasp=robust)"),
+ROBUST_PAIRS: tuple[tuple[str, str], ...] = tuple(
+    (m, backend_label(m, {"grasp": "robust"}))
+    for m in ("hbeo-mdn-likelihood", "hbeo-mdn-posterior")
 )
 
 

@@ -70,7 +70,7 @@ from beo_bench.bench.columns import (
     spec,
 )
 from beo_bench.bench.kinds.pick import AUDIT_FIELDS
-from beo_bench.bench.runs import RunError, backend_label
+from beo_bench.bench.runs import RunError, backend_label, options_label
 from beo_bench.bench.scoring import PICK_ERRORS
 from beo_bench.errors import UsageError
 
@@ -985,7 +985,7 @@ _3DOF = (*_beo_over_plain_icp("Figure 4.3"),
          Primary("hbeo", "beo", "class_acc", "class-free", _HBEO_OVER_BEO))  # fmt: skip
 PICK_METHODS: tuple[str, ...] = ("beo", "hbeo-mdn-likelihood", "hbeo-mdn-posterior", "icp",
                                  "icp-plain")  # fmt: skip
-ROBUST = "grasp=robust"
+ROBUST = options_label({"grasp": "robust"})
 """The option of a row whose grasp is planned over its pose samples (``Capabilities.grasp``)."""
 PRIMARY_COMPARISONS: dict[str, tuple[Primary, ...]] = {
     "known-pose": _KNOWN_POSE,

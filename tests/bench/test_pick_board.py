@@ -377,3 +377,14 @@ def test_the_pick_page_plots_success_against_error_from_the_records(tmp_path) ->
     name = _pick_error_plot(tmp_path, "pick", "pick", rows)
     assert name == "pick_success_vs_error.png"
     assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_robust_planners_primary_names_the_rows_label() -> None:
+    """The primary declared for the robust planner must name the row as the page labels
+    it (``grasp="robust"``, quoted), or the page says "not run" beside the very row."""
+    from beo_bench.bench.leaderboard import primary_comparisons
+    from beo_bench.bench.runs import backend_label
+
+    robust = backend_label("hbeo-mdn-posterior", {"grasp": "robust"})
+    assert robust == 'hbeo-mdn-posterior (grasp="robust")'
+    assert any(pc.method == robust for pc in primary_comparisons("pick"))
