@@ -569,7 +569,7 @@ def _pick_error_plot(out: Path, prefix: str, title: str, summaries: list[dict[st
         ax.set_xlabel(f"{what} ({unit})" if unit else what)
         ax.set_ylim(0, 1)
         if key == "trans_err_cm":
-            ax.set_xscale("symlog", linthresh=0.5)
+            ax.set_xscale("log")  # bins of 0.5 to 4 cm: even on a log axis
     axes[0].set_ylabel("pick success (episodes that chose their target)")
     axes[-1].legend(fontsize="x-small")
     fig.suptitle(f"{title}: success against the grasped estimate's error")
