@@ -105,7 +105,7 @@ def main() -> None:
     report("CoACD result, cached second call", 1000 * warm, "ms", "< 10 ms", warm < 0.01)
 
     # 4b. symmetry estimation of a loaded mesh (nearly equal moments: the slowest case)
-    from beo_bench.objects.processing import estimate_symmetry
+    from beo_bench.objects.symmetry import estimate_symmetry
 
     mug_mesh = procedural_instance("mug", "test", 0).mesh
     t = median_time(lambda: estimate_symmetry(mug_mesh), repeat=3)

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from harness import report
 
-from beo_bench.backend import list_backends, register_backend
+from beo_bench.backend import Backend, BackendSpec, Capabilities, list_backends, register
 from beo_bench.bench.evaluate import Evaluator
 from beo_bench.bench.runner import RunConfig, WorkerPool, read_rows, run
 from beo_bench.bench.suites import get_suite
@@ -109,14 +109,11 @@ def short_runs(n: int = 6, items: int = 44) -> None:
 CRASH = "bench-crash"
 
 
-@register_backend(CRASH)
-class _Crash:
+class _Crash(Backend):
     """The oracle, except that it aborts its process on the views of class 0 (runs in the
     workers because they import this module: ``WorkerPool(imports=[__name__])``)."""
 
     name = CRASH
-    privileged = True
-    diagnostic = True
 
     def __init__(self) -> None:
         from beo_bench.backend import get_backend
@@ -127,6 +124,16 @@ class _Crash:
         if view.ground_truth is not None and view.ground_truth.class_index == 0:
             os.abort()
         return self.inner.predict(view)
+
+
+register(
+    BackendSpec(
+        CRASH,
+        build=lambda options: _Crash(),
+        capabilities=Capabilities(privileged=True, diagnostic=True),
+        module=__name__,
+    )
+)
 
 
 def crash_recovery(items: int = 44) -> None:

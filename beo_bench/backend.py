@@ -6,21 +6,18 @@ privileged, diagnostic, the model it loads), which the runner reads without buil
 backend. The backend itself is a :class:`Backend`: ``name``, ``predict(view)``, and
 ``prepare(ctx)`` / ``model_digest()`` with defaults. In-tree backends register with
 :func:`register`; third-party packages declare an entry point in the group
-``beo_bench.backends`` whose object is a spec, or a plain backend class or factory (wrapped:
-:meth:`BackendSpec.from_factory`) (``name = "pkg.module:SPEC"``); :func:`load_plugins` loads
-them (the CLI and the runner call it explicitly, so importing ``beo_bench`` never imports
-foreign code). A plugin that fails to load is named in one :class:`PluginWarning` and
-skipped, so one broken package does not take the others down; asking for it by name then
-raises :class:`PluginError`.
+``beo_bench.backends`` whose object is the spec (``name = "pkg.module:SPEC"``);
+:func:`load_plugins` loads them (the CLI and the runner call it explicitly, so importing
+``beo_bench`` never imports foreign code). A plugin that fails to load is named in one
+:class:`PluginWarning` and skipped, so one broken package does not take the others down;
+asking for it by name then raises :class:`PluginError`.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import importlib
-import inspect
 import multiprocessing
-import numbers
 import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
@@ -28,12 +25,12 @@ from dataclasses import dataclass, replace
 from enum import Enum
 from importlib.metadata import EntryPoint, entry_points
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from beo_bench.errors import BackendError, BeoBenchError, EstimateError, PluginError, UsageError
-from beo_bench.options import as_bool, describe_options, parse_options
+from beo_bench.options import describe_options, parse_options
 from beo_bench.types import Estimate, View
 
 if TYPE_CHECKING:
@@ -48,7 +45,7 @@ class InTreeBackend:
     """Where an in-tree backend is registered and the line listings show for it: known
     without importing its module, so ``beo-bench --help`` lists every backend without
     loading torch (about 1.7 s). It is the one record of their ``description`` and
-    ``diagnostic`` flag; a plugin sets them as attributes of its class or factory."""
+    ``diagnostic`` flag; a plugin's spec has its own."""
 
     module: str
     description: str
@@ -163,31 +160,9 @@ class Backend(ABC):
     def predict(self, view: View) -> Estimate: ...
 
 
-@runtime_checkable
-class PerceptionBackend(Protocol):
-    """What any object needs to be scored by :func:`check_backend`: a ``name`` and
-    ``predict(view)``. Registered backends are :class:`Backend` instances (a plain class of
-    a plugin is wrapped, see :class:`LegacyBackend`)."""
-
-    name: str
-
-    def predict(self, view: View) -> Estimate: ...
-
-
 @dataclass(frozen=True)
 class NoOptions:
     """The options of a backend that takes none."""
-
-
-@dataclass(frozen=True)
-class LegacyOptions:
-    """The options of a plain backend class or factory (registered without a
-    :class:`BackendSpec`): its keyword arguments as given, checked against its signature."""
-
-    values: tuple[tuple[str, Any], ...] = ()
-
-    def kwargs(self) -> dict[str, Any]:
-        return dict(self.values)
 
 
 @dataclass(frozen=True)
@@ -197,8 +172,7 @@ class BackendSpec:
     the parsed options when they change them: ``hbeo``'s ``per_category``).
 
     ``build(options)`` returns a :class:`Backend`. Plugins register one through the
-    ``beo_bench.backends`` entry-point group (its object is the spec; a plain class or
-    factory is still accepted, see :meth:`from_factory`)."""
+    ``beo_bench.backends`` entry-point group (its object is the spec)."""
 
     name: str
     build: Callable[[Any], Backend]
@@ -225,8 +199,6 @@ class BackendSpec:
         listing the valid options for an unknown key or a bad value."""
         if self.parser is not None:
             return self.parser(dict(raw or {}))
-        if self.options is LegacyOptions:
-            return _legacy_options(self, dict(raw or {}))
         return parse_options(self.options, dict(raw or {}), self.name)
 
     def capabilities_of(self, options: Any) -> Capabilities:
@@ -242,109 +214,15 @@ class BackendSpec:
             raise
         except ValueError as e:  # the backend's own check of an option value
             raise UsageError(f"backend {self.name!r}: {e} ({self.options_hint()})") from e
-        except TypeError as e:
-            if "keyword argument" not in str(e):
-                raise  # a bug in the backend, not an option the user gave
-            raise UsageError(f"backend {self.name!r}: {e} ({self.options_hint()})") from e
-        if not isinstance(backend, PerceptionBackend):
+        if not isinstance(backend, Backend):
             raise BackendError(
-                f"backend {self.name!r} has no `name` attribute or `predict(view)` method"
+                f"backend {self.name!r} built a {type(backend).__name__}, not a "
+                'beo_bench.backend.Backend (subclass it: docs/backends.md, "Writing a backend")'
             )
         return backend
 
     def options_hint(self) -> str:
-        if self.options is LegacyOptions:
-            return _legacy_hint(self)
         return describe_options(self.options)
-
-    @classmethod
-    def from_factory(cls, name: str, factory: Callable[..., Any], origin: str) -> BackendSpec:
-        """The spec of a plain backend class or factory (today's plugins): its options
-        are its keyword arguments, checked against its signature; its capabilities are its
-        class attributes ``privileged``, ``wants_class_hint``, ``needs_class_hint`` and
-        ``diagnostic``, read once here (docs/backends.md, "Migrating a plain class"); the
-        backend it builds is wrapped in a :class:`LegacyBackend`."""
-        needs = bool(getattr(factory, "needs_class_hint", False))
-        wants = needs or bool(getattr(factory, "wants_class_hint", False))
-        caps = Capabilities(
-            class_hint=ClassHint.REQUIRED
-            if needs
-            else (ClassHint.OPTIONAL if wants else ClassHint.NONE),
-            privileged=bool(getattr(factory, "privileged", False)),
-            diagnostic=bool(getattr(factory, "diagnostic", False)),
-        )
-        text = getattr(factory, "description", None) or inspect.getdoc(factory) or ""
-        first = " ".join(str(text).split("\n\n", 1)[0].split())
-
-        def build(options: LegacyOptions) -> Backend:
-            obj = factory(**options.kwargs())
-            if isinstance(obj, Backend) or not isinstance(obj, PerceptionBackend):
-                return obj  # make() refuses a non-backend
-            _warn_instance_capabilities(name, obj, caps)
-            return LegacyBackend(obj)
-
-        build.factory = factory  # type: ignore[attr-defined]  # what buildable_... inspects
-        return cls(
-            name=name,
-            build=build,
-            options=LegacyOptions,
-            capabilities=caps,
-            description=first.split(". ", 1)[0].rstrip("."),
-            origin=origin,
-            module=getattr(factory, "__module__", "") or "",
-        )
-
-    @property
-    def factory(self) -> Callable[..., Any]:
-        """What was registered (the class or function; for a spec, its ``build``)."""
-        return getattr(self.build, "factory", self.build)
-
-
-def _warn_instance_capabilities(name: str, obj: object, caps: Capabilities) -> None:
-    """A :class:`PluginWarning` when the object a plain factory built says another
-    capability than its class or factory (an attribute set in ``__init__``, or a factory
-    function returning a class that has them): the runner reads the registered object's."""
-    if multiprocessing.parent_process() is not None:
-        return  # a runner worker: the driver built it first and warned
-    declared = {
-        "privileged": caps.privileged,
-        "wants_class_hint": caps.wants_class_hint,
-        "needs_class_hint": caps.needs_class_hint,
-    }
-    for attr, expected in declared.items():
-        value = getattr(obj, attr, None)
-        if value is not None and bool(value) != expected:
-            warnings.warn(
-                f"backend {name!r}: the object its factory returns has {attr} = {value!r}, "
-                f"but beo-bench reads a plain backend's capabilities from what was registered "
-                f"(where {attr} is {expected}): declare it as a class attribute of the "
-                'registered class, or register a BackendSpec (docs/backends.md, "Migrating '
-                'a plain class")',
-                PluginWarning,
-                stacklevel=4,
-            )
-
-
-class LegacyBackend(Backend):
-    """A plain backend object (a plugin class without :class:`Backend` as its base) under
-    the contract: ``prepare(ctx)`` calls its ``prepare(categories)`` with the run's class
-    list when it has one, ``model_digest()`` its own when it has one."""
-
-    def __init__(self, inner: Any) -> None:
-        self.inner = inner
-        self.name = str(inner.name)
-
-    def prepare(self, ctx: RunContext) -> None:
-        prep = getattr(self.inner, "prepare", None)
-        if callable(prep):
-            prep(tuple(ctx.categories))
-
-    def model_digest(self) -> str | None:
-        digest = getattr(self.inner, "model_digest", None)
-        return digest() if callable(digest) else None
-
-    def predict(self, view: View) -> Estimate:
-        return self.inner.predict(view)
 
 
 _REGISTRY: dict[str, BackendSpec] = {}
@@ -364,19 +242,6 @@ def register(spec: BackendSpec) -> BackendSpec:
     return spec
 
 
-def register_backend(
-    name: str, origin: str = "in-tree"
-) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """Class/factory decorator for a plain backend class: ``@register_backend("mine")``
-    (:meth:`BackendSpec.from_factory`). A taken name raises."""
-
-    def deco(factory: Callable[..., Any]) -> Callable[..., Any]:
-        _add(BackendSpec.from_factory(name, factory, origin))
-        return factory
-
-    return deco
-
-
 def unregister_backend(name: str) -> None:
     """Forget backend ``name`` (one registered at run time: a test, a notebook)."""
     _REGISTRY.pop(name, None)
@@ -386,7 +251,7 @@ def unregister_backend(name: str) -> None:
 def _add(spec: BackendSpec) -> None:
     name = spec.name
     old = _REGISTRY.get(name)
-    if old is not None and old.factory is not spec.factory:
+    if old is not None and old.build is not spec.build:
         raise BackendError(
             f"a backend named {name!r} is already registered (from {old.origin}); "
             "choose another name"
@@ -412,8 +277,8 @@ def _ensure_in_tree() -> None:
 def load_plugins() -> list[str]:
     """Register every backend advertised in the ``beo_bench.backends`` entry-point group;
     returns the names registered. An entry point's object is a :class:`BackendSpec` (whose
-    name must be the entry point's) or a plain backend class or factory. A plugin that fails
-    to import, whose object is not a backend, or whose name is taken is skipped with one
+    name must be the entry point's). A plugin that fails to import, whose object is not a
+    spec, or whose name is taken is skipped with one
     :class:`PluginWarning` naming it (the runner calls this in every worker: a broken
     package must not stop the others); :func:`get_backend` of its name says why. The
     in-tree backends are not imported here: their names are known (:data:`IN_TREE`)."""
@@ -524,17 +389,19 @@ def _code_files(name: str, spec: BackendSpec) -> dict[str, Path]:
 
 
 def _plugin_spec(ep: EntryPoint, obj: object) -> BackendSpec:
-    """The spec an entry point advertises: its :class:`BackendSpec` (renamed to nothing:
-    the names must agree), or one made from a plain class or factory."""
-    if isinstance(obj, BackendSpec):
-        if obj.name != ep.name:
-            raise PluginError(
-                f"{ep.value} is the spec of backend {obj.name!r}, but its entry point is named "
-                f"{ep.name!r}: give both the same name"
-            )
-        return replace(obj, origin=_plugin_origin(ep))
-    _check_plugin_object(ep, obj)
-    return BackendSpec.from_factory(ep.name, obj, _plugin_origin(ep))  # type: ignore[arg-type]
+    """The :class:`BackendSpec` an entry point advertises (renamed to nothing: the names
+    must agree)."""
+    if not isinstance(obj, BackendSpec):
+        raise PluginError(
+            f"{ep.value} is a {type(obj).__name__}, not a BackendSpec: a plugin's entry point "
+            'names its backend\'s spec (docs/backends.md, "Writing a backend")'
+        )
+    if obj.name != ep.name:
+        raise PluginError(
+            f"{ep.value} is the spec of backend {obj.name!r}, but its entry point is named "
+            f"{ep.name!r}: give both the same name"
+        )
+    return replace(obj, origin=_plugin_origin(ep))
 
 
 def _skip_plugin(ep: EntryPoint, e: Exception) -> None:
@@ -557,17 +424,6 @@ def _plugin_origin(ep: EntryPoint) -> str:
     return f"plugin {dist.name if dist is not None else ep.value}"
 
 
-def _check_plugin_object(ep: EntryPoint, obj: object) -> None:
-    """Refuse what cannot be a backend factory, without calling it (a call may be slow): a
-    non-callable, or a class without ``predict``."""
-    if not callable(obj) or (inspect.isclass(obj) and not callable(getattr(obj, "predict", 0))):
-        raise PluginError(
-            f"{ep.value} is a {type(obj).__name__}, not a backend spec, class or factory (a "
-            "BackendSpec, a class with `name` and `predict(view)`, or a function returning "
-            "such an object)"
-        )
-
-
 def buildable_in_fresh_process(name: str, imports: tuple[str, ...] = ()) -> bool:
     """Whether a fresh process (a spawned runner worker, which imports the in-tree backends,
     the entry points and ``imports``) can build backend ``name``. A backend registered at
@@ -577,7 +433,7 @@ def buildable_in_fresh_process(name: str, imports: tuple[str, ...] = ()) -> bool
     spec = _REGISTRY.get(name)
     if spec is None:
         return True
-    if "<locals>" in getattr(spec.factory, "__qualname__", ""):
+    if "<locals>" in getattr(spec.build, "__qualname__", ""):
         return False
     return spec.origin.startswith("plugin") or spec.module in (*_IN_TREE, *imports)
 
@@ -603,8 +459,7 @@ def _static_caps(spec: BackendSpec) -> Capabilities:
 
 def describe_backend(name: str) -> str:
     """One line saying what backend ``name`` is, for listings (``beo-bench --help``): its
-    spec's ``description`` (a plain class's: its ``description`` attribute, else the first
-    sentence of its docstring), else ``""``. Builds nothing, and imports nothing for an
+    spec's ``description``, else ``""``. Builds nothing, and imports nothing for an
     in-tree backend (:data:`IN_TREE`)."""
     if name in IN_TREE:
         return IN_TREE[name].description
@@ -644,85 +499,10 @@ def _unknown_backend(name: str) -> BackendError:
     )
 
 
-def backend_options(name: str) -> dict[str, Any] | None:
-    """The options of backend ``name`` with their defaults (``inspect.Parameter.empty``
-    for a required one of a plain class), or None when a plain factory takes arbitrary
-    ``**kwargs``."""
+def backend_options(name: str) -> dict[str, Any]:
+    """The options of backend ``name`` with their defaults."""
     spec = get_spec(name)
-    if spec.options is LegacyOptions:
-        return _signature_options(spec.factory)
     return {f.name: f.default for f in dataclasses.fields(spec.options)}
-
-
-def _signature_options(factory: Callable[..., Any]) -> dict[str, Any] | None:
-    try:
-        params = inspect.signature(factory).parameters.values()
-    except (TypeError, ValueError):  # a builtin or C callable: nothing to read
-        return None
-    if any(p.kind is p.VAR_KEYWORD for p in params):
-        return None  # passes options on: the receiver checks them
-    keyword = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
-    return {p.name: p.default for p in params if p.kind in keyword}
-
-
-def _legacy_hint(spec: BackendSpec) -> str:
-    opts = _signature_options(spec.factory)
-    if opts is None:
-        return "see the backend's documentation for its options"
-    if not opts:
-        return "it takes no options"
-    shown = ", ".join(k if v is inspect.Parameter.empty else f"{k}={v!r}" for k, v in opts.items())
-    return f"its options, with their defaults: {shown}"
-
-
-def _legacy_options(spec: BackendSpec, kwargs: dict[str, Any]) -> LegacyOptions:
-    """A plain class's options, checked against its signature: an unknown key, or a value
-    that cannot be of the type its default shows (booleans, integers, reals)."""
-    opts = _signature_options(spec.factory)
-    if opts is not None:
-        unknown = sorted(set(kwargs) - set(opts))
-        if unknown:
-            raise UsageError(
-                f"backend {spec.name!r} has no option {', '.join(map(repr, unknown))}; "
-                f"{_option_hint(unknown, opts)}{_legacy_hint(spec)} (on the command line: "
-                "--opt KEY=VALUE)"
-            )
-        for key, value in kwargs.items():
-            expected = _type_mismatch(opts[key], value)
-            if expected:
-                raise UsageError(
-                    f"backend {spec.name!r} option {key}={value!r}: expected {expected} "
-                    f"(default {opts[key]!r})"
-                )
-    return LegacyOptions(tuple(sorted(kwargs.items())))
-
-
-def _option_hint(unknown: list[str], known: Mapping[str, Any]) -> str:
-    """ "did you mean 'seed'? " for the first misspelt option that is close to a real one."""
-    from beo_bench.names import did_you_mean
-
-    return next((h for h in (did_you_mean(k, known) for k in unknown) if h), "")
-
-
-def _type_mismatch(default: Any, value: Any) -> str | None:
-    """What ``value`` should have been when the option's default shows its type and the
-    value cannot be one (booleans, integers, reals); else None. A None default or any other
-    type is left to the backend, and so is a None value."""
-    if value is None:
-        return None
-    if isinstance(default, bool):
-        try:
-            as_bool(value)
-        except UsageError:
-            return "a boolean (true/false, yes/no, on/off, 1/0)"
-        return None
-    real = isinstance(value, numbers.Real) and not isinstance(value, bool)
-    if isinstance(default, numbers.Integral):
-        if not real or float(value) != int(value):
-            return "an integer"
-    elif isinstance(default, numbers.Real) and not real:
-        return "a number"
-    return None
 
 
 class PrivilegeError(UsageError):
@@ -737,9 +517,9 @@ def check_privileged(name: str, caps: Capabilities, allow: bool = False) -> bool
     backend is told")."""
     if caps.privileged and not allow and name not in IN_TREE:
         raise PrivilegeError(
-            f"backend {name!r} declares privileged = True, so the runner would hand it the "
-            "ground truth of every view: pass --allow-privileged to run it as a bound (its "
-            "rows are listed with the bounds and never ranked), or drop `privileged`"
+            f"backend {name!r} declares the privileged capability, so the runner would hand it "
+            "the ground truth of every view: pass --allow-privileged to run it as a bound (its "
+            "rows are listed with the bounds and never ranked), or drop it from its spec"
         )
     return caps.privileged
 
@@ -806,7 +586,7 @@ def _same(a: Estimate, b: Estimate) -> bool:
 
 
 def check_backend(
-    backend: PerceptionBackend, views: list[View] | None = None, privileged: bool | None = None
+    backend: Backend, views: list[View] | None = None, privileged: bool | None = None
 ) -> None:
     """The conformance test: on each view, ``predict`` returns an ``Estimate`` obeying the
     contract (types, shapes, ranges, a proper rotation, probabilities summing to 1), and the
@@ -814,8 +594,10 @@ def check_backend(
     Without ``views``, two rendered views of test-split instances are used. Views keep
     their ground truth only for a privileged backend (``privileged``; default: as its
     registered spec says)."""
-    if not isinstance(backend, PerceptionBackend):
-        raise EstimateError("a backend needs a `name` attribute and a `predict(view)` method")
+    if not isinstance(backend, Backend):
+        raise EstimateError(
+            f"check_backend checks a beo_bench.backend.Backend, got a {type(backend).__name__}"
+        )
     views = views if views is not None else sample_views()
     if privileged is None:  # a registered backend's spec says; anything else is not
         spec = _REGISTRY.get(backend.name)

@@ -848,7 +848,7 @@ def privileged_parent() -> argparse.ArgumentParser:
     return _option_parent(
         "--allow-privileged",
         action="store_true",
-        help="let a plugin that declares privileged = True be handed the ground truth (its "
+        help="let a plugin whose spec declares it privileged be handed the ground truth (its "
         "rows are listed with the bounds, never ranked)",
     )
 

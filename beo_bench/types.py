@@ -75,7 +75,7 @@ class ObjectState:
 @dataclass(frozen=True)
 class GroundTruth:
     """The truth about the object a ``View`` shows; given to metrics, and to a backend only
-    when it declares ``privileged = True`` (the ``oracle`` bound).
+    whose spec declares it ``privileged`` (the ``oracle`` bound).
 
     Frames and units as ``ObjectState``: ``R_cam`` (3, 3) and ``t_cam`` (3,) map the
     canonical frame to the camera frame (OpenCV axes), metres.

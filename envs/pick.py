@@ -38,13 +38,9 @@ from beo_bench.scenes.gripper import MAX_OPENING
 from beo_bench.scenes.renderer import UINT8_LABELS, Frame, Renderer, mujoco
 from beo_bench.scenes.sensors import SENSORS, Sensor, SensorError, make_sensor
 
-# the "X as X" names are re-exported: they were this module's before scenes.tabletop held them
-from beo_bench.scenes.tabletop import CAMERA_DRAWS as CAMERA_DRAWS
-from beo_bench.scenes.tabletop import SCENE_DRAWS as SCENE_DRAWS
-from beo_bench.scenes.tabletop import MIN_TARGET_PIXELS_640x480 as MIN_TARGET_PIXELS_640x480
+# reset's error is documented as this module's (docs/env.md): re-exported
 from beo_bench.scenes.tabletop import NoVisibleTargetError as NoVisibleTargetError
-from beo_bench.scenes.tabletop import TabletopScenes, default_min_target_pixels
-from beo_bench.scenes.tabletop import default_categories as default_categories
+from beo_bench.scenes.tabletop import TabletopScenes, default_categories, default_min_target_pixels
 from beo_bench.types import Mat4, ObjectState
 
 FAR_CLIP = 20.0
@@ -165,7 +161,8 @@ class BEOPickEnv(gym.Env):
     gives the scene it always gave. Any other option is an
     :class:`~beo_bench.errors.EnvConfigError`. The target always shows at least
     ``min_target_pixels`` pixels: ``reset`` draws another camera pose (up to
-    :data:`CAMERA_DRAWS`), then another scene (up to :data:`SCENE_DRAWS`), and otherwise
+    :data:`~beo_bench.scenes.tabletop.CAMERA_DRAWS`), then another scene (up to
+    :data:`~beo_bench.scenes.tabletop.SCENE_DRAWS`), and otherwise
     raises :class:`NoVisibleTargetError`; an object too large for the table raises
     :class:`~beo_bench.scenes.layout.ObjectTooLargeError`. ``info`` holds ``num_objects``,
     ``attempt`` (0) and ``target_pixels``.
@@ -194,7 +191,7 @@ class BEOPickEnv(gym.Env):
     - ``camera``: a ``CameraRig`` or a dict of its fields (where cameras are sampled);
     - ``sensor``: the depth sensor, "ideal" (the render as it is), "kinect-v1" or "d435"
       ("ideal"; docs/sensors.md); its noise is drawn from ``np_random``, so the seed fixes
-      it too. It replaced ``noise=`` (``gym.make`` refuses ``noise=True`` and says to pass
+      it too. It replaced ``noise=`` (``gym.make`` refuses ``noise=`` and says to pass
       ``sensor="kinect-v1"``);
     - ``max_attempts``: grasps per episode (default: ``max_episode_steps`` through
       ``gym.make``, else 1);
@@ -659,13 +656,11 @@ def make_pick_env(**kwargs: Any) -> BEOPickEnv:
     is reported here as an :class:`EnvConfigError` naming the valid keywords.
     """
     valid = list(KEYWORDS)
-    if "noise" in kwargs:
-        kwargs = dict(kwargs)
-        if kwargs.pop("noise") not in (False, None):  # False/None: ideal depth, the default
-            raise EnvConfigError(
-                "BEOPick-v0: noise= was replaced by sensor=: pass sensor='kinect-v1' for the "
-                "Kinect v1 model (or 'd435'; docs/sensors.md), or leave it out for ideal depth"
-            )
+    if "noise" in kwargs:  # the keyword sensor= replaced
+        raise EnvConfigError(
+            "BEOPick-v0: noise= was replaced by sensor=: pass sensor='kinect-v1' for the "
+            "Kinect v1 model (or 'd435'; docs/sensors.md), or leave it out for ideal depth"
+        )
     unknown = sorted(set(kwargs) - set(valid))
     if unknown:
         hints = [

@@ -15,6 +15,7 @@ from beo_bench.errors import BackendError, EstimateError, ViewError
 from beo_bench.objects import instance_from_key
 from beo_bench.types import Estimate, View
 from tests.plugins import install_plugin
+from tests.specs import register_class
 
 # keep the class means small in tests (the default uses the whole train split); beo and
 # hbeo load the published models (nothing trains in the tests, nor in a run)
@@ -58,13 +59,7 @@ def test_unknown_backend_names_the_registered_ones() -> None:
 
 def test_duplicate_names_raise() -> None:
     with pytest.raises(BackendError, match="already registered"):
-
-        @B.register_backend("oracle")
-        class Other:
-            name = "oracle"
-
-            def predict(self, view):  # pragma: no cover
-                raise NotImplementedError
+        B.register(B.BackendSpec("oracle", build=lambda options: B.get_backend("random")))
 
 
 def test_oracle_returns_the_truth(views) -> None:
@@ -132,7 +127,7 @@ def test_contract_violations_are_named(views, change, match) -> None:
 
 
 def test_a_nondeterministic_backend_fails_the_check(views) -> None:
-    class Flaky:
+    class Flaky(B.Backend):
         name = "flaky"
 
         def __init__(self) -> None:
@@ -162,22 +157,25 @@ def test_entry_point_plugin_is_listed_and_runs(tmp_path, views, monkeypatch) -> 
         textwrap.dedent(
             """
             import numpy as np
+            from beo_bench.backend import Backend, BackendSpec
             from beo_bench.types import Estimate
 
-            class CentroidBackend:
+            class CentroidBackend(Backend):
                 name = "centroid-demo"
 
                 def predict(self, view):
                     C = len(view.categories)
                     return Estimate(np.full(C, 1 / C), np.eye(3), view.points().mean(axis=0),
                                     np.full(3, 0.1), np.full((16, 16, 16), 0.5, np.float32))
+
+            SPEC = BackendSpec("centroid-demo", build=lambda options: CentroidBackend())
             """
         )
     )
     install_plugin(
         tmp_path,
         "beo-plugin-demo",
-        {"centroid-demo": "beo_plugin_demo:CentroidBackend"},
+        {"centroid-demo": "beo_plugin_demo:SPEC"},
         monkeypatch,
     )
     try:
@@ -201,14 +199,14 @@ def test_entry_point_plugin_is_listed_and_runs(tmp_path, views, monkeypatch) -> 
 def test_swap_replaces_exactly_the_named_parts_and_hides_the_truth(views) -> None:
     seen = []
 
-    class Spy:
+    class Spy(B.Backend):
         name = "spy"
 
         def predict(self, view):
             seen.append(view.ground_truth)
             return B.get_backend("random", mean_instances=4).predict(view)
 
-    B.register(B.BackendSpec.from_factory("spy", Spy, "test"))
+    register_class(Spy)
     try:
         base = B.get_backend("spy").predict(views[0])
         seen.clear()  # from here on only swap calls the spy

@@ -13,6 +13,7 @@ import pytest
 
 from beo_bench import backend as B
 from beo_bench.errors import BackendError, PluginError, UsageError
+from beo_bench.options import as_bool
 from tests.plugins import install_plugin
 
 
@@ -52,9 +53,9 @@ def test_good_option_spellings_are_accepted() -> None:
 @pytest.mark.parametrize("value", ["maybe", "", 2, None, [True]])
 def test_as_bool_refuses_what_is_not_a_boolean(value) -> None:
     with pytest.raises(UsageError, match=r"yes.*no"):
-        B.as_bool(value)
+        as_bool(value)
     with pytest.raises(ValueError):  # still a ValueError for generic handlers
-        B.as_bool(value)
+        as_bool(value)
 
 
 @pytest.mark.parametrize(
@@ -62,15 +63,16 @@ def test_as_bool_refuses_what_is_not_a_boolean(value) -> None:
     [("yes", True), ("OFF", False), ("1", True), (0, False), (True, True), (False, False)],
 )
 def test_as_bool_spellings(value, expected) -> None:
-    assert B.as_bool(value) is expected
+    assert as_bool(value) is expected
 
 
 # -- plugins ------------------------------------------------------------------------------
 GOOD = """
 import numpy as np
+from beo_bench.backend import Backend, BackendSpec
 from beo_bench.types import Estimate
 
-class Good:
+class Good(Backend):
     name = "good-demo"
 
     def predict(self, view):
@@ -78,26 +80,26 @@ class Good:
         return Estimate(np.full(C, 1 / C), np.eye(3), np.zeros(3), np.full(3, 0.1),
                         np.full((8, 8, 8), 0.5, np.float32))
 
-NOT_A_BACKEND = 42
+GOOD = BackendSpec("good-demo", build=lambda options: Good())
+RANDOM = BackendSpec("random", build=lambda options: Good())
 
-class NoPredict:
-    name = "no-predict"
+NOT_A_BACKEND = 42
 """
 
 ENTRY_POINTS = {
     "broken-demo": "beo_plugin_broken_mod:Backend",
-    "good-demo": "beo_plugin_good_mod:Good",
+    "good-demo": "beo_plugin_good_mod:GOOD",
     "number-demo": "beo_plugin_good_mod:NOT_A_BACKEND",
-    "nopredict-demo": "beo_plugin_good_mod:NoPredict",
-    "random": "beo_plugin_good_mod:Good",
+    "class-demo": "beo_plugin_good_mod:Good",
+    "random": "beo_plugin_good_mod:RANDOM",
 }
 
 
 @pytest.fixture
 def plugins(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """One installed distribution advertising a good backend and four bad ones: a module
-    that fails to import, an object that is not a backend, a class without ``predict``,
-    and a name that an in-tree backend already has."""
+    that fails to import, an object that is not a backend, a backend class instead of its
+    spec, and a name that an in-tree backend already has."""
     (tmp_path / "beo_plugin_good_mod.py").write_text(textwrap.dedent(GOOD))
     (tmp_path / "beo_plugin_broken_mod.py").write_text("import no_such_dependency_xyz\n")
     install_plugin(tmp_path, "beo-plugin-mixed", ENTRY_POINTS, monkeypatch)
@@ -121,7 +123,7 @@ def test_broken_plugins_are_named_skipped_and_the_others_load(plugins) -> None:
     text = "\n".join(messages)
     assert "broken-demo = beo_plugin_broken_mod:Backend" in text
     assert "No module named 'no_such_dependency_xyz'" in text
-    assert "not a backend spec, class or factory" in text  # the number and the class w/o predict
+    assert text.count("not a BackendSpec") == 2  # the number and the class
     assert "already registered" in text
     B.get_backend("good-demo")
 
@@ -135,7 +137,7 @@ def test_a_broken_plugin_warns_once_and_its_name_says_why(plugins) -> None:
     with pytest.raises(PluginError, match=r"beo-plugin-mixed.*no_such_dependency_xyz") as e:
         B.get_backend("broken-demo")
     assert isinstance(e.value, BackendError) and e.value.exit_code == 1
-    with pytest.raises(PluginError, match="not a backend"):
+    with pytest.raises(PluginError, match="not a BackendSpec"):
         B.get_backend("number-demo")
 
 
@@ -162,25 +164,3 @@ def test_swaps_base_options_are_not_an_option() -> None:
     with pytest.raises(UsageError) as e:
         B.get_backend("swap", truth="nothing")
     assert "base_options" not in str(e.value)  # the listing shows only the user's options
-
-
-def test_a_capability_set_on_the_instance_is_named_in_a_warning() -> None:
-    """A plain class's capabilities are read from the class: one that sets them in
-    ``__init__`` is told so, rather than silently running without the hint."""
-
-    class InitHint:
-        name = "test-init-hint"
-
-        def __init__(self) -> None:
-            self.wants_class_hint = True
-            self.inner = B.get_backend("oracle")
-
-        def predict(self, view):
-            return self.inner.predict(view)
-
-    B.register_backend("test-init-hint")(InitHint)
-    try:
-        with pytest.warns(B.PluginWarning, match=r"wants_class_hint = True.*class attribute"):
-            B.get_backend("test-init-hint")
-    finally:
-        B.unregister_backend("test-init-hint")

@@ -60,14 +60,12 @@ def plugin(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
     site = tmp_path / "site"
     site.mkdir()
     (site / "beo_help_plugin_mod.py").write_text(
-        "class Backend:\n"
-        "    name = 'help-plugin'\n"
-        "    description = 'a third-party backend, listed from its entry point'\n"
-        "    def predict(self, view):\n"
-        "        raise NotImplementedError\n"
+        "from beo_bench.backend import BackendSpec\n"
+        "SPEC = BackendSpec('help-plugin', build=lambda options: None,\n"
+        "                   description='a third-party backend, listed from its entry point')\n"
     )
     install_plugin(
-        site, "beo-help-plugin", {"help-plugin": "beo_help_plugin_mod:Backend"}, monkeypatch
+        site, "beo-help-plugin", {"help-plugin": "beo_help_plugin_mod:SPEC"}, monkeypatch
     )
     yield
     B.unregister_backend("help-plugin")
@@ -79,20 +77,12 @@ def test_help_lists_a_plugin_backend_with_its_description(capsys, plugin) -> Non
     assert "a third-party backend, listed from its entry point" in _entry(out, "help-plugin")
 
 
-def test_a_backend_without_description_is_described_by_its_docstring() -> None:
+def test_a_backend_is_described_by_its_spec_until_unregistered() -> None:
     from beo_bench import backend as B
 
-    @B.register_backend("help-doc-only")
-    class DocOnly:
-        """Guesses the mean shape. Everything after the first sentence is left out."""
-
-        name = "help-doc-only"
-
-        def predict(self, view):
-            raise NotImplementedError
-
+    B.register(B.BackendSpec("help-doc-only", lambda options: None, description="Guesses"))
     try:
-        assert describe_backend("help-doc-only") == "Guesses the mean shape"
+        assert describe_backend("help-doc-only") == "Guesses"
     finally:
         B.unregister_backend("help-doc-only")
     with pytest.raises(BackendError, match="help-doc-only"):

@@ -275,9 +275,7 @@ def suite_label(summary: dict[str, Any]) -> str:
 
 
 def _comparable_record(record: dict[str, Any]) -> dict[str, Any]:
-    from beo_bench.bench.suites import upgrade_record
-
-    return {k: v for k, v in upgrade_record(record).items() if k not in UNSCORED_RECORD_KEYS}
+    return {k: v for k, v in record.items() if k not in UNSCORED_RECORD_KEYS}
 
 
 def _check_results(where: Path, summary: dict[str, Any]) -> None:

@@ -456,14 +456,13 @@ def _check_same_run(old: dict[str, Any] | None, meta: dict[str, Any], out: Path)
             f"{out} has results but no {RECORD_NAME}, so they cannot be checked against this "
             "run: choose another --out (or move this directory away)"
         )
-    from beo_bench.bench.suites import upgrade_record
-
     held = {k: old.get(k) for k in meta}
     recorded = held.get("suite")
-    if isinstance(recorded, dict):
-        # a run recorded before sensors existed says noise: false where it now says
-        # sensor: ideal (the same views), so it resumes
-        held["suite"] = upgrade_record(recorded)
+    if isinstance(recorded, dict) and "sensor" not in recorded:
+        raise RunUsageError(
+            f"{out} was recorded by an older beo-bench, before sensors existed (its suite "
+            "record has no sensor), and this version does not resume it: re-run into a new --out"
+        )
     if held != meta:
         raise RunUsageError(
             f"{out} holds a different run ({held}); resuming needs the same suite (version, "

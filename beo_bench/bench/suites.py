@@ -362,30 +362,19 @@ def suite_sensor(name: Any, suite: str = "") -> str:
     return check_sensor_name(name)
 
 
-LEGACY_NOISE = "legacy-noise"
-"""What :func:`record_sensor` reads from a record of the old ``noise: true`` suites (the
-``DepthNoise`` model, no longer a suite's sensor): it matches no sensor."""
-
-
 def record_sensor(record: dict[str, Any]) -> str:
     """The sensor a suite record (``Suite.record()``, a summary's ``provenance["suite"]``)
     names; a record made before sensors existed says ``noise``: ``false`` was the ideal
-    render, ``true`` the old noise model (:data:`LEGACY_NOISE`)."""
+    render; ``true``, the old noise model, is no sensor's (a :class:`UsageError`)."""
     sensor = record.get("sensor")
     if isinstance(sensor, str):
         return sensor
-    return LEGACY_NOISE if record.get("noise") else "ideal"
-
-
-def upgrade_record(record: dict[str, Any]) -> dict[str, Any]:
-    """A suite record as this version writes it: one made before sensors existed has
-    ``noise`` where it now has ``sensor`` (:func:`record_sensor`), so a run started then
-    resumes under the same identity."""
-    if "sensor" in record or "noise" not in record:
-        return record
-    out = {k: v for k, v in record.items() if k != "noise"}
-    out["sensor"] = record_sensor(record)
-    return out
+    if record.get("noise"):
+        raise UsageError(
+            "a run recorded with the old noise model (noise: true, before sensors existed) "
+            "matches no sensor: re-run it with --sensor into a new --out"
+        )
+    return "ideal"
 
 
 def base_name(name: str) -> str:
@@ -648,9 +637,8 @@ def check_track(
         )
     if suite.track == "class-given" and not uses_class_hint:
         raise UsageError(
-            f"backend {backend!r} does not use the class hint (its class_hint capability is "
-            "none; a plain backend class declares wants_class_hint = True as a class "
-            f"attribute), so its "
+            f"backend {backend!r} does not use the class hint (its spec's class_hint "
+            "capability is none), so its "
             f"class-given run on {suite.name} would score exactly as its class-free one: run "
             "it with --track class-free (the leaderboard lists that run in both tracks)"
         )

@@ -23,7 +23,7 @@ import numpy as np
 import trimesh
 
 from beo_bench.errors import ImplausibleSizeError, InvalidKeyError
-from beo_bench.objects import cache, processing
+from beo_bench.objects import cache, processing, symmetry
 from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.meshfile import (
     FILE_EXTENT_LIMITS,
@@ -292,11 +292,11 @@ def loaded_symmetry(mesh: trimesh.Trimesh) -> Symmetry:
         "symmetry",
         cache.mesh_hash(mesh),
         SYMMETRY_CACHE_PARAMS,
-        lambda: processing.pack_symmetry(
-            processing.estimate_symmetry(mesh, threshold=SYMMETRY_THRESHOLD)
+        lambda: symmetry.pack_symmetry(
+            symmetry.estimate_symmetry(mesh, threshold=SYMMETRY_THRESHOLD)
         ),
     )
-    return processing.unpack_symmetry(arrays)
+    return symmetry.unpack_symmetry(arrays)
 
 
 def build_mesh(

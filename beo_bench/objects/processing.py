@@ -13,17 +13,7 @@ import numpy as np
 import trimesh
 
 from beo_bench.errors import EmptyMeshError, NonFiniteMeshError
-
-# the solid tests live below both this module and symmetry; re-exported here
-from beo_bench.objects.solid import check_solid as check_solid
-from beo_bench.objects.solid import contains as contains
-from beo_bench.objects.solid import release_ray_scene
-
-# symmetry estimation lives in its own module; re-exported here, where it used to be
-from beo_bench.objects.symmetry import estimate_symmetry as estimate_symmetry
-from beo_bench.objects.symmetry import pack_symmetry as pack_symmetry
-from beo_bench.objects.symmetry import rotation_iou as rotation_iou
-from beo_bench.objects.symmetry import unpack_symmetry as unpack_symmetry
+from beo_bench.objects.solid import check_solid, contains, release_ray_scene
 from beo_bench.types import BoolGrid
 
 if TYPE_CHECKING:

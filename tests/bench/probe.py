@@ -21,6 +21,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from scipy.spatial import cKDTree
 
+from beo_bench.backend import Backend
 from beo_bench.types import Estimate, GroundTruth, View
 
 IMAGE_FIELDS = ("depth", "mask", "segmentation")
@@ -72,7 +73,7 @@ class Memory:
         return self.truths[int(j)]
 
 
-class FieldProbe:
+class FieldProbe(Backend):
     """The probe as a backend (``predict(view) -> Estimate``), reading no pixel."""
 
     name = "test-probe"

@@ -18,12 +18,13 @@ import ctypes
 import os
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from beo_bench.backend import register_backend
+from beo_bench.backend import Backend, BackendSpec, Capabilities, ClassHint, register
+from beo_bench.options import option
 from beo_bench.types import Estimate, View
 
 NAME = "test-fault"
@@ -44,17 +45,21 @@ def _misbehave(mode: str) -> None:
         raise ValueError(f"unknown mode {mode!r}")
 
 
-@register_backend(NAME)
-class FaultBackend:
+@dataclass(frozen=True)
+class FaultOptions:
+    mode: str = option("sleep", "sleep, abort, segfault, exit or raise")
+    classes: tuple[int, ...] | None = option(None, "the classes it misbehaves on (null: all)")
+    marker: str = option("", "a file to write its PID to before it misbehaves")
+
+
+class FaultBackend(Backend):
     """See the module docstring."""
 
     name = NAME
-    wants_class_hint = True
-    diagnostic = True  # never among the default backends of `beo-bench all` or `demo`
 
-    def __init__(self, mode: str = "sleep", classes: list[Any] | None = None, marker: str = ""):
-        self.mode, self.marker = mode, marker
-        self.classes = None if classes is None else {int(c) for c in classes}
+    def __init__(self, options: FaultOptions) -> None:
+        self.mode, self.marker = options.mode, options.marker
+        self.classes = None if options.classes is None else set(options.classes)
 
     def predict(self, view: View) -> Estimate:
         if self.classes is None or view.class_hint in self.classes:
@@ -68,3 +73,14 @@ class FaultBackend:
         shape = np.zeros((16, 16, 16), dtype=np.float32)
         shape[4:12, 4:12, 4:12] = 1.0
         return Estimate(probs, np.eye(3), pts.mean(axis=0), np.full(3, 0.1), shape)
+
+
+register(
+    BackendSpec(
+        NAME,
+        build=FaultBackend,
+        options=FaultOptions,
+        # diagnostic: never among the default backends of `beo-bench all` or `demo`
+        capabilities=Capabilities(class_hint=ClassHint.OPTIONAL, diagnostic=True),
+    )
+)

@@ -19,7 +19,11 @@ from beo_bench.cli import main
 from tests.plugins import install_plugin
 
 PLUGIN = '''
+from dataclasses import dataclass
+
 import numpy as np
+from beo_bench.backend import Backend, BackendSpec
+from beo_bench.options import option
 from beo_bench.types import Estimate
 
 
@@ -27,13 +31,18 @@ class ModelMissingError(Exception):
     pass
 
 
-class Backend:
+@dataclass(frozen=True)
+class Options:
+    mode: str = option("raise", "raise, mixed or anything else: fine")
+
+
+class Report(Backend):
     """A plugin that misbehaves as its mode says (a test's)."""
 
     name = "test-report"
 
-    def __init__(self, mode="raise"):
-        self.mode = mode
+    def __init__(self, options):
+        self.mode = options.mode
 
     def predict(self, view):
         pixels = int(np.count_nonzero(view.mask))
@@ -45,6 +54,9 @@ class Backend:
             shape[3:13, 3:13, 3:13] = 1.0
         pts = view.points()
         return Estimate(probs, np.eye(3), pts.mean(axis=0), np.full(3, 0.2), shape)
+
+
+SPEC = BackendSpec("test-report", build=Report, options=Options)
 '''
 
 
@@ -57,7 +69,7 @@ def plugin(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
     site.mkdir()
     (site / "beo_report_plugin.py").write_text(PLUGIN)
     install_plugin(
-        site, "beo-report-plugin", {"test-report": "beo_report_plugin:Backend"}, monkeypatch
+        site, "beo-report-plugin", {"test-report": "beo_report_plugin:SPEC"}, monkeypatch
     )
     yield "test-report"
     from beo_bench import backend as B

@@ -28,10 +28,10 @@ from tests.plugins import install_plugin
 PLUGIN = textwrap.dedent(
     """
     import numpy as np
+    from beo_bench.backend import Backend, BackendSpec, Capabilities
     from beo_bench.types import Estimate
 
-    class _FromTruth:
-        privileged = True  # handed each view's truth: a render per item, nothing more
+    class _FromTruth(Backend):
         class_offset = 0
 
         def predict(self, view):
@@ -49,11 +49,17 @@ PLUGIN = textwrap.dedent(
         name = "gate-worse"
         class_offset = 1
 
-    class Broken:
+    class Broken(Backend):
         name = "gate-broken"
 
         def predict(self, view):
             raise RuntimeError("broken on purpose")
+
+    # the first two are handed each view's truth: a render per item, nothing more
+    PRIVILEGED = Capabilities(privileged=True)
+    STEADY = BackendSpec("gate-steady", lambda options: Steady(), capabilities=PRIVILEGED)
+    WORSE = BackendSpec("gate-worse", lambda options: Worse(), capabilities=PRIVILEGED)
+    BROKEN = BackendSpec("gate-broken", lambda options: Broken())
     """
 )
 ITEMS = 8
@@ -71,7 +77,7 @@ def repo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     site = tmp_path / "site"
     site.mkdir()
     (site / "beo_gate_plugins.py").write_text(PLUGIN)
-    names = {"gate-steady": "Steady", "gate-worse": "Worse", "gate-broken": "Broken"}
+    names = {"gate-steady": "STEADY", "gate-worse": "WORSE", "gate-broken": "BROKEN"}
     install_plugin(
         site, "beo-gate-plugins", {n: f"beo_gate_plugins:{c}" for n, c in names.items()},
         monkeypatch,

@@ -16,16 +16,16 @@ from beo_bench.bench.runner import RunConfig, run
 from beo_bench.bench.suites import get_suite
 from beo_bench.cli import build_parser
 from beo_bench.types import Estimate, GroundTruth
+from tests.specs import register_class
 
 FAST = {"mean_instances": 4}
 """The random bound's class means from 4 instances a class (the default uses the split)."""
 
 
-class Peek:
+class Peek(B.Backend):
     """Wraps the oracle and declares ``privileged``: what a cheating plugin would do."""
 
     name = "test-peek"
-    privileged = True
 
     def __init__(self) -> None:
         self.inner = B.get_backend("oracle")
@@ -36,7 +36,7 @@ class Peek:
 
 @pytest.fixture
 def peek():
-    B.register_backend("test-peek")(Peek)
+    register_class(Peek, privileged=True)  # what a cheating plugin would declare
     try:
         yield "test-peek"
     finally:
@@ -74,7 +74,7 @@ def test_the_cli_has_the_flag_on_run_and_all() -> None:
     assert p.parse_args(["all", "--allow-privileged"]).allow_privileged is True
 
 
-class StackSearch:
+class StackSearch(B.Backend):
     """Looks through every frame above its ``predict`` for a ``GroundTruth`` (or a list or
     tuple holding one) among the frame's locals: the cheat a generic plugin could try."""
 
@@ -99,7 +99,7 @@ class StackSearch:
 
 @pytest.mark.parametrize("suite", ["pose-3dof", "pose-1dof", "tabletop", "pick"])
 def test_the_truth_is_not_on_predicts_call_stack(suite) -> None:
-    B.register_backend("test-stack-search")(StackSearch)
+    register_class(StackSearch)
     try:
         ev = Evaluator.of(get_suite(suite).with_overrides(size=2), "test-stack-search")
         rows = ev.run_item(1)
@@ -107,6 +107,6 @@ def test_the_truth_is_not_on_predicts_call_stack(suite) -> None:
     finally:
         B.unregister_backend("test-stack-search")
     assert rows and all(r.get("failure") is None for r in rows)
-    found = ev.backend.inner.found  # type: ignore[attr-defined]  # a plain class, wrapped
+    found = ev.backend.found  # type: ignore[attr-defined]
     assert found == [], f"the truth was on the stack at {found}"
     assert np.isfinite(rows[0]["item_ms"])

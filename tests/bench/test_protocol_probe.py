@@ -10,6 +10,8 @@ exact translation on ``pose-3dof``.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -18,6 +20,7 @@ from beo_bench import backend as B
 from beo_bench import metrics
 from beo_bench.bench.evaluate import Evaluator, ItemViews
 from beo_bench.bench.suites import get_suite, list_suites
+from beo_bench.options import option
 from tests.bench.probe import IMAGE_FIELDS, READ_FIELDS, FieldProbe, Memory, probe_features
 
 N_ISOLATED = 60
@@ -87,15 +90,20 @@ def _chance_rotation(truths, yaw_only: bool, rng) -> np.ndarray:
     return np.asarray(out)
 
 
+@dataclass(frozen=True)
+class ProbeOptions:
+    attack: str = option("origin", "origin, or the memory's nearest truth")
+
+
 @pytest.fixture
 def probe_backend():
     """Registers ``test-probe`` (its memory filled by the test) for the Evaluator to build."""
     memory: list[Memory] = []
 
-    def factory(attack: str = "origin") -> FieldProbe:
-        return FieldProbe(attack, memory[0] if memory else None)
+    def build(options: ProbeOptions) -> FieldProbe:
+        return FieldProbe(options.attack, memory[0] if memory else None)
 
-    B.register_backend("test-probe")(factory)
+    B.register(B.BackendSpec("test-probe", build, ProbeOptions))
     try:
         yield memory
     finally:

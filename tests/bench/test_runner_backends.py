@@ -9,11 +9,11 @@ import pytest
 from beo_bench import backend as B
 from beo_bench.bench.runner import RunError, read_rows
 from tests.bench.runs import FAST_RANDOM, short_run
+from tests.specs import register_class
 
 
 def test_a_failing_backend_is_recorded_and_the_run_goes_on(tmp_path) -> None:
-    @B.register_backend("test-boom")
-    class Boom:
+    class Boom(B.Backend):
         name = "test-boom"
 
         def predict(self, view):
@@ -21,6 +21,7 @@ def test_a_failing_backend_is_recorded_and_the_run_goes_on(tmp_path) -> None:
                 raise RuntimeError("odd mask")
             return B.get_backend("random", **FAST_RANDOM).predict(view)
 
+    register_class(Boom)
     try:
         # registered here, so it exists only in this process: one in-process worker
         s = short_run(tmp_path, "pose-3dof", "test-boom", 12, workers=1)
@@ -39,24 +40,24 @@ def test_a_failing_backend_is_recorded_and_the_run_goes_on(tmp_path) -> None:
 def test_prepare_runs_once_before_the_items_with_the_suite_classes(tmp_path) -> None:
     calls: list[tuple[str, ...]] = []
 
-    @B.register_backend("test-prepared")
-    class Prepared:
+    class Prepared(B.Backend):
         name = "test-prepared"
 
         def __init__(self) -> None:
             self.inner = B.get_backend("random", **FAST_RANDOM)
 
-        def prepare(self, categories: tuple[str, ...]) -> None:
-            calls.append(categories)
+        def prepare(self, ctx) -> None:
+            calls.append(tuple(ctx.categories))
 
         def predict(self, view):
             return self.inner.predict(view)
 
+    register_class(Prepared)
     try:
         short_run(tmp_path, "pick", "test-prepared", 1, workers=1)
         short_run(tmp_path, "pick", "test-prepared", 1, workers=1, resume=True)  # nothing to do
     finally:
         B.unregister_backend("test-prepared")
-    from beo_bench.envs.pick import default_categories
+    from beo_bench.scenes.tabletop import default_categories
 
     assert calls == [default_categories()]

@@ -32,6 +32,7 @@ from beo_bench.bench.runner import (
 from beo_bench.bench.suites import get_suite
 from beo_bench.bench.summary import TIMING_KEYS
 from beo_bench.errors import CorruptDataError, UsageError
+from tests.specs import register_class
 
 ROOT = Path(__file__).resolve().parents[2]
 FAULTS = "tests.bench.runner_faults"
@@ -410,10 +411,8 @@ def test_a_resume_with_another_model_is_refused(tmp_path) -> None:
 
     model = {"digest": "aaaa1111"}
 
-    @B.register_backend("test-digest")
-    class Learned:
+    class Learned(B.Backend):
         name = "test-digest"
-        privileged = True  # a plain class: its capabilities are its class attributes
 
         def __init__(self) -> None:
             self.inner = B.get_backend("oracle")
@@ -424,6 +423,7 @@ def test_a_resume_with_another_model_is_refused(tmp_path) -> None:
         def predict(self, view):
             return self.inner.predict(view)
 
+    register_class(Learned, privileged=True)
     out = tmp_path / "out"
     try:
         s = run(_priv(_cfg("pose-1dof", "test-digest", 2)), out, progress=False, workers=1)

@@ -11,6 +11,7 @@ from beo_bench import backend as B
 from beo_bench.bench.runner import RunConfig, read_rows, run
 from beo_bench.bench.suites import get_suite
 from tests.bench.runs import FAST_RANDOM, short_run
+from tests.specs import register_class
 
 
 @pytest.mark.parametrize("suite", ["known-pose", "pose-1dof", "pose-3dof"])
@@ -110,10 +111,8 @@ def test_a_backend_that_fails_on_some_views_loses_on_every_mean(tmp_path) -> Non
     """The oracle, failing on some views, against itself: worse on every mean (a failure
     scores the worst case), not merely on the failure count."""
 
-    @B.register_backend("test-flaky-oracle")
-    class Flaky:
+    class Flaky(B.Backend):
         name = "test-flaky-oracle"
-        privileged = True
 
         def __init__(self) -> None:
             self.inner = B.get_backend("oracle")
@@ -123,6 +122,7 @@ def test_a_backend_that_fails_on_some_views_loses_on_every_mean(tmp_path) -> Non
                 raise RuntimeError("no estimate for this one")
             return self.inner.predict(view)
 
+    register_class(Flaky, privileged=True)
     try:
         flaky = short_run(
             tmp_path, "pose-3dof", "test-flaky-oracle", 12, workers=1, allow_privileged=True
@@ -146,10 +146,8 @@ def test_the_runner_scores_an_equivalent_symmetric_pose_as_exact(tmp_path) -> No
     from beo_bench import metrics
     from beo_bench.bench.suites import item_rng
 
-    @B.register_backend("test-symmetric")
-    class Symmetric:
+    class Symmetric(B.Backend):
         name = "test-symmetric"
-        privileged = True
 
         def __init__(self) -> None:
             self.inner = B.get_backend("oracle")
@@ -161,6 +159,7 @@ def test_the_runner_scores_an_equivalent_symmetric_pose_as_exact(tmp_path) -> No
             est.rotation, est.translation = gt.R_cam @ R[k], gt.t_cam + gt.R_cam @ t[k]
             return est
 
+    register_class(Symmetric, privileged=True)
     # a suite seed whose table item (the 17th: the 18 classes cycle) is table/test/3
     base = get_suite("pose-1dof")
     seed = next(

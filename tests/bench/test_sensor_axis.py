@@ -69,15 +69,14 @@ def test_the_sensor_is_part_of_the_identity_a_resume_checks(tmp_path) -> None:
     runner._check_same_run(ideal, ideal, tmp_path)
     with pytest.raises(RunUsageError, match="sensor"):
         runner._check_same_run(ideal, kinect, tmp_path)
-    # a run recorded before sensors existed (noise: false) resumes as the ideal one it is;
-    # the old noise model's runs (noise: true) match no sensor
+    # a run recorded before sensors existed (noise: false or true) is refused in one line
     legacy = json.loads(json.dumps(ideal))
     del legacy["suite"]["sensor"]
-    legacy["suite"]["noise"] = False
-    runner._check_same_run(legacy, ideal, tmp_path)
-    legacy["suite"]["noise"] = True
-    with pytest.raises(RunUsageError):
-        runner._check_same_run(legacy, ideal, tmp_path)
+    for noise in (False, True):
+        legacy["suite"]["noise"] = noise
+        with pytest.raises(RunUsageError, match=r"older beo-bench.*new --out") as e:
+            runner._check_same_run(legacy, ideal, tmp_path)
+        assert "\n" not in str(e.value)
 
 
 # -- the command line -------------------------------------------------------------------------

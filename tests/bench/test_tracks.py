@@ -18,15 +18,15 @@ from beo_bench.bench.runner import RunConfig, RunError, read_rows, run
 from beo_bench.bench.suites import TRACKS, backend_tracks, get_suite, list_suites
 from beo_bench.errors import UsageError
 from beo_bench.types import Estimate, View
+from tests.specs import register_class
 
 SPY = "test-hint-spy"
 
 
-class HintSpy:
+class HintSpy(B.Backend):
     """Says which class it was told: the hinted one, else class 0 (cheap and valid)."""
 
     name = SPY
-    wants_class_hint = True
 
     def predict(self, view: View) -> Estimate:
         probs = np.zeros(len(view.categories))
@@ -40,9 +40,7 @@ class HintSpy:
 
 @pytest.fixture
 def spy():
-    B.register(
-        B.BackendSpec.from_factory(SPY, HintSpy, "test")
-    )  # registered here: the runner scores it in-process
+    register_class(HintSpy, class_hint=B.ClassHint.OPTIONAL)  # scored in-process
     yield SPY
     B.unregister_backend(SPY)
 
@@ -184,7 +182,7 @@ def test_all_runs_hint_users_in_both_tracks_and_the_others_class_free(tmp_path) 
 class PerCategorySpy(HintSpy):
     """A backend that cannot answer without the class (per-category networks)."""
 
-    needs_class_hint = True
+    name = "test-percat-spy"
 
 
 def test_a_backend_that_needs_the_hint_runs_in_the_class_given_track_only(tmp_path) -> None:
@@ -192,7 +190,7 @@ def test_a_backend_that_needs_the_hint_runs_in_the_class_given_track_only(tmp_pa
     the campaign runs them class-given only, and a class-free run of one is refused."""
     suite = get_suite("pose-3dof")
     assert backend_tracks(suite, True, needs_class_hint=True) == ("class-given",)
-    B.register(B.BackendSpec.from_factory("test-percat-spy", PerCategorySpy, "test"))
+    register_class(PerCategorySpy, class_hint=B.ClassHint.REQUIRED)
     try:
         with pytest.raises(UsageError, match=r"needs the class hint.*--track class-given"):
             _run(tmp_path / "free", "pose-3dof", "test-percat-spy", 2, track="class-free")

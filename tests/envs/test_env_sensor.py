@@ -91,6 +91,7 @@ def test_a_bad_sensor_or_the_old_noise_argument_fails_at_make() -> None:
     assert "\n" not in str(e.value)
     with pytest.raises(EnvConfigError, match="sensor="):
         gym.make("BEOPick-v0", sensor=True)
-    with pytest.raises(EnvConfigError, match="sensor='kinect-v1'") as e:
-        gym.make("BEOPick-v0", noise=True)
-    assert "\n" not in str(e.value)
+    for noise in (True, False):  # any noise= (sensor='ideal' is the default)
+        with pytest.raises(EnvConfigError, match="sensor='kinect-v1'") as e:
+            gym.make("BEOPick-v0", noise=noise)
+        assert "\n" not in str(e.value)

@@ -26,8 +26,8 @@ from beo_bench.objects import (
     instance_from_key,
 )
 from beo_bench.objects.cache import mesh_hash
-from beo_bench.objects.processing import rotation_iou
 from beo_bench.objects.registry import generate, instance_params
+from beo_bench.objects.symmetry import rotation_iou
 
 IOU_KEEPS = 0.95
 """Volume IoU above which a rotation counts as keeping the solid (a symmetry), below which

@@ -9,8 +9,8 @@ import trimesh
 
 from beo_bench.geometry import axis_angle, symmetry_transformations
 from beo_bench.objects import SPLITS, ObjectSet, categories, get_category, instance_from_key
-from beo_bench.objects.processing import rotation_iou
 from beo_bench.objects.registry import instance_params
+from beo_bench.objects.symmetry import rotation_iou
 
 CATEGORIES = categories()
 GRIPPER_OPENING = 0.08

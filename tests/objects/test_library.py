@@ -190,7 +190,8 @@ def test_inside_tests_release_their_embree_scene() -> None:
     the inside test must leave none behind (and still be exact)."""
     import trimesh
 
-    from beo_bench.objects.processing import contains, voxelize
+    from beo_bench.objects.processing import voxelize
+    from beo_bench.objects.solid import contains
 
     box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
     inside = contains(box, np.array([[0.0, 0.0, 0.0], [0.9, 0.0, 0.0]]))

@@ -45,7 +45,7 @@ from beo_bench.objects.loaders import (
     detect_layout,
 )
 from beo_bench.objects.prepare import prepare
-from beo_bench.objects.processing import estimate_symmetry, rotation_iou
+from beo_bench.objects.symmetry import estimate_symmetry, rotation_iou
 
 REAL_SPLITS = ("train", "val", "test")
 CHAIR, MUG, UNKNOWN = "03001627", "03797390", "09999999"

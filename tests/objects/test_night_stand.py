@@ -8,8 +8,8 @@ import numpy as np
 
 import beo_bench.objects.night_stand  # noqa: F401  (registers the category)
 from beo_bench.geometry import axis_angle
-from beo_bench.objects.processing import rotation_iou
 from beo_bench.objects.registry import instance_params
+from beo_bench.objects.symmetry import rotation_iou
 from tests.objects.category_checks import (
     deterministic_per_key,
     module_test_set,

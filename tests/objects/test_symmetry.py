@@ -13,7 +13,6 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 from beo_bench.geometry import axis_angle, cyclic_z, discrete_symmetry, no_symmetry, rigid
-from beo_bench.objects import processing
 from beo_bench.objects.symmetry import (
     analyse_symmetry,
     estimate_symmetry,
@@ -244,10 +243,7 @@ def test_names_follow_group_structure() -> None:
     assert symmetry_name(discrete_symmetry([quarter, flip])) == "4-fold+flips"  # not "8-fold"
 
 
-def test_cache_packing_and_the_old_entry_point() -> None:
+def test_cache_packing() -> None:
     mesh = _cylinder()
     sym = estimate_symmetry(mesh)
     assert unpack_symmetry(pack_symmetry(sym)) == sym
-    # processing keeps the names it always exported
-    assert processing.estimate_symmetry(mesh) == sym
-    assert processing.unpack_symmetry(processing.pack_symmetry(sym)) == sym
