@@ -11,9 +11,9 @@ already recorded is kept; one stopped before its log is resumed). ``--bin`` is t
 ``beo-bench`` of the checkout to record (another worktree's venv: the editable install of
 this one follows its files while they change).
 ``compare`` checks that every ``results.jsonl`` row is the same without its timings (``ms``,
-``item_ms``, ``ms_decision``), every exit status is the same, and every summary's metrics,
-intervals and per-class table are the same without the timing metrics; it prints each
-difference and exits 1 if there is one.
+``item_ms``, ``ms_decision``, pick's ``plan_ms``), every exit status is the same, and every
+summary's metrics, intervals and per-class table are the same without the timing metrics; it
+prints each difference and exits 1 if there is one.
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ BACKENDS = (
     ["hbeo-mdn-posterior"],
     ["swap", "--opt", "base=icp", "--opt", "truth=pose"],
 )
-ROW_TIMING = ("ms", "item_ms", "ms_decision")
+ROW_TIMING = ("ms", "item_ms", "ms_decision", "plan_ms")
 SUMMARY_TIMING = ("ms_per_view_median", "ms_per_view_p95", "views_per_s", "ms_per_decision_median")
 
 
