@@ -28,6 +28,7 @@ from beo_bench.bench.leaderboard import (
     ERROR_BINS,
     NOT_RUN,
     PRIMARY_COMPARISONS,
+    ROBUST_PAIRS,
     Primary,
     confused_pairs,
     error_bins,
@@ -651,6 +652,23 @@ def _sensitivity_per_category(b: Boards) -> str:
     return _table(["category", "episodes", "the oracle", *levels], rows)
 
 
+def _found_target(b: Boards) -> dict[str, list[dict[str, Any]]]:
+    """Each perception backend's ideal-sensor pick row (no options, no bounds, nothing
+    privileged): its episodes that chose their target and record their errors."""
+    per: dict[str, list[dict[str, Any]]] = {}
+    for r in b.rows("pick"):
+        if sensor_tag_of(r) is not None or r["provenance"].get("backend_kwargs"):
+            continue
+        if r["backend"] in ("oracle", "random") or r.get("privileged"):
+            continue
+        eps = found_target_episodes(r)
+        if eps:
+            per[r["backend"]] = eps
+    if not per:
+        raise PendingSuiteError("no pick run records its estimates' errors yet")
+    return per
+
+
 def pick_vs_error(b: Boards) -> str:
     """Pick success against each error of the estimate the episode grasped, binned, over
     the episodes that chose their target (the committed per-episode records of
@@ -658,21 +676,7 @@ def pick_vs_error(b: Boards) -> str:
     the bounds and privileged rows left out. A cell is success (episodes)."""
     from itertools import pairwise
 
-    from beo_bench.bench.leaderboard import episodes
-
-    rows = [
-        r for r in b.rows("pick")
-        if sensor_tag_of(r) is None and not r["provenance"].get("backend_kwargs")
-        and r["backend"] not in ("oracle", "random") and not r.get("privileged")
-    ]  # fmt: skip
-    per: dict[str, list[dict[str, Any]]] = {}
-    for r in rows:
-        eps = [e for e in episodes(r).values() if e.get("chosen_is_target")]
-        eps = [e for e in eps if e.get("rot_err_deg") is not None]
-        if eps:
-            per[r["backend"]] = eps
-    if not per:
-        raise PendingSuiteError("no pick run records its estimates' errors yet")
+    per = _found_target(b)
     out = []
     for key, (what, unit, edges) in ERROR_BINS.items():
         head = [f"{what} ({unit})" if unit else what]
@@ -719,18 +723,7 @@ def pick_tolerance(b: Boards) -> str:
     binned by the grasped estimate's error (:data:`ERROR_BINS`), the error at which success
     falls to half its value in the first bin (:func:`half_success_tolerance` over the bins'
     median errors; IoU's bins read from 1 down)."""
-
-    per: dict[str, list[dict[str, Any]]] = {}
-    for r in b.rows("pick"):
-        if sensor_tag_of(r) is not None or r["provenance"].get("backend_kwargs"):
-            continue
-        if r["backend"] in ("oracle", "random") or r.get("privileged"):
-            continue
-        eps = found_target_episodes(r)
-        if eps:
-            per[r["backend"]] = eps
-    if not per:
-        raise PendingSuiteError("no pick run records its estimates' errors yet")
+    per = _found_target(b)
     head = ["backend", "episodes"]
     head += [f"{what} ({unit})" if unit else what for what, unit, _ in ERROR_BINS.values()]
     rows = []
@@ -779,8 +772,8 @@ def pick_audit(b: Boards) -> str:
     for name, eps in per.items():
         done = [e for e in eps if e.get("force_closure") is not None]
         pooled += done
-        rows.append(_audit_row(f"`{name}`", done))
-    rows.insert(0, _audit_row("every row", pooled))
+        rows.append(_audit_row(f"`{name}`", done, pads))
+    rows.insert(0, _audit_row("every row", pooled, pads))
     audit = _table(head, rows)
     head2 = ["row", "pick success", "held after the shake", "lost to the shake",
              "median slip of the held (cm)", "contacts per finger (median)"]  # fmt: skip
@@ -802,13 +795,11 @@ def pick_audit(b: Boards) -> str:
     return audit + "\n" + _table(head2, rows2)
 
 
-def _audit_row(name: str, done: list[dict[str, Any]]) -> list[str]:
-    from beo_bench.scenes.gripper import GRIPPER
-
+def _audit_row(name: str, done: list[dict[str, Any]], pads: float) -> list[str]:
     sim = [bool(e["lifted_chosen"]) for e in done]
     fc = [bool(e["force_closure"]) for e in done]
     # at the friction the simulated pads have (fc_mu: the least friction that closes)
-    at_pads = [e["fc_mu"] is not None and e["fc_mu"] <= GRIPPER.pad_friction for e in done]
+    at_pads = [e["fc_mu"] is not None and e["fc_mu"] <= pads for e in done]
     n = len(done)
     agree = sum(x == y for x, y in zip(sim, fc, strict=True))
     return [
@@ -817,12 +808,6 @@ def _audit_row(name: str, done: list[dict[str, Any]]) -> list[str]:
         str(sum(y and not x for x, y in zip(sim, fc, strict=True))),
         pct(sum(x == y for x, y in zip(sim, at_pads, strict=True)) / n),
     ]  # fmt: skip
-
-
-ROBUST_PAIRS: tuple[tuple[str, str], ...] = tuple(
-    (m, backend_label(m, {"grasp": "robust"}))
-    for m in ("hbeo-mdn-likelihood", "hbeo-mdn-posterior")
-)
 
 
 def pick_robust(b: Boards) -> str:

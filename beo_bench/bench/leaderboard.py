@@ -1275,10 +1275,13 @@ def gap_table(rows: list[dict[str, Any]]) -> str:
 PICK_REFERENCE = "hbeo"
 """The row every other method of a pick page is paired against, episode by episode (issue
 47: the page says whether hbeo, the MDN and icp differ at picking)."""
+ROBUST_PAIRS: tuple[tuple[str, str], ...] = tuple(
+    (m, f"{m} ({ROBUST})") for m in ("hbeo-mdn-likelihood", "hbeo-mdn-posterior")
+)
+"""Each MDN row and its twin planning over its pose samples (the same estimates)."""
 PICK_MODE_PAIRS: tuple[tuple[str, str], ...] = (
     ("hbeo-mdn-likelihood", "hbeo-mdn-posterior"),
-    ("hbeo-mdn-likelihood", f"hbeo-mdn-likelihood ({ROBUST})"),
-    ("hbeo-mdn-posterior", f"hbeo-mdn-posterior ({ROBUST})"),
+    *ROBUST_PAIRS,
 )
 """Further (A, B) pairs of a pick page: the MDN's two modes against each other."""
 PICK_METRIC = "pick_success"

@@ -247,11 +247,13 @@ def row_errors(row: dict[str, Any], categories: Sequence[str]) -> list[tuple[str
         if row.get("ms_decision") is not None:
             out.append(("decision time", f"{float(row['ms_decision']):.0f} ms"))
         if row.get("force_closure") is not None:  # the grasp audit (pick's AUDIT_FIELDS)
+            from beo_bench.grasping import AUDIT_FRICTION
+
             mu = row.get("fc_mu")
             need = "none" if mu is None else f"mu >= {float(mu):.2f}"
             out.append(("lifted what it aimed at", "yes" if row.get("lifted_chosen") else "no"))
             closure = "yes" if row["force_closure"] else "no"
-            out.append(("force closure at mu 0.4", f"{closure} ({need})"))
+            out.append((f"force closure at mu {AUDIT_FRICTION:g}", f"{closure} ({need})"))
         if row.get("shake_held") is not None:
             held = "held" if row["shake_held"] else "dropped"
             out.append(("after the shake", f"{held}, slipped {float(row['slip_cm']):.1f} cm"))
