@@ -39,13 +39,14 @@ def _type_checking_only(node: ast.AST) -> bool:
     )
 
 
-def _imports(tree: ast.AST) -> list[ast.Import | ast.ImportFrom]:
-    """Every import statement that runs (not those under ``if TYPE_CHECKING:``)."""
+def _imports(tree: ast.AST, type_checking: bool = False) -> list[ast.Import | ast.ImportFrom]:
+    """Every import statement that runs, and those under ``if TYPE_CHECKING:`` too when
+    ``type_checking``."""
     out: list[ast.Import | ast.ImportFrom] = []
     stack = [tree]
     while stack:
         node = stack.pop()
-        if _type_checking_only(node):
+        if _type_checking_only(node) and not type_checking:
             stack.extend(node.orelse)  # type: ignore[attr-defined]
             continue
         if isinstance(node, (ast.Import, ast.ImportFrom)):
@@ -54,7 +55,7 @@ def _imports(tree: ast.AST) -> list[ast.Import | ast.ImportFrom]:
     return out
 
 
-def import_graph() -> nx.DiGraph:
+def import_graph(type_checking: bool = False) -> nx.DiGraph:
     mods = modules()
 
     def owner(name: str) -> str | None:
@@ -66,7 +67,7 @@ def import_graph() -> nx.DiGraph:
     for m, f in mods.items():
         G.add_node(m)
         package = m if f.name == "__init__.py" else m.rpartition(".")[0]
-        for node in _imports(ast.parse(f.read_text())):
+        for node in _imports(ast.parse(f.read_text()), type_checking):
             if isinstance(node, ast.Import):
                 targets = [a.name for a in node.names]
             else:
