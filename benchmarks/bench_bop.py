@@ -26,8 +26,8 @@ from beo_bench.bench.bopscore import score_results
 from beo_bench.bench.export import export_bop, open_items
 from beo_bench.bench.fieldscores import bop_model, score_bop
 from beo_bench.bench.suites import get_suite
-from beo_bench.bop.files import read_scene, scene_ids
 from beo_bench.bop.results import BopEstimate, write_results
+from beo_bench.bop.scenes import read_scene, scene_ids
 from beo_bench.types import Estimate
 
 VIEWS = {"pose-3dof": 40, "tabletop": 8}

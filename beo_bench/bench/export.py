@@ -229,8 +229,9 @@ def _write_split(
     from tqdm import tqdm
 
     from beo_bench.bench.fieldscores import bop_model
-    from beo_bench.bop.files import BopTarget, GtInstance, SceneWriter
+    from beo_bench.bop.files import BopTarget
     from beo_bench.bop.protocol import VISIB_GT_MIN
+    from beo_bench.bop.scenes import GtInstance, SceneWriter
 
     items = open_items(suite)
     writer: SceneWriter | None = None
@@ -298,18 +299,20 @@ def export_bop(
     ``beo_bench.bop.files.export_dir``); the module docstring says what goes where.
     ``withhold_gt``: the test split without its ground truth (poses, masks)."""
     from beo_bench.bop.files import (
-        CATEGORY_MAP_NAME,
-        MODELS_DIR,
-        MODELS_INFO_NAME,
-        TARGETS_NAME,
         ObjectEntry,
-        export_dir,
         model_info,
         model_path,
         write_category_map,
         write_model_ply,
         write_models_info,
         write_targets,
+    )
+    from beo_bench.bop.store import (
+        CATEGORY_MAP_NAME,
+        MODELS_DIR,
+        MODELS_INFO_NAME,
+        TARGETS_NAME,
+        export_dir,
     )
 
     with export_dir(out, extra=(EXPORT_RECORD_NAME,)) as ledger:
@@ -351,7 +354,7 @@ def export_bop(
 def _store_record(path: Any, meta: dict[str, Any]) -> None:
     import json
 
-    from beo_bench.bop.files import write_file
+    from beo_bench.bop.store import write_file
 
     write_file(path, json.dumps(meta, indent=2, sort_keys=True) + "\n")
 

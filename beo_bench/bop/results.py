@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from beo_bench.atomic import atomic_write_bytes
-from beo_bench.bop.files import ForeignOutputError
+from beo_bench.bop.store import ForeignOutputError
 from beo_bench.errors import BopFormatError
 from beo_bench.types import Mat3, Vec3
 

@@ -19,8 +19,9 @@ import pytest
 from beo_bench.bench.bopscore import score_results
 from beo_bench.bench.export import export_bop, image_of, object_ids, open_items
 from beo_bench.bench.suites import get_suite
-from beo_bench.bop.files import read_models_info, read_scene
+from beo_bench.bop.files import read_models_info
 from beo_bench.bop.results import BopEstimate, write_results
+from beo_bench.bop.scenes import read_scene
 from beo_bench.cli import main
 
 
@@ -92,22 +93,22 @@ def test_a_reexport_removes_its_stale_files_and_keeps_the_users(tmp_path, capsys
 def test_a_reexport_after_a_killed_export_removes_what_that_one_wrote(
     tmp_path, monkeypatch
 ) -> None:
-    from beo_bench.bop import files
+    from beo_bench.bop import scenes
 
     out = tmp_path / "bop"
     assert export(out, 1) == 0
-    real = files.SceneWriter.add_image
+    real = scenes.SceneWriter.add_image
 
     def dies_at_the_third(self, im_id, **kw):
         if im_id == 2:
             raise KeyboardInterrupt
         real(self, im_id, **kw)
 
-    monkeypatch.setattr(files.SceneWriter, "add_image", dies_at_the_third)
+    monkeypatch.setattr(scenes.SceneWriter, "add_image", dies_at_the_third)
     with pytest.raises(KeyboardInterrupt):
         export_bop(get_suite("pose-3dof").with_overrides(size=4), out)
     assert (out / "test" / "000000" / "rgb" / "000001.png").exists()
-    monkeypatch.setattr(files.SceneWriter, "add_image", real)
+    monkeypatch.setattr(scenes.SceneWriter, "add_image", real)
     assert export(out, 1) == 0
     assert sorted(p.name for p in (out / "test" / "000000" / "rgb").iterdir()) == ["000000.png"]
 

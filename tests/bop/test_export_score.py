@@ -24,11 +24,10 @@ from beo_bench.bop.files import (
     read_category_map,
     read_model_ply,
     read_models_info,
-    read_scene,
     read_targets,
-    scene_ids,
 )
 from beo_bench.bop.results import HEADER, BopEstimate, write_results
+from beo_bench.bop.scenes import read_scene, scene_ids
 from beo_bench.cli import main
 from beo_bench.objects import instance_from_key
 

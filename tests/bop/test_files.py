@@ -13,6 +13,8 @@ import trimesh
 from scipy.spatial.distance import pdist
 
 from beo_bench.bop import files as bf
+from beo_bench.bop import scenes as bs
+from beo_bench.bop import store as bst
 from beo_bench.errors import BopFormatError
 from beo_bench.geometry import axis_angle, continuous_symmetry, discrete_symmetry
 
@@ -47,13 +49,13 @@ def _image(seed: int) -> dict:
     depth[2:5, 3:6] = 0.0  # holes inside instance 0's silhouette
     R1 = axis_angle([0.2, 0.5, 0.8], 0.7 + seed)
     gts = [
-        bf.GtInstance(
+        bs.GtInstance(
             1, R1, np.array([0.01, -0.02, 0.5 + seed / 10]), _rect(2, 12, 3, 20), _rect(2, 12, 3, 9)
         ),
-        bf.GtInstance(
+        bs.GtInstance(
             2, np.eye(3), np.array([-0.05, 0.03, 0.6]), _rect(10, 20, 15, 30), _rect(10, 20, 15, 30)
         ),
-        bf.GtInstance(
+        bs.GtInstance(
             1, R1.T, np.array([0.0, 0.0, 0.7]), np.zeros((H, W), bool), np.zeros((H, W), bool)
         ),
     ]
@@ -74,7 +76,7 @@ SCENES = {1: (0.1, [0, 1]), 4: (1.0, [3, 7])}
 
 @pytest.fixture
 def dataset(tmp_path: Path) -> Path:
-    root = bf.claim_dataset_dir(tmp_path / "bop")
+    root = bst.claim_dataset_dir(tmp_path / "bop")
     box, cyl = _box(), _cylinder()
     bf.write_model_ply(bf.model_path(root, 1), box.vertices, box.faces)
     bf.write_model_ply(bf.model_path(root, 2), cyl.vertices, cyl.faces, binary=True)
@@ -85,14 +87,14 @@ def dataset(tmp_path: Path) -> Path:
         {1: bf.model_info(box.vertices, sym_box), 2: bf.model_info(cyl.vertices, sym_cyl)},
     )
     bf.write_category_map(
-        root / "models" / bf.CATEGORY_MAP_NAME,
+        root / "models" / bst.CATEGORY_MAP_NAME,
         {1: bf.ObjectEntry("box", "test", "box/abc"), 2: bf.ObjectEntry("can", "val", "can/7")},
     )
     for scene_id, (scale, im_ids) in SCENES.items():
-        with bf.SceneWriter(root, "test", scene_id, depth_scale=scale) as sw:
+        with bs.SceneWriter(root, "test", scene_id, depth_scale=scale) as sw:
             for im_id in im_ids:
                 sw.add_image(im_id, **_image(im_id))
-    bf.write_targets(root / bf.TARGETS_NAME, [bf.BopTarget(1, 0, 1, 2), bf.BopTarget(4, 7, 2, 1)])
+    bf.write_targets(root / bst.TARGETS_NAME, [bf.BopTarget(1, 0, 1, 2), bf.BopTarget(4, 7, 2, 1)])
     return root
 
 
@@ -125,7 +127,7 @@ def test_scene_camera_and_gt_units(dataset: Path) -> None:
         raw_gt = json.loads(
             (bf.scene_path(dataset, "test", scene_id) / "scene_gt.json").read_text()
         )
-        scene = bf.read_scene(dataset, "test", scene_id)
+        scene = bs.read_scene(dataset, "test", scene_id)
         assert sorted(scene.images) == im_ids
         for im_id in im_ids:
             src = _image(im_id)
@@ -149,7 +151,7 @@ def test_scene_camera_and_gt_units(dataset: Path) -> None:
 
 
 def test_gt_info_from_masks(dataset: Path) -> None:
-    scene = bf.read_scene(dataset, "test", 1)
+    scene = bs.read_scene(dataset, "test", 1)
     info = scene.images[0].gt_info
     assert info is not None
     # instance 0: rows 2..11, cols 3..19; visible cols 3..8; depth holes at rows 2-4, cols 3-5
@@ -167,7 +169,7 @@ def test_gt_info_from_masks(dataset: Path) -> None:
 
 def test_images_round_trip(dataset: Path) -> None:
     for scene_id, (scale, im_ids) in SCENES.items():
-        scene = bf.read_scene(dataset, "test", scene_id)
+        scene = bs.read_scene(dataset, "test", scene_id)
         for im_id in im_ids:
             src = _image(im_id)
             np.testing.assert_array_equal(scene.rgb(im_id), src["rgb"])
@@ -187,8 +189,8 @@ def test_images_round_trip(dataset: Path) -> None:
 
 
 def test_depth_out_of_range_is_refused(tmp_path: Path) -> None:
-    root = bf.claim_dataset_dir(tmp_path)
-    sw = bf.SceneWriter(root, "test", 0, depth_scale=0.1)
+    root = bst.claim_dataset_dir(tmp_path)
+    sw = bs.SceneWriter(root, "test", 0, depth_scale=0.1)
     with pytest.raises(ValueError, match=r"depth_scale >= 0\.1"):
         sw.depth_png(np.array([[7.0]]))  # 70000 units of 0.1 mm
     assert sw.depth_png(np.array([[6.5535, np.inf, -1.0]])).tolist() == [[65535, 0, 0]]
@@ -273,14 +275,14 @@ def test_discrete_symmetry_translation_in_mm() -> None:
 
 # -- targets, category map, camera ------------------------------------------------------------
 def test_targets_category_map_camera(dataset: Path) -> None:
-    raw = json.loads((dataset / bf.TARGETS_NAME).read_text())
+    raw = json.loads((dataset / bst.TARGETS_NAME).read_text())
     assert raw[0] == {"im_id": 0, "inst_count": 2, "obj_id": 1, "scene_id": 1}
     assert bf.read_targets(dataset) == [bf.BopTarget(1, 0, 1, 2), bf.BopTarget(4, 7, 2, 1)]
     assert bf.read_category_map(dataset) == {
         1: bf.ObjectEntry("box", "test", "box/abc"),
         2: bf.ObjectEntry("can", "val", "can/7"),
     }
-    raw_map = json.loads((dataset / "models" / bf.CATEGORY_MAP_NAME).read_text())
+    raw_map = json.loads((dataset / "models" / bst.CATEGORY_MAP_NAME).read_text())
     assert raw_map["2"] == {"category": "can", "key": "can/7", "split": "val"}
     bf.write_camera(dataset / "camera.json", K, W, H, 0.1)
     cam = json.loads((dataset / "camera.json").read_text())
@@ -298,26 +300,26 @@ def test_targets_category_map_camera(dataset: Path) -> None:
 # -- ownership --------------------------------------------------------------------------------
 def test_refuses_a_foreign_non_empty_directory(tmp_path: Path) -> None:
     (tmp_path / "notes.txt").write_text("mine")
-    with pytest.raises(bf.ForeignOutputError, match=r"did not create.*notes\.txt"):
-        bf.claim_dataset_dir(tmp_path)
-    with pytest.raises(bf.ForeignOutputError, match="claim_dataset_dir"):
-        bf.write_targets(tmp_path / bf.TARGETS_NAME, [bf.BopTarget(0, 0, 1, 1)])
-    with pytest.raises(bf.ForeignOutputError):
-        bf.SceneWriter(tmp_path, "test", 0)
+    with pytest.raises(bst.ForeignOutputError, match=r"did not create.*notes\.txt"):
+        bst.claim_dataset_dir(tmp_path)
+    with pytest.raises(bst.ForeignOutputError, match="claim_dataset_dir"):
+        bf.write_targets(tmp_path / bst.TARGETS_NAME, [bf.BopTarget(0, 0, 1, 1)])
+    with pytest.raises(bst.ForeignOutputError):
+        bs.SceneWriter(tmp_path, "test", 0)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
     assert (tmp_path / "notes.txt").read_text() == "mine"
 
 
 def test_claims_new_empty_and_own_directories(tmp_path: Path) -> None:
-    root = bf.claim_dataset_dir(tmp_path / "a" / "b")  # created
-    assert (root / bf.MARKER_NAME).is_file()
-    bf.write_targets(root / bf.TARGETS_NAME, [bf.BopTarget(0, 0, 1, 1)])
-    assert bf.claim_dataset_dir(root) == root  # ours: accepted again
+    root = bst.claim_dataset_dir(tmp_path / "a" / "b")  # created
+    assert (root / bst.MARKER_NAME).is_file()
+    bf.write_targets(root / bst.TARGETS_NAME, [bf.BopTarget(0, 0, 1, 1)])
+    assert bst.claim_dataset_dir(root) == root  # ours: accepted again
     (tmp_path / "empty").mkdir()
-    bf.claim_dataset_dir(tmp_path / "empty")
+    bst.claim_dataset_dir(tmp_path / "empty")
     (tmp_path / "file").write_text("x")
-    with pytest.raises(bf.ForeignOutputError, match="is a file"):
-        bf.claim_dataset_dir(tmp_path / "file")
+    with pytest.raises(bst.ForeignOutputError, match="is a file"):
+        bst.claim_dataset_dir(tmp_path / "file")
 
 
 # -- reader errors ----------------------------------------------------------------------------
@@ -331,23 +333,23 @@ def test_reader_names_file_and_key(dataset: Path) -> None:
     scene = dataset / "test" / "000001"
     _edit(scene / "scene_camera.json", lambda c: c["1"].pop("cam_K"))
     with pytest.raises(BopFormatError, match=r"scene_camera\.json key \['1'\]\['cam_K'\]: missing"):
-        bf.read_scene(dataset, "test", 1)
+        bs.read_scene(dataset, "test", 1)
     _edit(scene / "scene_camera.json", lambda c: c["1"].update(cam_K=K.reshape(-1).tolist()))
     _edit(scene / "scene_gt.json", lambda c: c["0"][1].update(cam_R_m2c=[1.0] * 8))
     with pytest.raises(BopFormatError, match=r"scene_gt\.json key \['0'\]\[1\]\['cam_R_m2c'\]"):
-        bf.read_scene(dataset, "test", 1)
+        bs.read_scene(dataset, "test", 1)
 
 
 def test_reader_damaged_and_missing_files(dataset: Path) -> None:
     scene = dataset / "test" / "000004"
     (scene / "scene_gt.json").write_text('{"3": [')
     with pytest.raises(BopFormatError, match=r"scene_gt\.json: not valid JSON"):
-        bf.read_scene(dataset, "test", 4)
+        bs.read_scene(dataset, "test", 4)
     (scene / "scene_gt.json").unlink()
     with pytest.raises(BopFormatError, match=r"scene_gt\.json: file missing"):
-        bf.read_scene(dataset, "test", 4)
-    assert bf.read_scene(dataset, "test", 4, require_gt=False).images[3].gt == ()
-    s = bf.read_scene(dataset, "test", 1)
+        bs.read_scene(dataset, "test", 4)
+    assert bs.read_scene(dataset, "test", 4, require_gt=False).images[3].gt == ()
+    s = bs.read_scene(dataset, "test", 1)
     (s.path / "depth" / "000001.png").unlink()
     with pytest.raises(BopFormatError, match=r"depth/000001\.png: image missing"):
         s.depth_mm(1)
@@ -364,10 +366,10 @@ def test_reader_key_sets_must_agree(dataset: Path) -> None:
     scene = dataset / "test" / "000001"
     _edit(scene / "scene_gt_info.json", lambda c: c.pop("1"))
     with pytest.raises(BopFormatError, match=r"scene_gt_info\.json: lacks image ids 1"):
-        bf.read_scene(dataset, "test", 1)
+        bs.read_scene(dataset, "test", 1)
     _edit(scene / "scene_gt.json", lambda c: c.update({"00": c["0"]}))
     with pytest.raises(BopFormatError, match=r"key \['00'\]: keys must be ids"):
-        bf.read_scene(dataset, "test", 1)
+        bs.read_scene(dataset, "test", 1)
 
 
 def test_models_info_errors(dataset: Path) -> None:
@@ -384,23 +386,23 @@ def test_models_info_errors(dataset: Path) -> None:
 
 
 def test_targets_errors(dataset: Path) -> None:
-    path = dataset / bf.TARGETS_NAME
+    path = dataset / bst.TARGETS_NAME
     _edit(path, lambda c: c[1].pop("inst_count"))
     with pytest.raises(BopFormatError, match=r"\[1\]\['inst_count'\]: missing"):
         bf.read_targets(dataset)
 
 
 def test_scene_json_written_on_close_only(tmp_path: Path) -> None:
-    root = bf.claim_dataset_dir(tmp_path)
-    with pytest.raises(RuntimeError), bf.SceneWriter(root, "val", 3) as sw:
+    root = bst.claim_dataset_dir(tmp_path)
+    with pytest.raises(RuntimeError), bs.SceneWriter(root, "val", 3) as sw:
         sw.add_image(0, **_image(0))
         raise RuntimeError("interrupted")
     scene = bf.scene_path(root, "val", 3)
     assert (scene / "rgb" / "000000.png").is_file()
     assert not list(scene.glob("*.json"))
-    sw2 = bf.SceneWriter(root, "val", 3)
+    sw2 = bs.SceneWriter(root, "val", 3)
     sw2.add_image(0, **_image(0))
     with pytest.raises(ValueError, match="already added"):
         sw2.add_image(0, **_image(0))
     sw2.close()
-    assert sorted(bf.read_scene(root, "val", 3).images) == [0]
+    assert sorted(bs.read_scene(root, "val", 3).images) == [0]

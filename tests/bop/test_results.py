@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from beo_bench.bop import files as bf
 from beo_bench.bop import results as br
+from beo_bench.bop import store as bst
 from beo_bench.bop.results import HEADER, BopEstimate, nearest_rotation, read_results, write_results
 from beo_bench.errors import BopFormatError
 from beo_bench.geometry import axis_angle
@@ -74,7 +74,7 @@ def test_write_then_read_is_exact(tmp_path: Path) -> None:
         )
         np.testing.assert_array_equal(b.R, e.R)
         np.testing.assert_array_equal(b.t_mm, e.t_mm)
-    with pytest.raises(bf.ForeignOutputError, match="exists"):
+    with pytest.raises(bst.ForeignOutputError, match="exists"):
         write_results(path, est)
     write_results(path, est[:1], overwrite=True)
     assert len(read_results(path)) == 1
