@@ -1,4 +1,4 @@
-"""The check of a user's dataset before a command uses it (``beo_bench.objects.checks``):
+"""The check of a user's dataset before a command uses it (``beo_bench.objects.datasets.checks``):
 each bad file is one line with its path, what is wrong and the CLI flag that fixes it;
 ``--skip-bad`` runs on the rest; sizes near the limits are flagged; links out of the root
 are never followed; the scan and the faces are bounded; the cache is checked as a command

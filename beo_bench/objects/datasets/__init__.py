@@ -83,7 +83,7 @@ from beo_bench.objects.datasets.dataset import (
     reference_split,
     train_command,
 )
-from beo_bench.objects.datasets.layouts import DEFAULT_UNITS, LAYOUTS, ROOT_ENV, SOURCES
+from beo_bench.objects.datasets.layouts import LAYOUTS, ROOT_ENV
 from beo_bench.objects.datasets.load import DEFAULT_REPAIR, REPAIR_MODES, LoadOptions
 from beo_bench.objects.datasets.meshfile import (
     CATEGORY_SIZES,
@@ -97,13 +97,11 @@ __all__ = [
     "ALL_SPLIT",
     "CATEGORY_SIZES",
     "DEFAULT_REPAIR",
-    "DEFAULT_UNITS",
     "LAYOUTS",
     "MAX_INPUT_FACES",
     "REPAIR_MODES",
     "ROOT_ENV",
     "SHORT_CHARS",
-    "SOURCES",
     "UNIT_MODES",
     "Dataset",
     "DatasetCheck",

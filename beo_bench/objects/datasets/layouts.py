@@ -135,63 +135,22 @@ SHAPENET_TO_CANONICAL: Mat3 = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0
 # The 55 ShapeNetCore v2 synsets (WordNet 3.0 offsets) with short snake_case names, used
 # when no registered category claims a synset through ``shapenet_synsets``.
 SHAPENET_SYNSETS: dict[str, str] = {
-    "02691156": "airplane",
-    "02747177": "trash_bin",
-    "02773838": "bag",
-    "02801938": "basket",
-    "02808440": "bathtub",
-    "02818832": "bed",
-    "02828884": "bench",
-    "02834778": "bicycle",
-    "02843684": "birdhouse",
-    "02871439": "bookshelf",
-    "02876657": "bottle",
-    "02880940": "bowl",
-    "02924116": "bus",
-    "02933112": "cabinet",
-    "02942699": "camera",
-    "02946921": "can",
-    "02954340": "cap",
-    "02958343": "car",
-    "02992529": "cellphone",
-    "03001627": "chair",
-    "03046257": "clock",
-    "03085013": "keyboard",
-    "03207941": "dishwasher",
-    "03211117": "display",
-    "03261776": "earphone",
-    "03325088": "faucet",
-    "03337140": "file_cabinet",
-    "03467517": "guitar",
-    "03513137": "helmet",
-    "03593526": "jar",
-    "03624134": "knife",
-    "03636649": "lamp",
-    "03642806": "laptop",
-    "03691459": "loudspeaker",
-    "03710193": "mailbox",
-    "03759954": "microphone",
-    "03761084": "microwave",
-    "03790512": "motorcycle",
-    "03797390": "mug",
-    "03928116": "piano",
-    "03938244": "pillow",
-    "03948459": "pistol",
-    "03991062": "pot",
-    "04004475": "printer",
-    "04074963": "remote_control",
-    "04090263": "rifle",
-    "04099429": "rocket",
-    "04225987": "skateboard",
-    "04256520": "sofa",
-    "04330267": "stove",
-    "04379243": "table",
-    "04401088": "telephone",
-    "04460130": "tower",
-    "04468005": "train",
-    "04530566": "vessel",
+    "02691156": "airplane", "02747177": "trash_bin", "02773838": "bag", "02801938": "basket",
+    "02808440": "bathtub", "02818832": "bed", "02828884": "bench", "02834778": "bicycle",
+    "02843684": "birdhouse", "02871439": "bookshelf", "02876657": "bottle", "02880940": "bowl",
+    "02924116": "bus", "02933112": "cabinet", "02942699": "camera", "02946921": "can",
+    "02954340": "cap", "02958343": "car", "02992529": "cellphone", "03001627": "chair",
+    "03046257": "clock", "03085013": "keyboard", "03207941": "dishwasher", "03211117": "display",
+    "03261776": "earphone", "03325088": "faucet", "03337140": "file_cabinet", "03467517": "guitar",
+    "03513137": "helmet", "03593526": "jar", "03624134": "knife", "03636649": "lamp",
+    "03642806": "laptop", "03691459": "loudspeaker", "03710193": "mailbox",
+    "03759954": "microphone", "03761084": "microwave", "03790512": "motorcycle", "03797390": "mug",
+    "03928116": "piano", "03938244": "pillow", "03948459": "pistol", "03991062": "pot",
+    "04004475": "printer", "04074963": "remote_control", "04090263": "rifle", "04099429": "rocket",
+    "04225987": "skateboard", "04256520": "sofa", "04330267": "stove", "04379243": "table",
+    "04401088": "telephone", "04460130": "tower", "04468005": "train", "04530566": "vessel",
     "04554684": "washer",
-}
+}  # fmt: skip
 
 
 _SYNSET_RE = re.compile(r"^\d{8}$")
@@ -373,10 +332,6 @@ SOURCES: tuple[str, ...] = tuple(LAYOUTS)
 ROOT_ENV: dict[str, str] = {name: layout.root_env for name, layout in LAYOUTS.items()}
 """Environment variables naming each layout's dataset root (used for keys resolved without
 a dataset)."""
-
-DEFAULT_UNITS: dict[str, str] = {name: layout.default_units for name, layout in LAYOUTS.items()}
-"""Each layout's default ``units``: ShapeNetCore normalises every model to a unit diagonal
-and ModelNet's units are arbitrary; folders hold scans and assets in real units."""
 
 EXPECTED_LAYOUTS = "expected one of:\n" + "\n".join(
     f"  {layout.title + ':':<17}{layout.pattern}" for layout in LAYOUTS.values()
