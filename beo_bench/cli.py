@@ -246,8 +246,7 @@ SPLITS_ALL = ["train", "val", "test", "all"]
 def _dataset(args: argparse.Namespace) -> Any:
     """The :class:`~beo_bench.objects.dataset.Dataset` that ``--objects`` names (None
     without it; loading options given without it are a usage error)."""
-    from beo_bench.objects.datasets import DEFAULT_REPAIR
-    from beo_bench.objects.datasets import MAX_INPUT_FACES
+    from beo_bench.objects.datasets import DEFAULT_REPAIR, MAX_INPUT_FACES
 
     root = getattr(args, "objects", None)
     if root is None:
@@ -267,8 +266,7 @@ def _dataset(args: argparse.Namespace) -> Any:
             given += ["--split all"] if getattr(args, "split", None) == "all" else []
             raise UsageError(f"{', '.join(given)} apply to a user dataset only: add --objects ROOT")
         return None
-    from beo_bench.objects.datasets import vet
-    from beo_bench.objects.datasets import open_dataset
+    from beo_bench.objects.datasets import open_dataset, vet
 
     dataset = open_dataset(root, args.repair, args.up, args.object_size, args.units, args.max_faces)
     # every file is built once, here in the driver, before anything uses the dataset: a bad
