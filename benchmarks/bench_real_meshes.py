@@ -67,13 +67,14 @@ def main() -> None:
         )
         return
     from beo_bench.envs.pickcheck import ground_truth_pick_check
-    from beo_bench.objects.loaders import load_folder
+    from beo_bench.objects.datasets import open_dataset
 
     warnings.simplefilter("ignore")  # unknown-size warnings: the files carry their units
     use_fresh_cache()  # the figures are cold-cache ones (the download stays in the user's)
     loaded, failed, times = [], [], []
+    dataset = open_dataset(root)
     for split in ("train", "val", "test"):
-        for inst in load_folder(root, split=split):  # the defaults: repair="solid", units auto
+        for inst in dataset.objects(split):  # the defaults: repair="solid", units auto
             t0 = time.perf_counter()
             try:
                 _ = inst.mesh, inst.collision_parts(), inst.voxels(32), inst.symmetry
@@ -100,7 +101,7 @@ def main() -> None:
         worst < 20,
         f"mean {sum(times) / max(len(times), 1):.1f} s, cold cache",
     )
-    objects = load_folder(root, split="train")
+    objects = dataset.objects("train")
     r = ground_truth_pick_check(
         episodes=40, seed=0, objects=objects, num_objects=(1, min(4, len(objects.categories)))
     )

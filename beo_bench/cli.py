@@ -175,7 +175,7 @@ def dataset_parent(
     files are loaded), shared by every command that reads objects. ``size_flags``: the
     spellings of the object-size option (``train`` has its own ``--size``, the network's,
     so there it is ``--object-size`` only)."""
-    from beo_bench.objects.loaders import DEFAULT_REPAIR, REPAIR_MODES
+    from beo_bench.objects.datasets import DEFAULT_REPAIR, REPAIR_MODES
 
     p = argparse.ArgumentParser(add_help=False)
     g = p.add_argument_group("your own dataset")
@@ -214,7 +214,7 @@ def dataset_parent(
 def _add_check_options(g: Any) -> None:
     """``--units``, ``--skip-bad`` and ``--max-faces``: how a dataset's files are read and
     what its check (``objects.checks``, before the command uses it) does with bad ones."""
-    from beo_bench.objects.meshfile import MAX_INPUT_FACES, UNIT_MODES
+    from beo_bench.objects.datasets import MAX_INPUT_FACES, UNIT_MODES
 
     g.add_argument(
         "--units",
@@ -246,8 +246,7 @@ SPLITS_ALL = ["train", "val", "test", "all"]
 def _dataset(args: argparse.Namespace) -> Any:
     """The :class:`~beo_bench.objects.dataset.Dataset` that ``--objects`` names (None
     without it; loading options given without it are a usage error)."""
-    from beo_bench.objects.loaders import DEFAULT_REPAIR
-    from beo_bench.objects.meshfile import MAX_INPUT_FACES
+    from beo_bench.objects.datasets import DEFAULT_REPAIR, MAX_INPUT_FACES
 
     root = getattr(args, "objects", None)
     if root is None:
@@ -267,8 +266,7 @@ def _dataset(args: argparse.Namespace) -> Any:
             given += ["--split all"] if getattr(args, "split", None) == "all" else []
             raise UsageError(f"{', '.join(given)} apply to a user dataset only: add --objects ROOT")
         return None
-    from beo_bench.objects.checks import vet
-    from beo_bench.objects.dataset import open_dataset
+    from beo_bench.objects.datasets import open_dataset, vet
 
     dataset = open_dataset(root, args.repair, args.up, args.object_size, args.units, args.max_faces)
     # every file is built once, here in the driver, before anything uses the dataset: a bad
@@ -305,7 +303,7 @@ def cmd_objects(args: argparse.Namespace) -> int:
 
 def _print_skipped(dataset: Any) -> None:
     """The files ``--skip-bad`` left out, at the end of a command's output."""
-    from beo_bench.objects.checks import skipped_text
+    from beo_bench.objects.datasets import skipped_text
 
     if text := skipped_text(dataset):
         print(f"\n{text}")

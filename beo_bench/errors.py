@@ -79,7 +79,7 @@ class EmptyMeshError(MeshError):
 
 class TooManyFacesError(MeshError):
     """A mesh file with more faces than the face budget of a dataset check
-    (:data:`beo_bench.objects.meshfile.MAX_INPUT_FACES`, ``--max-faces``): loading and
+    (:data:`beo_bench.objects.datasets.MAX_INPUT_FACES`, ``--max-faces``): loading and
     repairing a multi-million-face scan takes minutes and gigabytes, so it is refused
     before it is parsed, where its face count can be read from the file's header or lines."""
 
@@ -106,13 +106,13 @@ class DatasetLayoutError(UserDataError, ValueError):
 
 class DatasetTooLargeError(DatasetLayoutError):
     """A dataset folder whose scan passed its bound on the files and folders it visits
-    (:data:`beo_bench.objects.walk.MAX_FILES`): usually ``--objects`` pointing at a home
+    (:data:`beo_bench.objects.datasets.walk.MAX_FILES`): usually ``--objects`` pointing at a home
     or root directory rather than at a dataset."""
 
 
 class BadObjectsError(UserDataError, ValueError):
     """Files of a user's dataset that cannot be used as objects, found by the check before
-    a command uses the dataset (:func:`beo_bench.objects.checks.check_dataset`); the
+    a command uses the dataset (:func:`beo_bench.objects.datasets.check_dataset`); the
     message lists each with what is wrong and the flag that fixes it."""
 
 

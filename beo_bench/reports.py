@@ -19,7 +19,7 @@ import numpy as np
 if TYPE_CHECKING:
     from beo_bench.envs.pickcheck import PickCheck
     from beo_bench.objects import ObjectSet
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
     from beo_bench.objects.prepare import InstanceStats
 
 
@@ -110,7 +110,7 @@ def select_objects(
 ) -> tuple[ObjectSet, dict[str, str] | None]:
     """The object set to summarise (the built-in library, a mesh folder ``root``, or a
     user's ``dataset``) and, for a dataset, per category its models per split."""
-    from beo_bench.objects.dataset import object_set, open_dataset
+    from beo_bench.objects.datasets import object_set, open_dataset
 
     if dataset is None:
         folder = open_dataset(root) if root is not None else None

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 from beo_bench.errors import UsageError
 
 if TYPE_CHECKING:
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
     from beo_bench.perception.beo_model import BEOConfig
     from beo_bench.perception.hbeo_train import HBEOConfig, Kind
 

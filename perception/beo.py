@@ -83,7 +83,7 @@ from beo_bench.types import Estimate, PosePrior, RestPrior, View
 
 if TYPE_CHECKING:
     from beo_bench.bench.runs import RunContext
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
 
 PRIOR_MARGIN_DEG = 5.0
 """How far beyond the prior's elevation range (and its 3-sigma roll) the coarse 3-DOF
@@ -283,7 +283,7 @@ class BEOBackend(Backend):
         that names the ``beo-bench train beo`` command making it: nothing trains in a run."""
         from beo_bench.errors import TrainingInRunError
         from beo_bench.objects import pickable_categories
-        from beo_bench.objects.dataset import train_command
+        from beo_bench.objects.datasets import train_command
         from beo_bench.perception.beo_model import model_dir
 
         given: dict[str, object] = dict(self._training_options())

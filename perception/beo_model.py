@@ -38,7 +38,7 @@ from threadpoolctl import threadpool_limits
 from beo_bench.atomic import atomic_dir
 from beo_bench.errors import CheckpointError
 from beo_bench.names import inside
-from beo_bench.objects.dataset import Dataset, train_command
+from beo_bench.objects.datasets import Dataset, train_command
 from beo_bench.perception import modeldir
 from beo_bench.perception.digest import BEO_ARRAYS, beo_array_shapes, read_beo_arrays, state_digest
 from beo_bench.perception.means import training_voxels

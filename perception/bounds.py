@@ -20,7 +20,7 @@ from beo_bench.types import Estimate, View
 
 if TYPE_CHECKING:
     from beo_bench.bench.runs import RunContext
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
 
 
 @dataclass(frozen=True)

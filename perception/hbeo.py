@@ -51,7 +51,7 @@ from beo_bench.types import Estimate, GroundTruth, View
 
 if TYPE_CHECKING:
     from beo_bench.bench.runs import RunContext
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
 
 Mode = Literal["hbeo", "likelihood", "posterior"]
 NAMES: dict[Mode, str] = {
@@ -354,7 +354,7 @@ class HBEOBackend(Backend):
         that names the ``beo-bench train`` command making it: nothing trains in a run."""
         from beo_bench.errors import TrainingInRunError
         from beo_bench.objects import pickable_categories
-        from beo_bench.objects.dataset import train_command
+        from beo_bench.objects.datasets import train_command
         from beo_bench.perception.hbeo_train import (
             default_config,
             default_name,

@@ -53,7 +53,7 @@ from beo_bench.types import Mat3, Symmetry
 
 if TYPE_CHECKING:
     from beo_bench.objects import ObjectSet
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
 
 DATA_VERSION = 2
 """2: tabletop shards come first in every split, and the validation split is cut into enough
@@ -101,7 +101,7 @@ class DatasetConfig:
 
     def object_set(self, split: str) -> ObjectSet:
         """The instances of ``split`` the crops of that split are rendered from."""
-        from beo_bench.objects.dataset import object_set
+        from beo_bench.objects.datasets import object_set
 
         return object_set(self.objects, split, self.categories, self.per_category)
 

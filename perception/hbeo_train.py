@@ -54,7 +54,7 @@ from beo_bench.perception.hbeo_net import (
 )
 
 if TYPE_CHECKING:
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
 
 Kind = Literal["hbeo", "hbeo-mdn"]
 KINDS: tuple[str, ...] = ("hbeo", "hbeo-mdn")
@@ -135,7 +135,7 @@ class HBEOConfig:
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> HBEOConfig:
-        from beo_bench.objects.dataset import Dataset
+        from beo_bench.objects.datasets import Dataset
 
         ds = dict(d["dataset"])
         ds["categories"] = tuple(ds["categories"])
@@ -1016,7 +1016,7 @@ def load_hbeo(
         base = default_config(kind, categories, recipe=recipe, dataset=dataset, **small)
         cfg = with_overrides(base, size=size)
     path = model_path(default_name(cfg) if cfg is not None else str(name))
-    from beo_bench.objects.dataset import train_command
+    from beo_bench.objects.datasets import train_command
 
     if cfg is not None and not (path / "weights.pt").exists():
         if dataset is not None or not train_default or recipe != "default":

@@ -77,7 +77,7 @@ from beo_bench.types import Estimate, Mat3, Points, RestPrior, View
 
 if TYPE_CHECKING:
     from beo_bench.bench.runs import RunContext
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
 
 _EZ = np.array([0.0, 0.0, 1.0])
 LOOKUP_CELLS = 48

@@ -25,12 +25,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from beo_bench.objects import cache
-from beo_bench.objects.dataset import object_set
+from beo_bench.objects.datasets import object_set
 from beo_bench.objects.prepare import prepare
 from beo_bench.types import RestPrior
 
 if TYPE_CHECKING:
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
 
 MEANS_VERSION = 1
 REST_SCENES = 300
@@ -65,7 +65,7 @@ def class_means(
     category (see :func:`training_voxels`), cached. On a user's ``dataset`` (None: the
     procedural library) its instances instead: its ``train`` split, or every model when a
     class has none there (a small folder's hash split)."""
-    from beo_bench.objects.dataset import reference_split
+    from beo_bench.objects.datasets import reference_split
 
     settings: dict[str, object] = {
         "version": MEANS_VERSION,

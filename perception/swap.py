@@ -31,7 +31,7 @@ from beo_bench.types import Estimate, View
 
 if TYPE_CHECKING:
     from beo_bench.bench.runs import RunContext
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
 
 PARTS = ("class", "pose", "shape")
 OWN = ("base", "truth")

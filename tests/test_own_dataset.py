@@ -16,7 +16,8 @@ import trimesh
 from beo_bench.bench.suites import get_suite
 from beo_bench.cli import main
 from beo_bench.errors import UsageError
-from beo_bench.objects.dataset import Dataset, dataset_digest, open_dataset
+from beo_bench.objects.datasets import Dataset, open_dataset
+from beo_bench.objects.datasets.dataset import dataset_digest
 
 EPISODES = 6  # two views of each of the three classes
 
@@ -54,7 +55,7 @@ def _summary(run: Path) -> dict:
 
 
 def test_digest_is_cached_per_file(dataset: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from beo_bench.objects import dataset as ds_module
+    from beo_bench.objects.datasets import dataset as ds_module
 
     monkeypatch.setattr(ds_module, "RACY_NS", 0)  # the files were written just now
     first = dataset_digest(dataset, "folder")

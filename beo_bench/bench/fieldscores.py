@@ -38,7 +38,7 @@ from beo_bench.objects import instance_from_key
 from beo_bench.types import Estimate, GroundTruth, View
 
 if TYPE_CHECKING:
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
 
 BOP_FIELDS = ("bop_vsd", "bop_mssd_mm", "bop_mspd_px", "bop_diameter_mm", "bop_visib_fract")
 """The BOP row fields of a scored view (see the module docstring)."""

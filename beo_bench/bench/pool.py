@@ -245,8 +245,7 @@ def quiet_dataset_warnings() -> None:
     dataset again, and would repeat them once per process, in Python's multi-line form."""
     import warnings
 
-    from beo_bench.objects.meshfile import UnknownSizeWarning
-    from beo_bench.objects.walk import DatasetScanWarning
+    from beo_bench.objects.datasets import DatasetScanWarning, UnknownSizeWarning
 
     warnings.simplefilter("ignore", DatasetScanWarning)
     warnings.simplefilter("ignore", UnknownSizeWarning)

@@ -28,7 +28,7 @@ from beo_bench.errors import BeoBenchError, CorruptDataError, UsageError
 
 if TYPE_CHECKING:
     from beo_bench.backend import Backend, BackendSpec
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
 
 
 class RunError(BeoBenchError, ValueError):

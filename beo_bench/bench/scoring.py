@@ -20,7 +20,7 @@ from beo_bench.objects import instance_from_key
 from beo_bench.types import Estimate, GroundTruth, View
 
 if TYPE_CHECKING:
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
 
 FSCORE_TAU = metrics.FSCORE_TAU
 """F-score threshold: 1% of the unit cube's side, i.e. of the object's largest extent (the

@@ -18,11 +18,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from beo_bench.errors import BeoBenchError, UsageError
-from beo_bench.objects.dataset import SHORT_CHARS
+from beo_bench.objects.datasets import SHORT_CHARS
 from beo_bench.objects.sets import MODELNET10
 
 if TYPE_CHECKING:
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
 
 
 class Kind(str, Enum):

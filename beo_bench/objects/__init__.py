@@ -1,4 +1,5 @@
-"""The object library: ShapeNet-style procedural categories and real-dataset loaders.
+"""The object library: ShapeNet-style procedural categories; a user's dataset is opened by
+:func:`beo_bench.objects.datasets.open_dataset`.
 
 Canonical frame of every instance: +z up, +x front, origin at the bounding-box centre
 (objects are *centred*, not resting on z = 0), real size in metres.
@@ -8,9 +9,8 @@ from __future__ import annotations
 
 import importlib
 
-from beo_bench.objects.dataset import instance_from_key
+from beo_bench.objects.datasets import instance_from_key
 from beo_bench.objects.instance import ObjectInstance
-from beo_bench.objects.loaders import load_folder, load_modelnet, load_shapenet
 from beo_bench.objects.objectset import ObjectSet
 from beo_bench.objects.registry import (
     DEFAULT_SPLIT_SIZES,
@@ -58,9 +58,6 @@ __all__ = [
     "categories",
     "get_category",
     "instance_from_key",
-    "load_folder",
-    "load_modelnet",
-    "load_shapenet",
     "pickable_categories",
     "register_category",
 ]

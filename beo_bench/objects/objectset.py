@@ -3,7 +3,7 @@ procedural library's keys.
 
 Keys are ``<source>/<rest>``: ``proc/v2/mug/test/7`` for procedural instances
 (:func:`resolve_procedural_key`); a dataset's keys (``shapenet``, ``modelnet``, ``folder``)
-are resolved by :func:`beo_bench.objects.dataset.instance_from_key`, the one function for
+are resolved by :func:`beo_bench.objects.datasets.instance_from_key`, the one function for
 every key.
 """
 
@@ -140,8 +140,8 @@ class ObjectSet:
 
     ``ObjectSet(split="test")`` is the procedural library (every registered category,
     ``DEFAULT_SPLIT_SIZES[split]`` instances each unless ``per_category`` says otherwise).
-    A real dataset's sets come from :meth:`beo_bench.objects.dataset.Dataset.objects` (or
-    :func:`~beo_bench.objects.dataset.object_set`, which gives either) and the loaders.
+    A real dataset's sets come from :meth:`beo_bench.objects.datasets.Dataset.objects` (or
+    :func:`~beo_bench.objects.datasets.object_set`, which gives either).
     """
 
     def __init__(
@@ -176,7 +176,7 @@ class ObjectSet:
     def from_instances(
         cls, split: str, instances: dict[str, list[ObjectInstance]], source: str
     ) -> ObjectSet:
-        """A set over given instances (what the dataset loaders build)."""
+        """A set over given instances (what a dataset's layout builds)."""
         self = cls.__new__(cls)
         self.split = split
         self.source = source

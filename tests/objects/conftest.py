@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from beo_bench.objects.layouts import ROOT_ENV
+from beo_bench.objects.datasets import ROOT_ENV
 
 
 @pytest.fixture

@@ -1,4 +1,4 @@
-"""The check of a user's dataset before a command uses it (``beo_bench.objects.checks``):
+"""The check of a user's dataset before a command uses it (``beo_bench.objects.datasets.checks``):
 each bad file is one line with its path, what is wrong and the CLI flag that fixes it;
 ``--skip-bad`` runs on the rest; sizes near the limits are flagged; links out of the root
 are never followed; the scan and the faces are bounded; the cache is checked as a command
@@ -27,10 +27,17 @@ from beo_bench.errors import (
     EmptyMeshError,
     TooManyFacesError,
 )
-from beo_bench.objects import cache, checks, dataset_load, walk
-from beo_bench.objects.checks import SizeWarning, check_dataset, vet
-from beo_bench.objects.dataset import open_dataset
-from beo_bench.objects.meshfile import count_faces, read_mesh
+from beo_bench.objects import cache
+from beo_bench.objects.datasets import (
+    SizeWarning,
+    check_dataset,
+    checks,
+    load,
+    open_dataset,
+    vet,
+    walk,
+)
+from beo_bench.objects.datasets.meshfile import count_faces, read_mesh
 
 
 @pytest.fixture(autouse=True)
@@ -248,10 +255,10 @@ def test_links_out_of_the_root_are_skipped_and_never_read(tmp_path, monkeypatch)
     os.symlink(outside, root / "evil")  # a class folder that is a link out
     os.symlink(outside / "passwd.obj", root / "block" / "x.obj")  # a file link out
     os.symlink(outside / "deep", root / "ball" / "more")  # a folder link out, inside a class
-    from beo_bench.objects import dataset as ds
+    from beo_bench.objects.datasets import dataset as ds
 
     opened: list[str] = []
-    real_sha, real_read = ds._file_sha256, dataset_load.read_mesh
+    real_sha, real_read = ds._file_sha256, load.read_mesh
 
     def sha(p: Path) -> str:
         opened.append(str(p))
@@ -268,7 +275,7 @@ def test_links_out_of_the_root_are_skipped_and_never_read(tmp_path, monkeypatch)
         return real_scandir(path)  # type: ignore[call-overload]
 
     monkeypatch.setattr(ds, "_file_sha256", sha)
-    monkeypatch.setattr(dataset_load, "read_mesh", read)
+    monkeypatch.setattr(load, "read_mesh", read)
     monkeypatch.setattr(walk.os, "scandir", scandir)
     with pytest.warns(walk.DatasetScanWarning) as caught:
         d = open_dataset(root)
@@ -293,7 +300,7 @@ def test_a_modelnet_file_link_out_of_the_root_is_never_read(tmp_path, monkeypatc
     outside = tmp_path / "secret.off"
     trimesh.creation.box(extents=(1, 2, 3)).export(outside)
     os.symlink(outside, root / "chair" / "test" / "chair_2.off")
-    from beo_bench.objects import dataset as ds
+    from beo_bench.objects.datasets import dataset as ds
 
     hashed: list[str] = []
     real_sha = ds._file_sha256
@@ -482,7 +489,7 @@ def test_the_docs_show_the_lines_a_user_sees(tmp_path, capsys) -> None:
 
 # -- the verdicts' cache and the check's processes ----------------------------------------------
 def test_verdicts_are_cached_by_content(tmp_path, monkeypatch) -> None:
-    from beo_bench.objects import dataset as ds
+    from beo_bench.objects.datasets import dataset as ds
 
     monkeypatch.setattr(ds, "RACY_NS", 0)  # the files were written just now
     root = make_folder(tmp_path / "data", junk=True)
@@ -542,7 +549,7 @@ def test_a_name_that_is_not_utf8_is_skipped_with_its_name_escaped(tmp_path, caps
     assert d.categories() == ("ball", "block")
     assert files == ["ball/ball.obj", "block/b0.stl", "block/b1.stl"]
     walk._warn_undecodable.cache_clear()
-    from beo_bench.objects import layouts
+    from beo_bench.objects.datasets import layouts
 
     layouts.top_dirs.cache_clear()
     layouts.dir_entries.cache_clear()

@@ -8,6 +8,7 @@ import re
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -23,27 +24,25 @@ from beo_bench.errors import (
     UnknownSplitError,
 )
 from beo_bench.geometry import axis_angle, rigid
-from beo_bench.objects import (
-    ObjectSet,
-    instance_from_key,
-    load_folder,
-    load_modelnet,
-    load_shapenet,
-    loaders,
-)
+from beo_bench.objects import ObjectSet, instance_from_key
 from beo_bench.objects.cache import entry_path
-from beo_bench.objects.dataset import instance_from_key as resolve
-from beo_bench.objects.dataset import object_set, open_dataset
-from beo_bench.objects.dataset_load import hash_split
-from beo_bench.objects.instance import COACD_CACHE_PARAMS, ObjectInstance
-from beo_bench.objects.layouts import FOLDER, LAYOUTS, MODELNET, SHAPENET, Layout, get_layout
-from beo_bench.objects.layouts.modelnet import modelnet_split
-from beo_bench.objects.loaders import (
+from beo_bench.objects.datasets import instance_from_key as resolve
+from beo_bench.objects.datasets import object_set, open_dataset
+from beo_bench.objects.datasets.layouts import (
+    FOLDER,
+    LAYOUTS,
+    MODELNET,
+    SHAPENET,
     SHAPENET_TO_CANONICAL,
-    axes_rotation,
-    default_size,
+    Layout,
     detect_layout,
+    get_layout,
+    hash_split,
+    modelnet_split,
 )
+from beo_bench.objects.datasets.load import SYMMETRY_CACHE_PARAMS
+from beo_bench.objects.datasets.meshfile import DEFAULT_SIZE, axes_rotation, default_size
+from beo_bench.objects.instance import COACD_CACHE_PARAMS, ObjectInstance
 from beo_bench.objects.prepare import prepare
 from beo_bench.objects.symmetry import estimate_symmetry, rotation_iou
 
@@ -155,6 +154,17 @@ def folder_root(tmp_path: Path) -> Path:
     return root
 
 
+def _objects(
+    root: Path,
+    split: str = "test",
+    categories: list[str] | None = None,
+    per_category: int | None = None,
+    **opts: Any,
+) -> ObjectSet:
+    """A split of the dataset at ``root``, opened the one way there is (:func:`open_dataset`)."""
+    return open_dataset(root, **opts).objects(split, categories, per_category)
+
+
 def _all(loader: Callable[..., ObjectSet], root: Path, **kw: object) -> list[ObjectInstance]:
     return [inst for s in REAL_SPLITS for inst in loader(root, s, **kw)]
 
@@ -178,7 +188,7 @@ def test_shapenet_rotation_is_the_documented_convention() -> None:
 
 
 def test_shapenet_categories_and_round_trip(shapenet_root: Path) -> None:
-    insts = _all(load_shapenet, shapenet_root)
+    insts = _all(_objects, shapenet_root)
     assert len(insts) == 8
     by_cat: dict[str, int] = {}
     for inst in insts:
@@ -195,20 +205,20 @@ def test_shapenet_categories_and_round_trip(shapenet_root: Path) -> None:
 
 def test_shapenet_set_api(shapenet_root: Path) -> None:
     for split in REAL_SPLITS:
-        s = load_shapenet(shapenet_root, split)
+        s = _objects(shapenet_root, split)
         assert len(s) == sum(s.count(c) for c in s.categories) == len(list(s))
         for c in s.categories:
             for i in range(s.count(c)):
                 assert s.get(c, i).index == i and s.get(c, i).split == split
     # splits are disjoint and cover the dataset
-    keys = [i.key for i in _all(load_shapenet, shapenet_root)]
+    keys = [i.key for i in _all(_objects, shapenet_root)]
     assert len(set(keys)) == len(keys) == 8
-    one = load_shapenet(shapenet_root, "train", categories=[MUG], per_category=1)
+    one = _objects(shapenet_root, "train", categories=[MUG], per_category=1)
     assert one.categories == ("mug",) and len(one) <= 1
 
 
 def test_shapenet_canonical_frame(shapenet_root: Path) -> None:
-    for inst in _all(load_shapenet, shapenet_root):
+    for inst in _all(_objects, shapenet_root):
         m = inst.mesh
         assert m.is_watertight
         np.testing.assert_allclose(m.bounds.mean(axis=0), 0.0, atol=1e-9)
@@ -225,13 +235,13 @@ def test_shapenet_canonical_frame(shapenet_root: Path) -> None:
 
 
 def test_real_world_size_option(shapenet_root: Path) -> None:
-    inst = load_shapenet(shapenet_root, "train", size=0.3).instances("chair")[0]
+    inst = _objects(shapenet_root, "train", size=0.3).instances("chair")[0]
     assert inst.mesh.extents.max() == pytest.approx(0.3)
     assert "size=0.3" in inst.key
     assert (
         instance_from_key(inst.key, open_dataset(shapenet_root)).content_hash == inst.content_hash
     )
-    per_cat = _all(load_shapenet, shapenet_root, size={"mug": 0.09})
+    per_cat = _all(_objects, shapenet_root, size={"mug": 0.09})
     for inst in per_cat:
         want = 0.09 if inst.category == "mug" else default_size(inst.category)
         assert inst.mesh.extents.max() == pytest.approx(want)
@@ -239,41 +249,41 @@ def test_real_world_size_option(shapenet_root: Path) -> None:
 
 def test_default_size_of_registered_category_is_procedural_median() -> None:
     assert 0.05 < default_size("mug") < 0.2
-    assert default_size("no_such_category") == loaders.DEFAULT_SIZE
+    assert default_size("no_such_category") == DEFAULT_SIZE
 
 
 def test_categories_by_synset_and_unknown(shapenet_root: Path) -> None:
-    s = load_shapenet(shapenet_root, "train", categories=[MUG, "chair"])
+    s = _objects(shapenet_root, "train", categories=[MUG, "chair"])
     assert set(s.categories) == {"mug", "chair"}
     with pytest.raises(UnknownCategoryError, match="sofa"):
-        load_shapenet(shapenet_root, "test", categories=["sofa"])
+        _objects(shapenet_root, "test", categories=["sofa"])
 
 
 # ------------------------------------------------------------------------------ ModelNet
 
 
 def test_modelnet_splits_and_names(modelnet_root: Path) -> None:
-    test = load_modelnet(modelnet_root, "test")
+    test = _objects(modelnet_root, "test")
     assert test.categories == ("chair", "mug")  # ModelNet cup is our mug
     assert test.count("chair") == 2 and test.count("mug") == 1
-    train = {i.key for i in load_modelnet(modelnet_root, "train")}
-    val = {i.key for i in load_modelnet(modelnet_root, "val")}
+    train = {i.key for i in _objects(modelnet_root, "train")}
+    val = {i.key for i in _objects(modelnet_root, "val")}
     assert train and val and not train & val
     files = {f"modelnet/cup/train/{p.stem}" for p in (modelnet_root / "cup/train").iterdir()}
     assert train | val == files
     dataset = open_dataset(modelnet_root)
-    for inst in load_modelnet(modelnet_root, "val"):
+    for inst in _objects(modelnet_root, "val"):
         assert inst.split == "val" and dataset.instance(inst.key).split == "val"
     with pytest.raises(UnknownSplitError, match="ood"):
-        load_modelnet(modelnet_root, "ood")
+        _objects(modelnet_root, "ood")
     with pytest.raises(UnknownSplitError, match="ood"):
         object_set(dataset, "ood")
     with pytest.raises(UnknownSplitError):
-        load_modelnet(modelnet_root, "holdout")
+        _objects(modelnet_root, "holdout")
 
 
 def test_modelnet_glued_off_header_and_frame(modelnet_root: Path) -> None:
-    inst = _find(load_modelnet, modelnet_root, "chair_0001.off")
+    inst = _find(_objects, modelnet_root, "chair_0001.off")
     m = inst.mesh
     assert m.is_watertight and len(m.faces) == 12
     # ModelNet is z-up like us: the axes are kept, only centred and scaled
@@ -287,7 +297,7 @@ def test_modelnet_glued_off_header_and_frame(modelnet_root: Path) -> None:
 
 
 def test_folder_round_trip_and_splits(folder_root: Path) -> None:
-    insts = _all(load_folder, folder_root)
+    insts = _all(_objects, folder_root)
     assert sorted(i.path.name for i in insts) == ["a.obj", "b.ply", "c.stl", "d.glb", "e.off"]
     dataset = open_dataset(folder_root)
     for inst in insts:
@@ -297,12 +307,12 @@ def test_folder_round_trip_and_splits(folder_root: Path) -> None:
         assert inst.mesh.is_watertight
         assert instance_from_key(inst.key, dataset).content_hash == inst.content_hash
     with pytest.raises(UnknownSplitError):
-        load_folder(folder_root, "ood")
+        _objects(folder_root, "ood")
 
 
 def test_a_loaded_set_pickles_for_worker_processes(folder_root: Path) -> None:
     # an env drawing from a loaded dataset is pickled when it goes to a subprocess vector env
-    s = load_folder(folder_root, "all")
+    s = _objects(folder_root, "all")
     back = pickle.loads(pickle.dumps(s))
     assert back.categories == s.categories
     c = s.categories[0]
@@ -313,13 +323,17 @@ def test_a_loaded_set_pickles_for_worker_processes(folder_root: Path) -> None:
 def test_folder_axes_option(folder_root: Path) -> None:
     # the box is 0.04 x 0.06 x 0.12 in file axes; file +y up -> our z, file +z front ->
     # our x, and right-handedness leaves file x as our y
-    inst = _find(load_folder, folder_root, "a.obj", up="y", front="z", size="native")
-    np.testing.assert_allclose(inst.mesh.extents, [0.12, 0.04, 0.06], atol=1e-9)
-    assert "up=y" in inst.key and "front=z" in inst.key and "size=native" in inst.key
-    # the key carries the options: the dataset opened with the defaults resolves it
-    assert instance_from_key(inst.key, open_dataset(folder_root)).content_hash == inst.content_hash
+    inst = _find(_objects, folder_root, "a.obj", up="y", size="native")
+    np.testing.assert_allclose(inst.mesh.extents, [0.04, 0.12, 0.06], atol=1e-9)
+    assert "up=y" in inst.key and "size=native" in inst.key
+    # the key carries the options: the dataset opened with the defaults resolves it, and a
+    # key may name the files' front axis too (file +z front -> our x, file x -> our y)
+    default = open_dataset(folder_root)
+    assert instance_from_key(inst.key, default).content_hash == inst.content_hash
+    fronted = instance_from_key(inst.key.replace("up=y", "front=z&up=y"), default)
+    np.testing.assert_allclose(fronted.mesh.extents, [0.12, 0.04, 0.06], atol=1e-9)
     with pytest.raises(ValueError, match="different axes"):
-        load_folder(folder_root, up="z", front="-z")
+        _objects(folder_root, up="x")
 
 
 def test_detect_layout_and_open_dataset(
@@ -333,8 +347,9 @@ def test_detect_layout_and_open_dataset(
     assert dataset.objects("test").source == "modelnet"
     s = object_set(dataset, "test", ["mug"])
     assert s.source == "modelnet" and s.categories == ("mug",) and len(s) == 1
-    # the loaders and the dataset give the same instances
-    assert [i.key for i in s] == [i.key for i in load_modelnet(modelnet_root, "test", ["mug"])]
+    # a layout given rather than detected gives the same instances
+    forced = _objects(modelnet_root, "test", ["mug"], layout="modelnet")
+    assert [i.key for i in s] == [i.key for i in forced]
 
 
 def test_each_layout_is_a_layout() -> None:
@@ -360,7 +375,7 @@ def test_each_layout_is_a_layout() -> None:
 def test_keys_resolve_given_their_dataset_or_the_environment(
     shapenet_root: Path, modelnet_root: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    inst = load_shapenet(shapenet_root, "train").instances("chair")[0]
+    inst = _objects(shapenet_root, "train").instances("chair")[0]
     # a process knows no dataset roots, not even of a dataset it loaded: no global state
     with pytest.raises(InvalidKeyError, match="BEO_BENCH_SHAPENET"):
         instance_from_key(inst.key)
@@ -419,45 +434,45 @@ def bad_root(tmp_path: Path) -> Path:
 
 def test_corrupt_files_raise_mesh_load_error(bad_root: Path) -> None:
     for name in ("garbage.obj", "glitch.off"):
-        inst = _find(load_folder, bad_root, name)
+        inst = _find(_objects, bad_root, name)
         with pytest.raises(MeshLoadError, match=re.escape(name)):
             _ = inst.mesh
 
 
 def test_missing_file_raises_mesh_load_error(bad_root: Path) -> None:
-    inst = _find(load_folder, bad_root, "open_box.obj")
+    inst = _find(_objects, bad_root, "open_box.obj")
     inst.path.unlink()
     with pytest.raises(MeshLoadError, match=re.escape("open_box.obj")):
         _ = inst.mesh
 
 
 def test_empty_mesh_raises(bad_root: Path) -> None:
-    inst = _find(load_folder, bad_root, "empty.obj")
+    inst = _find(_objects, bad_root, "empty.obj")
     with pytest.raises(EmptyMeshError, match=re.escape("empty.obj")):
         _ = inst.mesh
 
 
 def test_repair_modes(bad_root: Path) -> None:
     with pytest.raises(NonWatertightMeshError, match=re.escape("open_box.obj")):
-        _ = _find(load_folder, bad_root, "open_box.obj", repair="none").mesh
-    assert _find(load_folder, bad_root, "open_box.obj", repair="basic").mesh.is_watertight
+        _ = _find(_objects, bad_root, "open_box.obj", repair="none").mesh
+    assert _find(_objects, bad_root, "open_box.obj", repair="basic").mesh.is_watertight
     with pytest.raises(NonWatertightMeshError, match=re.escape("open_tube.obj")):
-        _ = _find(load_folder, bad_root, "open_tube.obj", repair="basic").mesh  # a 24-gon
+        _ = _find(_objects, bad_root, "open_tube.obj", repair="basic").mesh  # a 24-gon
     # the default rebuilds what basic cannot close, and keeps the default out of the key
-    tube = _find(load_folder, bad_root, "open_tube.obj")
+    tube = _find(_objects, bad_root, "open_tube.obj")
     assert tube.mesh.is_watertight and tube.mesh.volume > 0 and "repair=" not in tube.key
-    fixed = _find(load_folder, bad_root, "open_tube.obj", repair="voxel")
+    fixed = _find(_objects, bad_root, "open_tube.obj", repair="voxel")
     assert fixed.mesh.is_watertight and fixed.mesh.volume > 0
     assert "repair=voxel" in fixed.key
     with pytest.raises(ValueError, match="repair"):
-        load_folder(bad_root, repair="magic")
+        _objects(bad_root, repair="magic")
 
 
 def test_layout_errors(tmp_path: Path, shapenet_root: Path, modelnet_root: Path) -> None:
     missing = tmp_path / "nowhere"
     for call in (
         lambda: open_dataset(missing),
-        lambda: load_shapenet(missing),
+        lambda: _objects(missing, layout="shapenet"),
         lambda: detect_layout(missing),
     ):
         with pytest.raises(DatasetLayoutError, match="nowhere"):
@@ -466,10 +481,12 @@ def test_layout_errors(tmp_path: Path, shapenet_root: Path, modelnet_root: Path)
     empty.mkdir()
     with pytest.raises(DatasetLayoutError, match="ShapeNetCore v2"):
         open_dataset(empty)
-    with pytest.raises(DatasetLayoutError, match="load_modelnet"):
-        load_shapenet(modelnet_root)
+    with pytest.raises(
+        DatasetLayoutError, match="it looks like a modelnet dataset: layout='modelnet'"
+    ):
+        _objects(modelnet_root, layout="shapenet")
     with pytest.raises(DatasetLayoutError, match="no modelnet data"):
-        load_modelnet(shapenet_root)
+        _objects(shapenet_root, layout="modelnet")
 
 
 # ----------------------------------------------------------------------------- symmetry
@@ -504,12 +521,12 @@ def test_estimate_symmetry_about_centre_of_mass() -> None:
 
 
 def test_loaded_symmetry_is_lazy_and_cached(modelnet_root: Path, tmp_path: Path) -> None:
-    inst = _find(load_modelnet, modelnet_root, "cup_0100.off")
+    inst = _find(_objects, modelnet_root, "cup_0100.off")
     assert inst.mesh.is_watertight
     assert not (tmp_path / "cache" / "symmetry").exists()  # not computed by loading
     sym = inst.symmetry
     assert _sym_size(sym) == (1, 1)
-    assert entry_path("symmetry", inst.content_hash, loaders.SYMMETRY_CACHE_PARAMS).exists()
+    assert entry_path("symmetry", inst.content_hash, SYMMETRY_CACHE_PARAMS).exists()
     assert open_dataset(modelnet_root).instance(inst.key).symmetry == sym
 
 
@@ -530,7 +547,7 @@ def _mug_like() -> trimesh.Trimesh:
 @pytest.mark.slow
 def test_coacd_collision_parts_are_cached(tmp_path: Path) -> None:
     _write(_mug_like(), tmp_path / "mugs" / "mug" / "m.obj")
-    inst = _all(load_folder, tmp_path / "mugs", size="native")[0]
+    inst = _all(_objects, tmp_path / "mugs", size="native")[0]
     path = entry_path("coacd", inst.content_hash, COACD_CACHE_PARAMS)
     assert not path.exists()
     t = time.perf_counter()
@@ -547,7 +564,7 @@ def test_coacd_collision_parts_are_cached(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_prepare_collision_in_workers(folder_root: Path) -> None:
-    insts = [i for i in _all(load_folder, folder_root) if i.category == "widget"]
+    insts = [i for i in _all(_objects, folder_root) if i.category == "widget"]
     stats = prepare(insts, workers=2, progress=False)
     assert [s.key for s in stats] == [i.key for i in insts] and all(s.parts >= 1 for s in stats)
     for inst in insts:  # filled the cache this process reads

@@ -15,7 +15,7 @@ import trimesh
 from PIL import Image
 
 from beo_bench.errors import MeshLoadError, NonFiniteMeshError, TruncatedMeshError
-from beo_bench.objects import load_folder
+from beo_bench.objects.datasets import open_dataset
 from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.processing import MAX_FACES, repair, simplify, voxelize
 
@@ -28,7 +28,7 @@ pytestmark = pytest.mark.usefixtures("isolated_loaders")
 def _load_one(path: Path, root: Path, **kw: object) -> ObjectInstance:
     """The instance of ``path`` from a folder dataset at ``root``, whatever its split."""
     for split in ("train", "val", "test"):
-        for inst in load_folder(root, split=split, **kw):
+        for inst in open_dataset(root, **kw).objects(split):
             if inst.path == path:
                 return inst
     raise AssertionError(f"{path} not found under {root}")
@@ -235,7 +235,7 @@ def test_objectset_check_reports_every_bad_file_at_load_time(tmp_path: Path) -> 
     (folder / "nan.obj").write_bytes(_with_nan(data))
     seen: list[str] = []
     for split in ("train", "val", "test"):
-        objects = load_folder(root, split=split)
+        objects = open_dataset(root).objects(split)
         bad = sorted(i.path.name for i in objects if i.path.name != "fine.obj")
         if bad:
             with pytest.raises(MeshLoadError) as err:

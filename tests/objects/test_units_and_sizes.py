@@ -6,17 +6,18 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 import trimesh
 
 from beo_bench.errors import ImplausibleSizeError, MeshError
+from beo_bench.objects import ObjectSet, instance_from_key
 from beo_bench.objects import categories as library_categories
-from beo_bench.objects import instance_from_key, load_folder, load_modelnet, load_shapenet
-from beo_bench.objects.dataset import open_dataset
-from beo_bench.objects.dataset_load import LoadOptions, hash_split
-from beo_bench.objects.loaders import (
+from beo_bench.objects.datasets import LoadOptions, open_dataset
+from beo_bench.objects.datasets.layouts import hash_split
+from beo_bench.objects.datasets.meshfile import (
     CATEGORY_SIZES,
     DEFAULT_SIZE,
     MAX_DIAGONAL,
@@ -48,8 +49,12 @@ def _write(mesh: trimesh.Trimesh, path: Path) -> Path:
     return path
 
 
-def _one(root: Path, **kw: object) -> trimesh.Trimesh:
-    s = load_folder(root, "test", **kw)  # type: ignore[arg-type]
+def _objects(root: Path, split: str, **opts: Any) -> ObjectSet:
+    return open_dataset(root, **opts).objects(split)
+
+
+def _one(root: Path, **kw: Any) -> trimesh.Trimesh:
+    s = _objects(root, "test", **kw)
     (inst,) = [i for c in s.categories for i in s.instances(c)]
     return inst.mesh
 
@@ -74,13 +79,13 @@ def test_millimetre_file_loads_at_real_size(tmp_path: Path) -> None:
     mesh = _one(root)  # default units="auto"
     np.testing.assert_allclose(np.sort(mesh.extents), np.sort(LEMON_MM) / 1000, rtol=1e-6)
     # stated units give the same object, and the key carries them
-    s = load_folder(root, "test", units="mm")
+    s = _objects(root, "test", units="mm")
     inst = s.instances("lemon")[0]
     assert "units=mm" in inst.key
     np.testing.assert_allclose(inst.mesh.extents, mesh.extents, rtol=1e-9)
     assert instance_from_key(inst.key, open_dataset(root)).content_hash == inst.content_hash
     # the default (auto) has the plain key: one key per object
-    assert "units" not in load_folder(root, "test", units="auto").instances("lemon")[0].key
+    assert "units" not in _objects(root, "test", units="auto").instances("lemon")[0].key
 
 
 def test_centimetre_and_metre_files(tmp_path: Path) -> None:
@@ -125,15 +130,13 @@ def test_unit_diagonal_lemon_gets_the_table_size(tmp_path: Path) -> None:
     mesh = _ellipsoid(LEMON_MM)
     mesh.apply_scale(1.0 / np.linalg.norm(mesh.extents))
     _write(mesh, tmp_path / "mn" / "lemon" / "test" / "lemon_0001.off")
-    (inst,) = load_modelnet(tmp_path / "mn", "test").instances("lemon")
+    (inst,) = _objects(tmp_path / "mn", "test").instances("lemon")
     assert inst.mesh.extents.max() == pytest.approx(CATEGORY_SIZES["lemon"], rel=1e-9)
     assert CATEGORY_SIZES["lemon"] != DEFAULT_SIZE  # not the old 15 cm fallback
     # ShapeNet layout: laptop (03642806) is not a library class but is in the table
     shapenet = tmp_path / "sn" / "03642806" / "l0" / "models" / "model_normalized.obj"
     _write(_ellipsoid((0.9, 0.05, 0.6)), shapenet)
-    laptops = [
-        i for split in ("train", "val", "test") for i in load_shapenet(tmp_path / "sn", split)
-    ]
+    laptops = [i for split in ("train", "val", "test") for i in _objects(tmp_path / "sn", split)]
     assert laptops[0].category == "laptop"
     assert laptops[0].mesh.extents.max() == pytest.approx(CATEGORY_SIZES["laptop"])
     # a normalised file in a folder: units="normalised" scales it like ShapeNet
@@ -181,7 +184,7 @@ def test_object_larger_than_the_table_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ImplausibleSizeError, match=r"diagonal 1\.51 m exceeds 0\.7 m"):
         _one(root, units="m")
     with pytest.raises(ImplausibleSizeError, match=r"size=2\.0"):
-        load_folder(root, "test", size=2.0)
+        _objects(root, "test", size=2.0)
     # a millimetre-sized crumb read as metres is too small
     crumb = _folder(tmp_path / "c", "crumb", _ellipsoid((0.004, 0.003, 0.002)))
     with pytest.raises(ImplausibleSizeError, match="too small"):

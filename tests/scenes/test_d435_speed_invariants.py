@@ -83,7 +83,7 @@ def test_depth_only_render_is_the_renders_depth(bench) -> None:
 def test_left_image_made_over_its_own_box_is_the_same(monkeypatch) -> None:
     """An isolated object: the worker makes the left image over the object's bounding box
     only, which is smaller than the matched window."""
-    from beo_bench.objects.dataset import ObjectSet
+    from beo_bench.objects import ObjectSet
     from beo_bench.scenes.isolated import IsolatedRenderer
 
     iso = IsolatedRenderer(Intrinsics(128, 128, 45.0))

@@ -129,13 +129,13 @@ def test_loaded_mesh_renders_its_true_surface(tmp_path) -> None:
     """A mesh from outside renders its own surface, not its approximate CoACD parts."""
     import trimesh
 
-    from beo_bench.objects import load_folder
+    from beo_bench.objects.datasets import open_dataset
 
     (tmp_path / "mug").mkdir()
     mesh = trimesh.creation.annulus(r_min=0.03, r_max=0.04, height=0.08)
     mesh.export(tmp_path / "mug" / "ring.obj")
     # a lone file lands in one of the hash splits: take whichever holds it
-    sets = [load_folder(tmp_path, split=s) for s in ("train", "val", "test")]
+    sets = [open_dataset(tmp_path).objects(s) for s in ("train", "val", "test")]
     inst = next(o for o in sets if "mug" in o.categories).get("mug", 0)
     with IsolatedRenderer(Intrinsics(96, 96, 45.0)) as r:
         view = r.render(inst, look_at(np.array([0.0, -0.05, 0.4]), np.zeros(3)))

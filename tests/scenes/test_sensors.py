@@ -254,7 +254,7 @@ def test_d435_returns_no_depth_where_there_is_nothing_to_see() -> None:
     match; the device's texture threshold leaves it without depth."""
     import cv2
 
-    from beo_bench.objects.dataset import ObjectSet
+    from beo_bench.objects import ObjectSet
     from beo_bench.scenes.isolated import IsolatedRenderer
 
     iso = IsolatedRenderer(Intrinsics(128, 128, 45.0), sensor="d435")
@@ -278,7 +278,7 @@ def test_kinect_returns_nothing_where_the_render_has_no_surface(seed) -> None:
     the object's (its edges may move a pixel or two outward, carrying the object's depth),
     none the few millimetres a 2x2 block's axial noise made of the background's 0 in
     version 3."""
-    from beo_bench.objects.dataset import ObjectSet
+    from beo_bench.objects import ObjectSet
     from beo_bench.scenes.isolated import IsolatedRenderer
 
     iso = IsolatedRenderer(Intrinsics(128, 128, 45.0), sensor="kinect-v1")

@@ -12,7 +12,7 @@ from beo_bench.bench.kinds.common import ItemKind, Items, Rows
 from beo_bench.bench.suites import Kind, Protocol, Suite, item_rng
 from beo_bench.geometry import rigid
 from beo_bench.objects import ObjectSet
-from beo_bench.objects.dataset import object_set
+from beo_bench.objects.datasets import object_set
 from beo_bench.types import GroundTruth, View, ViewpointPrior
 
 WORLD_OFFSET_M = 1.0

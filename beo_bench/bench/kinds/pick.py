@@ -40,7 +40,7 @@ from beo_bench.types import GroundTruth, View
 
 if TYPE_CHECKING:
     from beo_bench.bench.evaluate import Evaluator
-    from beo_bench.objects.dataset import Dataset
+    from beo_bench.objects.datasets import Dataset
 
 
 def target_class(index: int, n_classes: int) -> int:

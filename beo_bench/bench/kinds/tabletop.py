@@ -16,7 +16,7 @@ from beo_bench.types import GroundTruth, View
 def categories(suite: Suite) -> tuple[str, ...]:
     """The class list the views carry: a dataset's classes, or the env's default ones."""
     if suite.dataset is not None:
-        from beo_bench.objects.dataset import object_set
+        from beo_bench.objects.datasets import object_set
 
         return object_set(suite.dataset, suite.split, suite.categories).categories
     from beo_bench.objects import pickable_categories

@@ -140,6 +140,16 @@ def valid_name(path: str | Path) -> bool:
     return True
 
 
+def subdirs(path: Path) -> list[str]:
+    """Names of the visible sub-folders of ``path``, sorted ([] if it cannot be listed); a
+    name that is not valid UTF-8 is skipped with a warning."""
+    try:
+        names = [e.name for e in os.scandir(path) if e.is_dir() and not e.name.startswith(".")]
+    except OSError:
+        return []
+    return sorted(n for n in names if valid_name(path / n))
+
+
 @functools.lru_cache(maxsize=1024)
 def _warn_undecodable(shown: str) -> None:
     warnings.warn(

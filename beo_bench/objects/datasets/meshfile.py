@@ -3,8 +3,8 @@ checks), its axes (:func:`axes_rotation`), its units and size (:func:`detect_uni
 :func:`default_size`, :data:`CATEGORY_SIZES`) and the plausibility check of the result
 (:func:`check_plausible_size`).
 
-Shared by every dataset layout (:mod:`beo_bench.objects.layouts`); what differs between
-layouts is not here. The module docstring of :mod:`beo_bench.objects.loaders` describes the
+Shared by every dataset layout (:mod:`beo_bench.objects.datasets.layouts`); what differs between
+layouts is not here. The module docstring of :mod:`beo_bench.objects.datasets` describes the
 rules ("Units and size").
 """
 
@@ -33,7 +33,7 @@ from beo_bench.objects.registry import categories as registered_categories
 from beo_bench.types import Mat3
 
 MESH_SUFFIXES: tuple[str, ...] = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf")
-"""File types :func:`load_folder` picks up (matched case-insensitively)."""
+"""File types a folder dataset's scan picks up (matched case-insensitively)."""
 
 
 DEFAULT_SIZE = 0.15

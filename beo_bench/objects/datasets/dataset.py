@@ -22,25 +22,26 @@ import hashlib
 import json
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from beo_bench.atomic import atomic_write_bytes
 from beo_bench.errors import InvalidKeyError, UsageError
 from beo_bench.objects.cache import cache_root
-from beo_bench.objects.dataset_load import DEFAULT_REPAIR, REPAIR_MODES, LoadOptions
-from beo_bench.objects.instance import ObjectInstance
-from beo_bench.objects.layouts import (
+from beo_bench.objects.datasets.layouts import (
     LAYOUTS,
     Layout,
     dataset_entries,
     detect_layout,
+    existing_dir,
     get_layout,
     load_objects,
     resolve_key,
 )
-from beo_bench.objects.meshfile import MAX_INPUT_FACES, UNIT_MODES, axes_rotation
+from beo_bench.objects.datasets.load import DEFAULT_REPAIR, REPAIR_MODES, LoadOptions
+from beo_bench.objects.datasets.meshfile import MAX_INPUT_FACES, UNIT_MODES, axes_rotation
+from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.objectset import PROCEDURAL_PREFIX, ObjectSet, resolve_procedural_key
 
 DIGEST_CHARS = 16
@@ -67,16 +68,17 @@ class Dataset:
     """Absolute path of the dataset's root folder (not part of its identity)."""
     layout: str
     """``shapenet``, ``modelnet`` or ``folder``: a name of
-    :data:`~beo_bench.objects.layouts.LAYOUTS` (see
-    :func:`~beo_bench.objects.layouts.detect_layout`)."""
+    :data:`~beo_bench.objects.datasets.layouts.LAYOUTS` (see
+    :func:`~beo_bench.objects.datasets.layouts.detect_layout`)."""
     digest: str
     """Content digest of its mesh files (:func:`dataset_digest`)."""
     repair: str = DEFAULT_REPAIR
     up: str = "z"
-    size: float | str | None = None
-    """Largest extent in metres, ``"native"``, or None for the category size."""
+    size: float | str | tuple[tuple[str, float], ...] | None = None
+    """Largest extent in metres, ``"native"``, per category (sorted ``(category, size)``
+    pairs, from a mapping), or None for the category size."""
     units: str | None = None
-    """The files' units (``--units``: one of :data:`~beo_bench.objects.meshfile.UNIT_MODES`),
+    """The files' units (``--units``: one of :data:`~.meshfile.UNIT_MODES`),
     or None for the layout's default (folders ``auto``, ShapeNet and ModelNet
     ``normalised``)."""
     skipped: tuple[tuple[str, str], ...] = ()
@@ -122,15 +124,18 @@ class Dataset:
 
     @property
     def layout_spec(self) -> Layout:
-        """The :class:`~beo_bench.objects.layouts.Layout` named by :attr:`layout`."""
+        """The :class:`~beo_bench.objects.datasets.layouts.Layout` named by :attr:`layout`."""
         return get_layout(self.layout)
 
     def options(self) -> LoadOptions:
         """The loading options its instances are built with (the files' up axis only
-        where the layout has that option: folders)."""
+        where the layout has that option: folders; their front axis is +x). Raises
+        ``ValueError`` or :class:`~beo_bench.errors.ImplausibleSizeError` for a size no
+        object has."""
         spec = self.layout_spec
         up = self.up if spec.axes_option else "z"
-        return LoadOptions.make(self.repair, self.size, up, "x", self.units, spec.default_units)
+        size = dict(self.size) if isinstance(self.size, tuple) else self.size
+        return LoadOptions.make(self.repair, size, up, "x", self.units, spec.default_units)
 
     def objects(
         self, split: str, categories: Sequence[str] | None = None, per_category: int | None = None
@@ -169,15 +174,31 @@ def open_dataset(
     root: str | Path,
     repair: str = DEFAULT_REPAIR,
     up: str = "z",
-    size: float | str | None = None,
+    size: float | str | Mapping[str, float] | None = None,
     units: str | None = None,
     max_faces: int = MAX_INPUT_FACES,
+    *,
+    layout: str | None = None,
 ) -> Dataset:
-    """The dataset at ``root`` (layout detected, content digested); a
-    :class:`~beo_bench.errors.UsageError` for options that do not apply. Nothing is checked
-    yet: :func:`beo_bench.objects.checks.check_dataset` builds every file."""
-    layout = detect_layout(root)
+    """The dataset at ``root`` (its ``layout``, by default detected; content digested): the
+    one way to a user's dataset, from the CLI's ``--objects`` and from Python alike. The
+    options are those of :class:`~beo_bench.objects.datasets.load.LoadOptions` (``size``
+    also a ``{category: metres}`` mapping; ``up``: a folder's files' up axis);
+    a :class:`~beo_bench.errors.UsageError` for options that do not apply (``ValueError``
+    or :class:`~beo_bench.errors.ImplausibleSizeError` for a size). No file is read yet:
+    :func:`~beo_bench.objects.datasets.checks.check_dataset` builds every file."""
+    if layout is None:
+        layout = detect_layout(root)
+    else:
+        get_layout(layout)  # a DatasetLayoutError for an unknown name
+        existing_dir(root)
     path = str(Path(root).expanduser().resolve())
+    # a size no tabletop object has is refused here, before any file is read
+    LoadOptions.make(DEFAULT_REPAIR, size)
+    # a mapping is kept as sorted pairs: a Dataset is frozen and hashable
+    sizes = (
+        tuple(sorted((str(k), v) for k, v in size.items())) if isinstance(size, Mapping) else size
+    )
     if up != "z" and not get_layout(layout).axes_option:
         raise UsageError(
             f"--up applies to folder datasets only; {path} is a {layout} dataset, whose axes "
@@ -186,7 +207,7 @@ def open_dataset(
     if repair not in REPAIR_MODES:
         raise UsageError(f"--repair {repair!r}: use one of {', '.join(REPAIR_MODES)}")
     try:
-        axes_rotation(up, "x")  # the folder loader's front axis is +x
+        axes_rotation(up, "x")  # a folder's front axis is +x
     except ValueError as e:
         raise UsageError(f"--up {up!r}: {e}") from None
     default_units = get_layout(layout).default_units
@@ -197,7 +218,7 @@ def open_dataset(
     if int(max_faces) < 1:
         raise UsageError(f"--max-faces {max_faces}: give a whole number of faces >= 1")
     digest = dataset_digest(path, layout)
-    return Dataset(path, layout, digest, repair, up, size, units, (), int(max_faces))
+    return Dataset(path, layout, digest, repair, up, sizes, units, (), int(max_faces))
 
 
 def dataset_files(root: str, layout: str) -> list[tuple[str, Path]]:
@@ -221,11 +242,7 @@ def file_hashes(root: str | Path, layout: str) -> dict[str, str]:
     They are cached (see the module docstring); a file whose size or modification time
     changed is hashed again."""
     root = str(Path(root).resolve())
-    memo_path = (
-        cache_root()
-        / "datasets"
-        / f"{hashlib.sha256(root.encode()).hexdigest()[:16]}-v{DIGEST_CACHE_VERSION}.json"
-    )
+    memo_path = memo_file(root, f"v{DIGEST_CACHE_VERSION}")
     try:
         memo: dict[str, list] = json.loads(memo_path.read_text())
     except (OSError, ValueError):
@@ -262,6 +279,13 @@ def file_hashes(root: str | Path, layout: str) -> dict[str, str]:
     return out
 
 
+def memo_file(root: str, what: str) -> Path:
+    """Where what is known about the files of the dataset at ``root`` (an absolute path) is
+    cached: ``what`` names the memo (its kind and version)."""
+    name = hashlib.sha256(root.encode()).hexdigest()[:16]
+    return cache_root() / "datasets" / f"{name}-{what}.json"
+
+
 def _file_sha256(path: Path) -> str:
     h = hashlib.sha256()
     with open(path, "rb") as f:
@@ -287,7 +311,7 @@ def instance_from_key(key: str, dataset: Dataset | None = None) -> ObjectInstanc
     A procedural key (``proc/...``) needs nothing else. A dataset's key (``shapenet/...``,
     ``modelnet/...``, ``folder/...``: no machine paths) is looked up under ``dataset.root``;
     without a dataset, under the root in the layout's environment variable
-    (:data:`~beo_bench.objects.layouts.ROOT_ENV`: ``$BEO_BENCH_SHAPENET``, ...). Raises
+    (:data:`~beo_bench.objects.datasets.layouts.ROOT_ENV`: ``$BEO_BENCH_SHAPENET``, ...). Raises
     :class:`~beo_bench.errors.InvalidKeyError` for a malformed key, an unknown source, a
     key of another layout than ``dataset``'s, or one with no root to look it up in.
     """

@@ -3,14 +3,14 @@ scaled, checked), in the driver, before a command uses the dataset, so that a ba
 found up front, named, with what is wrong and the flag that fixes it, instead of failing
 a worker in the middle of a run.
 
-:func:`check_dataset` builds every mesh file of a :class:`~beo_bench.objects.dataset.Dataset`
+:func:`check_dataset` builds every mesh file of a :class:`~.dataset.Dataset`
 (all splits and classes: which files are skipped is part of the dataset's identity, so it
 must not depend on the split a command uses) with its loading options, within a face budget
-(``--max-faces``, :data:`~beo_bench.objects.meshfile.MAX_INPUT_FACES`), and returns a
+(``--max-faces``, :data:`~.meshfile.MAX_INPUT_FACES`), and returns a
 :class:`DatasetCheck`: per file (:class:`FileCheck`) its faces, its largest extent in file
 units, the units assumed and the resulting size, or what is wrong and the CLI flag that
 fixes it. A file that loads but ends within a factor :data:`NEAR_LIMIT` of the size limits
-(:data:`~beo_bench.objects.meshfile.MIN_EXTENT`, :data:`~beo_bench.objects.meshfile.MAX_DIAGONAL`)
+(:data:`~.meshfile.MIN_EXTENT`, :data:`~.meshfile.MAX_DIAGONAL`)
 with a size read from its units is flagged: a 1.0-unit soccer ball read as centimetres is a
 1 cm ball, and nothing else would say so.
 
@@ -36,30 +36,31 @@ from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
+from tqdm import tqdm
 
 from beo_bench.atomic import atomic_write_bytes
 from beo_bench.errors import BadObjectsError, EmptyMeshError, MeshError, TooManyFacesError
-from beo_bench.objects.cache import cache_root
-from beo_bench.objects.dataset import Dataset, file_hashes
-from beo_bench.objects.dataset_load import LoadOptions, build_mesh
-from beo_bench.objects.layouts import dataset_entries
-from beo_bench.objects.meshfile import (
+from beo_bench.objects.datasets.dataset import Dataset, file_hashes, memo_file
+from beo_bench.objects.datasets.layouts import dataset_entries
+from beo_bench.objects.datasets.load import LoadOptions, build_mesh
+from beo_bench.objects.datasets.meshfile import (
     DETECTED_UNITS,
     MAX_DIAGONAL,
     MIN_EXTENT,
     UNITS,
     UnknownSizeWarning,
 )
+from beo_bench.objects.registry import LIBRARY_VERSION
 
 CHECK_VERSION = 2
 """Version of the verdicts' cache: bumped when loading (repair, scaling) changes what a file
 gives, so that no verdict of an older rule is reused (2: a file whose extent is outside
-:data:`~beo_bench.objects.meshfile.FILE_EXTENT_LIMITS` is a size error before the repair)."""
+:data:`~.meshfile.FILE_EXTENT_LIMITS` is a size error before the repair)."""
 
 NEAR_LIMIT = 3.0
 """A loaded object whose largest extent is under this many times
-:data:`~beo_bench.objects.meshfile.MIN_EXTENT` (3 cm), or whose diagonal is over
-:data:`~beo_bench.objects.meshfile.MAX_DIAGONAL` divided by it (23 cm), with a size read from
+:data:`~.meshfile.MIN_EXTENT` (3 cm), or whose diagonal is over
+:data:`~.meshfile.MAX_DIAGONAL` divided by it (23 cm), with a size read from
 its file's units, is flagged: unit readings are 10x apart, so a real object read in the
 wrong units lands within this factor of a limit (a 30 cm tray read as 1 cm-3 cm, a 5 cm
 lemon as 50 cm). Real objects of those sizes are flagged too: the flag says what to pass
@@ -102,7 +103,7 @@ class FileCheck:
     native_extent: float | None = None
     """Largest extent in file units."""
     units: str | None = None
-    """The units its size was read in (a key of :data:`~beo_bench.objects.meshfile.UNITS`),
+    """The units its size was read in (a key of :data:`~.meshfile.UNITS`),
     ``normalised`` (scaled to its class's size), or None (``--size`` set it)."""
     detected: bool = False
     """Whether :attr:`units` were detected (``--units auto``, the folders' default)."""
@@ -234,7 +235,7 @@ def check_dataset(
     dataset: Dataset, workers: int | None = 1, progress: bool = False
 ) -> DatasetCheck:
     """Build every mesh file of ``dataset`` with its loading options and face budget
-    (:attr:`~beo_bench.objects.dataset.Dataset.max_faces`), with ``workers`` processes
+    (:attr:`~beo_bench.objects.datasets.dataset.Dataset.max_faces`), with ``workers`` processes
     (None: one per core; small checks run here), and say what each gives. Files checked
     before with the same content and options are not built again (the verdicts are cached
     under the asset cache's ``datasets/``)."""
@@ -246,11 +247,7 @@ def check_dataset(
     root = Path(dataset.root)
     entries = sorted(dataset_entries(layout, dataset.root), key=lambda e: str(e.path))
     settings = _settings_key(opts, units, rotation)
-    memo_path = (
-        cache_root()
-        / "datasets"
-        / f"{hashlib.sha256(dataset.root.encode()).hexdigest()[:16]}-checks-v{CHECK_VERSION}.json"
-    )
+    memo_path = memo_file(dataset.root, f"checks-v{CHECK_VERSION}")
     memo = _read_memo(memo_path)
     known: dict[str, list[Any]] = memo.setdefault(settings, {})
     results: dict[str, FileCheck] = {}
@@ -286,8 +283,6 @@ def check_dataset(
 
 
 def _settings_key(opts: LoadOptions, units: str, rotation: tuple[tuple[float, ...], ...]) -> str:
-    from beo_bench.objects import LIBRARY_VERSION
-
     blob = {
         "v": CHECK_VERSION,
         "library": LIBRARY_VERSION,
@@ -315,8 +310,6 @@ def _run(
     todo: Sequence[tuple[Any, ...]], workers: int | None, progress: bool
 ) -> list[tuple[FileCheck, list[str]]]:
     """:func:`check_file` of each of ``todo``, in order: here, or with worker processes."""
-    from tqdm import tqdm
-
     bar = tqdm(
         total=len(todo),
         desc="checking dataset files",
@@ -353,9 +346,9 @@ def check_file(
     units: str,
     max_faces: int,
 ) -> tuple[FileCheck, list[str]]:
-    """Build one file as an instance would (:func:`~beo_bench.objects.dataset_load.build_mesh`)
+    """Build one file as an instance would (:func:`~beo_bench.objects.datasets.load.build_mesh`)
     and say what it gives; with the messages of the
-    :class:`~beo_bench.objects.meshfile.UnknownSizeWarning` loading it raised."""
+    :class:`~.meshfile.UnknownSizeWarning` loading it raised."""
     trace: dict[str, Any] = {}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -519,7 +512,7 @@ def vet(
     report to ``out`` when ``table`` (of ``paths``, default every file), warn about files
     near the size limits (one :class:`SizeWarning` each: every one with ``table``, else up
     to :data:`NEAR_LINES`), and then either return the dataset (no bad file), return it
-    with the bad files :attr:`~beo_bench.objects.dataset.Dataset.skipped` (``skip_bad``,
+    with the bad files :attr:`~beo_bench.objects.datasets.dataset.Dataset.skipped` (``skip_bad``,
     one :class:`SkippedFileWarning` each), or print one ``beo-bench: error:`` line per bad
     file to ``err`` and raise :class:`~beo_bench.errors.BadObjectsError`."""
     out = sys.stdout if out is None else out

@@ -1,31 +1,26 @@
-"""What every dataset layout shares: the loading options (:class:`LoadOptions`, which a
-key's ``?option=value`` part spells), the model files a layout finds (:class:`Entry`), the
-stable hash split, and turning an entry into a lazily built instance
-(:func:`make_instance`: read, rotate, repair, centre, scale, check; symmetry estimated on
+"""How a dataset's files are loaded: the loading options (:class:`LoadOptions`, which a
+key's ``?option=value`` part spells) and building one file into a lazily built instance's
+mesh (:func:`build_mesh`: read, rotate, repair, centre, scale, check; symmetry estimated on
 first use).
 
-The layouts themselves (:mod:`beo_bench.objects.layouts`) say what differs: where the
-models are, what their categories and splits are, what their axes are.
+The layouts (:mod:`~beo_bench.objects.datasets.layouts`) say what differs between datasets:
+where the models are, what their categories and splits are, what their axes are.
 """
 
 from __future__ import annotations
 
 import functools
-import hashlib
-import os
 from collections.abc import Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
-from urllib.parse import parse_qsl, quote, urlencode
+from urllib.parse import parse_qsl, urlencode
 
 import numpy as np
 import trimesh
 
 from beo_bench.errors import ImplausibleSizeError, InvalidKeyError
 from beo_bench.objects import cache, processing, symmetry
-from beo_bench.objects.instance import ObjectInstance
-from beo_bench.objects.meshfile import (
+from beo_bench.objects.datasets.meshfile import (
     FILE_EXTENT_LIMITS,
     MAX_DIAGONAL,
     MIN_EXTENT,
@@ -37,16 +32,15 @@ from beo_bench.objects.meshfile import (
     read_mesh,
     scale_factor,
 )
-from beo_bench.objects.registry import Generated, get_category
-from beo_bench.objects.registry import categories as registered_categories
+from beo_bench.objects.registry import Generated
 from beo_bench.objects.symmetry import DEFAULT_MARGIN, ESTIMATOR_VERSION
-from beo_bench.types import Mat3, Symmetry
+from beo_bench.types import Symmetry
 
 REPAIR_MODES: tuple[str, ...] = processing.REPAIR_MODES
 """See :func:`~beo_bench.objects.processing.repair`."""
 
 DEFAULT_REPAIR = "solid"
-"""The loaders' default: ``basic``'s clean-up for a mesh that is already a solid, and a
+"""The default: ``basic``'s clean-up for a mesh that is already a solid, and a
 watertight rebuild (:func:`~beo_bench.objects.processing.solidify`) only for one that is
 still open or not a manifold afterwards. With ``basic`` as the default, 4 of 14 real meshes
 from public robotics packages loaded; real files are rarely clean solids."""
@@ -63,9 +57,6 @@ SYMMETRY_CACHE_PARAMS = {
 }
 """Cache key of estimated symmetries: the estimator's version, so groups found by an older
 estimator (z-only search, hard threshold, offsets at the centre of mass) are recomputed."""
-
-HASH_SPLITS: tuple[tuple[str, float], ...] = (("train", 0.80), ("val", 0.05), ("test", 0.15))
-"""Shares of the hash-based splits of ShapeNet and folders."""
 
 OPTION_NAMES = ("repair", "size", "up", "front", "units")
 """The options a key's query may carry."""
@@ -86,7 +77,7 @@ class LoadOptions:
     up: str = "z"
     front: str = "x"
     units: str | None = None
-    """One of :data:`~beo_bench.objects.meshfile.UNIT_MODES`; None: the layout's default
+    """One of :data:`~beo_bench.objects.datasets.meshfile.UNIT_MODES`; None: the layout's default
     (``Layout.default_units``), so that an object has one key whether its default was
     passed explicitly or not."""
 
@@ -193,85 +184,6 @@ def check_size(v: object) -> float | str:
     return f
 
 
-# --------------------------------------------------------------------------------------
-# entries and splits
-
-
-@dataclass(frozen=True)
-class Entry:
-    """One model file of a dataset."""
-
-    ident: str
-    """The key without its source prefix and options, e.g. ``03001627/1a2b``."""
-    category: str
-    split: str
-    path: Path
-
-
-def unit_hash(text: str) -> float:
-    """A stable hash of ``text`` in [0, 1) (sha256: unlike ``hash()``, the same in every
-    process and run)."""
-    return int.from_bytes(hashlib.sha256(text.encode()).digest()[:8], "big") / 2.0**64
-
-
-def hash_split(text: str) -> str:
-    """The split (:data:`HASH_SPLITS`) a model id falls in: adding models never moves
-    the others."""
-    u, acc = unit_hash(text), 0.0
-    for name, share in HASH_SPLITS:
-        acc += share
-        if u < acc:
-            return name
-    return HASH_SPLITS[-1][0]
-
-
-def subdirs(path: Path) -> list[str]:
-    """Names of the visible sub-folders of ``path``, sorted ([] if it cannot be listed); a
-    name that is not valid UTF-8 is skipped with a warning."""
-    from beo_bench.objects.walk import valid_name
-
-    try:
-        names = [e.name for e in os.scandir(path) if e.is_dir() and not e.name.startswith(".")]
-    except OSError:
-        return []
-    return sorted(n for n in names if valid_name(path / n))
-
-
-# --------------------------------------------------------------------------------------
-# instances
-
-
-def make_instance(
-    source: str,
-    entry: Entry,
-    index: int,
-    opts: LoadOptions,
-    rotation: Mat3,
-    default_units: str,
-) -> ObjectInstance:
-    """The lazily built instance of ``entry`` (instance ``index`` of its split), loaded with
-    ``opts``; ``source`` is the layout's name (the key's prefix), ``rotation`` takes the
-    file's axes into ours and ``default_units`` is the layout's."""
-    registered = entry.category in registered_categories()
-    return ObjectInstance(
-        key=f"{source}/{quote(entry.ident, safe='/')}{opts.key_query(entry.category)}",
-        category=entry.category,
-        split=entry.split,
-        index=index,
-        source=source,
-        build=functools.partial(
-            build_mesh,
-            str(entry.path),
-            entry.category,
-            tuple(map(tuple, np.asarray(rotation).tolist())),
-            opts,
-            opts.units or default_units,
-        ),
-        pickable=get_category(entry.category).pickable if registered else True,
-        path=entry.path,
-    )
-
-
 class _LoadedGenerated(Generated):
     """A loaded mesh whose symmetry is estimated on first use (cached on disk), so that
     only callers that need the symmetry pay for it."""
@@ -311,9 +223,9 @@ def build_mesh(
 ) -> Generated:
     """Read, rotate, repair, centre, scale and check one file (the lazy part of an
     instance); ``units`` is the option with the layout's default filled in. ``max_faces``:
-    the face budget (None: none; see :func:`~beo_bench.objects.meshfile.read_mesh`).
+    the face budget (None: none; see :func:`~beo_bench.objects.datasets.meshfile.read_mesh`).
     ``trace``, when given, is filled as the steps go (the dataset check,
-    :mod:`beo_bench.objects.checks`, tells from it where a file failed and what it
+    :mod:`beo_bench.objects.datasets.checks`, tells from it where a file failed and what it
     measured): ``stage`` (``read``, ``repair``, ``scale``, ``size``: the step under way),
     ``faces``, ``native_extents`` (file units, our axes), ``units`` (the ones used, detected
     ones resolved; None when ``size`` set the scale) and ``extents`` (metres)."""
