@@ -1,7 +1,7 @@
 """``PickConfig``: BEOPick-v0's settings, checked once.
 
 One frozen record holds what ``gym.make("BEOPick-v0", ...)`` takes (docs/env.md,
-"Arguments"), and :class:`~beo_bench.envs.pick.BEOPickEnv`,
+"Arguments"), and the env (``BEOPickEnv``),
 :class:`~beo_bench.scenes.tabletop.TabletopScenes` and the bench's tabletop and pick items
 are all made from it. It is checked when it is made: a bad setting is an
 :class:`~beo_bench.errors.EnvConfigError` saying what to change, so nothing made from a
