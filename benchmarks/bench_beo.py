@@ -17,7 +17,7 @@ from harness import median_ms_per_item, report
 
 from beo_bench.bench.evaluate import Evaluator
 from beo_bench.bench.suites import get_suite
-from beo_bench.scenes.tabletop import default_categories
+from beo_bench.scenes.pickconfig import default_categories
 
 DIAG_VIEWS = 44
 DIAG_SUITES = ("pose-1dof", "modelnet10-1dof")

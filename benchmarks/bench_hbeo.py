@@ -23,7 +23,7 @@ from beo_bench.backend import get_backend
 from beo_bench.bench.evaluate import Evaluator
 from beo_bench.bench.runs import RunConfig, RunContext
 from beo_bench.bench.suites import get_suite
-from beo_bench.scenes.tabletop import default_categories
+from beo_bench.scenes.pickconfig import default_categories
 
 VIEWS = 60
 # (backend, samples, target ms, the dissertation's time per view)

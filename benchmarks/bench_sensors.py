@@ -16,6 +16,7 @@ from harness import paired_median_times, report
 from beo_bench.objects import ObjectSet
 from beo_bench.scenes.camera import Intrinsics
 from beo_bench.scenes.isolated import IsolatedRenderer
+from beo_bench.scenes.pickconfig import PickConfig
 from beo_bench.scenes.sensors import d435 as d435_mod
 from beo_bench.scenes.sensors import kinect_v1 as kin
 from beo_bench.scenes.sensors import make_sensor
@@ -121,13 +122,13 @@ def d435_figures(rng: np.random.Generator) -> dict[str, object]:
 
 
 def speed(rng: np.random.Generator) -> dict[str, np.ndarray]:
-    scenes = TabletopScenes(ObjectSet("test"), num_objects=(3, 4))
+    scenes = TabletopScenes(PickConfig(objects=ObjectSet("test"), num_objects=(3, 4)))
     scenes.reset(seed=11)
     r = scenes._bound_renderer()
     data, cam = scenes.scene.data, scenes.cam  # type: ignore[union-attr]
     images = {"ideal": r.render(data, cam).depth}
     for name, target in (("kinect-v1", 2.0), ("d435", 10.0)):
-        sensor = make_sensor(name, scenes.intrinsics)
+        sensor = make_sensor(name, scenes.config.intrinsics)
         sensor.capture(r, data, cam, rng)  # its scratch arrays, once
         t, ideal = paired_median_times(
             lambda s=sensor: s.capture(r, data, cam, rng), lambda: r.render(data, cam), 25

@@ -4,43 +4,36 @@ The environment's reference is :class:`BEOPickEnv`'s docstring (Gymnasium's layo
 description, action and observation spaces, rewards, starting state, episode end, arguments,
 version history) and, in prose with examples, docs/env.md.
 
-``gym.make("BEOPick-v0")`` goes through :func:`make_pick_env` (bad or unknown keywords become
-an :class:`~beo_bench.errors.EnvConfigError` naming the valid ones) and ends with
-:func:`follow_time_limit`, which keeps ``max_attempts`` and gymnasium's ``TimeLimit``
-(``max_episode_steps``) equal.
+``gym.make("BEOPick-v0", ...)`` goes through :func:`make_pick_env`: its keywords are a
+:class:`~beo_bench.scenes.pickconfig.PickConfig`'s fields (bad or unknown ones become an
+:class:`~beo_bench.errors.EnvConfigError` naming the valid ones). How many grasps an episode
+allows is gymnasium's ``TimeLimit`` (``max_episode_steps``, registered 1).
 """
 
 from __future__ import annotations
 
 import copy
 import difflib
-import inspect
-import math
 import numbers
-from collections import Counter
 from collections.abc import Mapping
+from dataclasses import fields
 from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
 import trimesh
 from gymnasium import spaces
-from gymnasium.wrappers import TimeLimit
 
-from beo_bench.envs import RegisteredSteps
 from beo_bench.errors import ActionError, BeoBenchError, EnvConfigError
 from beo_bench.grasping import Grasp, plan_grasps
-from beo_bench.objects import ObjectSet
-from beo_bench.scenes.builder import Scene, TableConfig
-from beo_bench.scenes.camera import CameraRig, Intrinsics, pixels_to_points
+from beo_bench.scenes.builder import Scene
+from beo_bench.scenes.camera import pixels_to_points
 from beo_bench.scenes.execute import GraspOutcome, execute_grasp, release, settle
 from beo_bench.scenes.gripper import MAX_OPENING
-from beo_bench.scenes.renderer import UINT8_LABELS, Frame, Renderer, mujoco
-from beo_bench.scenes.sensors import SENSORS, Sensor, SensorError, make_sensor
-
-# reset's error is documented as this module's (docs/env.md): re-exported
-from beo_bench.scenes.tabletop import NoVisibleTargetError as NoVisibleTargetError
-from beo_bench.scenes.tabletop import TabletopScenes, default_categories, default_min_target_pixels
+from beo_bench.scenes.pickconfig import RENDER_MODES, PickConfig
+from beo_bench.scenes.renderer import Frame, Renderer, mujoco
+from beo_bench.scenes.sensors import Sensor
+from beo_bench.scenes.tabletop import TabletopScenes
 from beo_bench.types import Mat4, ObjectState
 
 FAR_CLIP = 20.0
@@ -54,26 +47,6 @@ MAX_POSITION_M = 10.0
 """The largest |x|, |y| or |z| (m) a grasp position may have: far beyond the table (a grasp
 off the table but within it is valid and misses), so that only a unit mistake or garbage
 is refused (an :class:`ActionError`), never a strategy."""
-
-OBS_MODES = ("image", "pointcloud")
-"""The observation modes: ``image`` (depth + segmentation images) and ``pointcloud``
-(segmented camera-frame points sampled from the depth image)."""
-
-RENDER_MODES = ("rgb_array", "depth_array")
-"""``render_mode`` values besides None. There is no ``human`` mode: the env is made for
-headless machines, and gymnasium's pygame window wrapper fails there at the first reset."""
-
-DEFAULT_NUM_POINTS = 4096
-"""Points per observation in ``obs_mode="pointcloud"`` when ``num_points`` is not given
-(ManiSkill's and PointNet's usual size)."""
-
-MAX_NUM_POINTS = 2**20
-"""The most points an observation may hold (``num_points``; 1,048,576): 16 MiB of float32
-points and labels per observation, and every pixel of a 1024 x 1024 image. Points beyond an
-image's pixel count only repeat pixels (see :meth:`BEOPickEnv._sample_points`), so more
-adds no information, while ``num_points=10**9`` took 22 GB at the first ``reset`` and was
-killed for memory; a fixed cap rather than the pixel count keeps the bound the same at
-every image size. More is an :class:`~beo_bench.errors.EnvConfigError` at ``gym.make``."""
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 """What a copy of the env restores of the physics: everything ``mj_step`` reads (time,
@@ -162,24 +135,24 @@ class BEOPickEnv(gym.Env):
     :class:`~beo_bench.errors.EnvConfigError`. The target always shows at least
     ``min_target_pixels`` pixels: ``reset`` draws another camera pose (up to
     :data:`~beo_bench.scenes.tabletop.CAMERA_DRAWS`), then another scene (up to
-    :data:`~beo_bench.scenes.tabletop.SCENE_DRAWS`), and otherwise
-    raises :class:`NoVisibleTargetError`; an object too large for the table raises
-    :class:`~beo_bench.scenes.layout.ObjectTooLargeError`. ``info`` holds ``num_objects``,
-    ``attempt`` (0) and ``target_pixels``.
+    :data:`~beo_bench.scenes.tabletop.SCENE_DRAWS`), and otherwise raises
+    :class:`~beo_bench.scenes.tabletop.NoVisibleTargetError`; an object too large for the
+    table raises :class:`~beo_bench.scenes.layout.ObjectTooLargeError`. ``info`` holds
+    ``num_objects``, ``attempt`` (0) and ``target_pixels``.
 
     ## Episode End
 
-    Terminated on success or after ``max_attempts`` grasps; there is no other truncation.
-    ``gym.make`` adds a ``TimeLimit`` of ``max_episode_steps`` = ``max_attempts`` steps (the
-    two follow each other: give either, or both equal), so it never cuts an episode short;
-    on the last allowed attempt it also reports ``truncated=True`` beside
-    ``terminated=True``, which RL libraries treat as terminal. ``step`` after termination
-    (or before ``reset``) raises :class:`EnvStateError`.
+    Terminated on success. How many grasps an episode allows is gymnasium's ``TimeLimit``:
+    ``gym.make`` adds one of ``max_episode_steps`` steps (registered 1: one grasp; pass
+    ``max_episode_steps=3`` for three), which truncates the episode at its last allowed
+    miss. The env itself (``BEOPickEnv(...)`` without ``gym.make``) has no limit. ``step``
+    after termination (or before ``reset``) raises :class:`EnvStateError`.
 
     ## Arguments
 
-    All keyword-only and optional; bad values raise
-    :class:`~beo_bench.errors.EnvConfigError` at construction (``gym.make``).
+    ``BEOPickEnv(config)`` takes a :class:`~beo_bench.scenes.pickconfig.PickConfig`;
+    ``gym.make("BEOPick-v0", ...)`` takes its fields as keywords, all optional. Bad values
+    raise :class:`~beo_bench.errors.EnvConfigError` when the config is made (``gym.make``).
 
     - ``split``: object split, "train", "val" or "test" ("test");
     - ``num_objects``: a count or a (min, max) range of objects per scene ((1, 4));
@@ -191,26 +164,24 @@ class BEOPickEnv(gym.Env):
     - ``camera``: a ``CameraRig`` or a dict of its fields (where cameras are sampled);
     - ``sensor``: the depth sensor, "ideal" (the render as it is), "kinect-v1" or "d435"
       ("ideal"; docs/sensors.md); its noise is drawn from ``np_random``, so the seed fixes
-      it too. It replaced ``noise=`` (``gym.make`` refuses ``noise=`` and says to pass
-      ``sensor="kinect-v1"``);
-    - ``max_attempts``: grasps per episode (default: ``max_episode_steps`` through
-      ``gym.make``, else 1);
+      it too;
     - ``render_mode``: None, "rgb_array" or "depth_array" (metric depth, metres);
     - ``table``: a ``TableConfig``;
     - ``min_target_pixels``: the least visible pixels of the target (50 at 640x480,
       scaled with the image area);
     - ``obs_mode``: "image" or "pointcloud";
     - ``num_points``: points per observation (pointcloud mode only; 4096; at most
-      :data:`MAX_NUM_POINTS`, 2**20).
+      :data:`~beo_bench.scenes.pickconfig.MAX_NUM_POINTS`, 2**20).
 
     ## Version History
 
     - v0: initial version (depth + segmentation observation, one grasp per episode by
       default, the visible-target guarantee, ``info["is_success"]``, ``depth_array``
-      rendering, ``obs_mode="pointcloud"``, uint8 segmentation, ``max_attempts`` tied to
-      ``max_episode_steps``); ``sensor=`` in place of ``noise=`` (the default, ideal
-      depth, observes as before); the ``target_class`` reset option (a reset without it
-      draws as before).
+      rendering, ``obs_mode="pointcloud"``, uint8 segmentation); ``sensor=`` in place of
+      ``noise=`` (the default, ideal depth, observes as before); the ``target_class``
+      reset option (a reset without it draws as before); ``max_attempts`` removed: the
+      ``TimeLimit`` (``max_episode_steps``) alone sets the grasps per episode, and the last
+      allowed miss is truncated rather than terminated.
     """
 
     # gymnasium annotates Env.metadata as an instance attribute, but it is the class's (read
@@ -220,160 +191,55 @@ class BEOPickEnv(gym.Env):
         "render_fps": 4,
     }
 
-    def __init__(
-        self,
-        *,
-        split: str = "test",
-        num_objects: int | tuple[int, int] = (1, 4),
-        categories: list[str] | tuple[str, ...] | None = None,
-        objects: ObjectSet | None = None,
-        image_size: tuple[int, int] = (640, 480),
-        fovy_deg: float = 45.0,
-        camera: CameraRig | dict[str, Any] | None = None,
-        sensor: str = "ideal",
-        max_attempts: int | None = None,
-        render_mode: str | None = None,
-        table: TableConfig | None = None,
-        min_target_pixels: int | None = None,
-        obs_mode: str = "image",
-        num_points: int | None = None,
-    ) -> None:
-        # what a copy rebuilds the env from (see __getstate__)
-        self._config: dict[str, Any] = {
-            k: v for k, v in locals().items() if k not in ("self", "__class__")
-        }
-        if render_mode is not None and render_mode not in RENDER_MODES:
-            raise EnvConfigError(
-                f"render_mode={render_mode!r}: use None, 'rgb_array' or 'depth_array' (there "
-                "is no window on a headless machine: save 'rgb_array' frames instead)"
-            )
-        self.render_mode = render_mode
-        if categories is not None:
-            categories = _category_names(categories)
-        try:
-            self.objects = objects if objects is not None else ObjectSet(split, categories)
-        except Exception as e:  # unknown split or category: say so at make time
-            raise EnvConfigError(f"BEOPick-v0: {e}") from e
-        cats = tuple(categories) if categories is not None else self.objects.categories
-        if objects is None and categories is None:
-            cats = default_categories()
-        missing = [c for c in cats if c not in self.objects.categories]
-        if missing:
-            raise EnvConfigError(
-                f"categories {missing} are not in the object set "
-                f"{list(self.objects.categories)}; choose among those"
-            )
-        self.categories: tuple[str, ...] = cats
-        lo, hi = _count_range(num_objects)
-        if not 1 <= lo <= hi:
-            raise EnvConfigError(
-                f"num_objects={num_objects}: give a count >= 1 or a range (min, max) with "
-                "1 <= min <= max"
-            )
-        if hi > len(cats):
-            raise EnvConfigError(
-                f"num_objects={num_objects}: scenes hold objects of distinct categories, and "
-                f"only {len(cats)} categories are available ({list(cats)}); lower num_objects"
-            )
-        self.num_objects = (lo, hi)
-        self.max_objects = hi
-        width, height = _image_size(image_size)
-        try:
-            self.intrinsics = Intrinsics(width, height, float(fovy_deg))
-        except (TypeError, ValueError) as e:
-            raise EnvConfigError(f"image_size={image_size}, fovy_deg={fovy_deg}: {e}") from e
-        try:
-            self.rig = camera if isinstance(camera, CameraRig) else CameraRig(**(camera or {}))
-        except (TypeError, ValueError) as e:
-            raise EnvConfigError(f"camera={camera}: {e}") from e
-        if not isinstance(sensor, str):
-            raise EnvConfigError(
-                f"sensor={sensor!r}: give a sensor's name, one of {', '.join(SENSORS)}"
-            )
-        try:
-            self.sensor: Sensor = make_sensor(sensor, self.intrinsics)
-        except SensorError as e:  # an unknown name, or an image size it cannot support
-            raise EnvConfigError(f"BEOPick-v0: {e}") from e
-        # None: not chosen here, so gym.make's max_episode_steps may set it (follow_time_limit)
-        self.max_attempts_given = max_attempts is not None
-        if max_attempts is not None and _whole(max_attempts, "max_attempts") < 1:
-            raise EnvConfigError(f"max_attempts={max_attempts}: allow at least one attempt")
-        self.max_attempts = 1 if max_attempts is None else int(max_attempts)
-        self.table = table or TableConfig()
-        if min_target_pixels is None:
-            min_target_pixels = default_min_target_pixels(self.intrinsics)
-        if _whole(min_target_pixels, "min_target_pixels") < 1:
-            raise EnvConfigError(
-                f"min_target_pixels={min_target_pixels}: give at least 1 (an episode needs a "
-                "visible target)"
-            )
-        self.min_target_pixels = int(min_target_pixels)
-        if obs_mode not in OBS_MODES:
-            raise EnvConfigError(f"obs_mode={obs_mode!r}: use 'image' or 'pointcloud'")
-        self.obs_mode = obs_mode
-        if num_points is not None and obs_mode != "pointcloud":
-            raise EnvConfigError(
-                f"num_points={num_points} only applies to obs_mode='pointcloud'; pass "
-                "obs_mode='pointcloud' or drop num_points"
-            )
-        if num_points is not None and _whole(num_points, "num_points") < 1:
-            raise EnvConfigError(f"num_points={num_points}: give at least 1 point")
-        if num_points is not None and int(num_points) > MAX_NUM_POINTS:
-            raise EnvConfigError(
-                f"num_points={num_points}: give at most {MAX_NUM_POINTS:,} points (MAX_NUM_POINTS, "
-                "2**20: more only repeats pixels and would exhaust memory at reset)"
-            )
-        self.num_points = DEFAULT_NUM_POINTS if num_points is None else int(num_points)
-        # labels 0..k: one byte per pixel while they fit, as the renderer gives them (a
-        # 640x480 observation 2.46 -> 1.54 MB)
-        self.seg_dtype = np.dtype(np.uint8 if self.max_objects <= UINT8_LABELS else np.int32)
+    def __init__(self, config: PickConfig | None = None) -> None:
+        self.config = PickConfig() if config is None else config  # checked when made
+        self.render_mode = self.config.render_mode
+        self.sensor: Sensor = self.config.make_sensor()
         self.observation_space = self._observation_space()
-        half = np.array(self.table.table_half)
+        half = np.array(self.config.table.table_half)
         low = np.array([-half[0], -half[1], 0.0, -1, -1, -1, -1, 0.0], np.float32)
         high = np.array([half[0], half[1], 2.0, 1, 1, 1, 1, MAX_OPENING], np.float32)
         self.action_space = spaces.Box(low, high, dtype=np.float32)
         # the scenes (drawing, settling, rendering) and the current one with its renderer
-        self._tabletop = TabletopScenes(
-            self.objects,
-            self.categories,
-            num_objects=self.num_objects,
-            intrinsics=self.intrinsics,
-            rig=self.rig,
-            table=self.table,
-            min_target_pixels=self.min_target_pixels,
-        )
+        self._tabletop = TabletopScenes(self.config)
         self._image: dict[str, np.ndarray] | None = None  # depth + segmentation, either mode
         self._obs: dict[str, Any] | None = None
         self._rest = np.zeros(0)
         self._attempts = 0
         self._terminated = False
 
+    @property
+    def categories(self) -> tuple[str, ...]:
+        """The classes drawn from; the observation's ``target_class`` indexes them."""
+        return self.config.classes
+
     def _observation_space(self) -> spaces.Dict:
-        w, h = self.intrinsics.width, self.intrinsics.height
+        cfg = self.config
+        w, h = cfg.intrinsics.width, cfg.intrinsics.height
         common = {
             "target_class": spaces.Discrete(len(self.categories)),
             "intrinsics": spaces.Box(0.0, 1e6, (3, 3), np.float64),
             "cam_to_world": spaces.Box(-100.0, 100.0, (4, 4), np.float64),
         }
-        if self.obs_mode == "image":
+        if cfg.obs_mode == "image":
             return spaces.Dict(
                 {
                     "depth": spaces.Box(0.0, FAR_CLIP, (h, w), np.float32),
-                    "segmentation": spaces.Box(0, self.max_objects, (h, w), self.seg_dtype),
+                    "segmentation": spaces.Box(0, cfg.max_objects, (h, w), cfg.seg_dtype),
                     **common,
                 }
             )
         # the view frustum up to the far plane bounds every back-projected point
-        K = self.intrinsics.K
+        K = cfg.intrinsics.K
         x_max = FAR_CLIP * max(K[0, 2], w - 1 - K[0, 2]) / K[0, 0]
         y_max = FAR_CLIP * max(K[1, 2], h - 1 - K[1, 2]) / K[1, 1]
-        n = self.num_points
+        n = cfg.points
         high = np.tile(np.array([x_max, y_max, FAR_CLIP], np.float32), (n, 1))
         low = -high * np.array([1, 1, 0], np.float32)  # z >= 0: in front of the camera
         return spaces.Dict(
             {
                 "points": spaces.Box(low, high, (n, 3), np.float32),
-                "point_labels": spaces.Box(0, self.max_objects, (n,), self.seg_dtype),
+                "point_labels": spaces.Box(0, cfg.max_objects, (n,), cfg.seg_dtype),
                 **common,
             }
         )
@@ -451,7 +317,7 @@ class BEOPickEnv(gym.Env):
             T = self._scene.object_pose(i)
             others.append(pts @ T[:3, :3].T + T[:3, 3])
         obstacles = np.concatenate(others) if others else None
-        return plan_grasps(mesh, self.table.table_height, obstacles, **planner)
+        return plan_grasps(mesh, self.config.table.table_height, obstacles, **planner)
 
     # -- gymnasium API -------------------------------------------------------------------------
     def reset(
@@ -482,7 +348,7 @@ class BEOPickEnv(gym.Env):
         depth, seg = view.pop("depth"), view.pop("segmentation")
         self._image = {"depth": depth, "segmentation": seg}
         self._rest = self._scene.object_heights()
-        if self.obs_mode == "image":
+        if self.config.obs_mode == "image":
             self._obs = {"depth": depth, "segmentation": seg, **view}
         else:
             points, labels = self._sample_points(depth, seg)
@@ -492,11 +358,11 @@ class BEOPickEnv(gym.Env):
     def _sample_points(self, depth: np.ndarray, seg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``num_points`` camera-frame points of pixels with depth, drawn from ``np_random``,
         and their labels (see the class docstring for how few valid pixels are padded)."""
-        n = self.num_points
+        n = self.config.points
         v, u = np.nonzero(depth > 0)
         count = len(v)
         if count == 0:
-            return np.zeros((n, 3), np.float32), np.zeros(n, self.seg_dtype)
+            return np.zeros((n, 3), np.float32), np.zeros(n, self.config.seg_dtype)
         rng = self.np_random
         if count >= n:
             idx = rng.choice(count, n, replace=False)
@@ -504,7 +370,7 @@ class BEOPickEnv(gym.Env):
             idx = np.concatenate([np.arange(count), rng.choice(count, n - count, replace=True)])
         # only the drawn pixels are back-projected (not the whole image)
         v, u = v[idx], u[idx]
-        points = pixels_to_points(u, v, depth[v, u], self.intrinsics.K).astype(np.float32)
+        points = pixels_to_points(u, v, depth[v, u], self.config.intrinsics.K).astype(np.float32)
         return points, seg[v, u]
 
     def step(self, action: Any) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
@@ -512,8 +378,8 @@ class BEOPickEnv(gym.Env):
             raise EnvStateError("call reset() before step(): there is no episode to act in")
         if self._terminated:
             raise EnvStateError(
-                "step() after the episode terminated (success or max_attempts grasps): call "
-                "reset() to start a new episode"
+                "step() after the episode terminated (the target was picked): call reset() to "
+                "start a new episode"
             )
         T, opening = parse_action(action)
         outcome: GraspOutcome = execute_grasp(self._scene, T, opening, self._rest)
@@ -525,8 +391,8 @@ class BEOPickEnv(gym.Env):
         reason = "success" if success else outcome.reason
         if lifted and not success:
             reason = "wrong_class"
-        terminated = success or self._attempts >= self.max_attempts
-        self._terminated = terminated
+        # a miss leaves the episode open: the TimeLimit (max_episode_steps) ends it
+        self._terminated = success
         info = {
             "success": success,
             # the key Stable-Baselines3's Monitor and Gymnasium-Robotics read for success rates
@@ -543,14 +409,14 @@ class BEOPickEnv(gym.Env):
             "slip_cm": outcome.slip_cm,
             "attempt": self._attempts,
         }
-        if not terminated:
+        if not success:
             # another attempt: drop what is held, let the scene come to rest, look again
             release(self._scene)
             settle(self._scene, max_steps=500)
             obs = self._observe()
         else:
             obs = self._obs
-        return _copy(obs), float(success), terminated, False, info
+        return _copy(obs), float(success), success, False, info
 
     def render(self) -> np.ndarray | None:
         """``rgb_array``: (H, W, 3) uint8 colour image of the camera; ``depth_array``: the
@@ -605,8 +471,7 @@ class BEOPickEnv(gym.Env):
                 "obs": self._obs,
             }
         return {
-            "config": self._config,
-            "max_attempts": self.max_attempts,
+            "config": self.config,
             "spec": self.spec,
             "np_random": self._np_random,
             "np_random_seed": self._np_random_seed,
@@ -615,8 +480,7 @@ class BEOPickEnv(gym.Env):
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         # rebuilt by its own class's constructor (mypy: calling __init__ on an instance is unsound)
-        self.__init__(**state["config"])  # type: ignore[misc]
-        self.max_attempts = state["max_attempts"]
+        self.__init__(state["config"])  # type: ignore[misc]
         self.spec = state["spec"]
         self._np_random = state["np_random"]
         self._np_random_seed = state["np_random_seed"]
@@ -635,10 +499,8 @@ class BEOPickEnv(gym.Env):
         self._obs = episode["obs"]
 
     def __deepcopy__(self, memo: dict[int, Any]) -> BEOPickEnv:
-        # the object set is read-only and may hold a whole dataset: share it, copy the rest
-        objects = self._config.get("objects")
-        if objects is not None:
-            memo[id(objects)] = objects
+        # the config is frozen, and its object set may hold a whole dataset: share it
+        memo[id(self.config)] = self.config
         new = type(self).__new__(type(self))
         memo[id(self)] = new
         new.__setstate__(copy.deepcopy(self.__getstate__(), memo))
@@ -646,23 +508,19 @@ class BEOPickEnv(gym.Env):
 
 
 def make_pick_env(**kwargs: Any) -> BEOPickEnv:
-    """``gym.make("BEOPick-v0", ...)``'s entry point: :class:`BEOPickEnv` with ``kwargs``.
+    """``gym.make("BEOPick-v0", ...)``'s entry point: :class:`BEOPickEnv` of
+    ``PickConfig(**kwargs)``.
 
     Two reasons it is a function rather than the class. ``gym.make`` reads the entry point's
     ``metadata`` and, for ``render_mode="human"``, silently swaps in its pygame
     ``HumanRendering`` wrapper (which fails at the first reset without a display); without a
-    ``metadata`` attribute the mode reaches the env, which refuses it with the supported
+    ``metadata`` attribute the mode reaches the config, which refuses it with the supported
     ones. And ``gym.make`` rewraps a ``TypeError`` from the constructor, so a misspelt keyword
     is reported here as an :class:`EnvConfigError` naming the valid keywords.
     """
-    valid = list(KEYWORDS)
-    if "noise" in kwargs:  # the keyword sensor= replaced
-        raise EnvConfigError(
-            "BEOPick-v0: noise= was replaced by sensor=: pass sensor='kinect-v1' for the "
-            "Kinect v1 model (or 'd435'; docs/sensors.md), or leave it out for ideal depth"
-        )
-    unknown = sorted(set(kwargs) - set(valid))
+    unknown = sorted(set(kwargs) - set(KEYWORDS))
     if unknown:
+        valid = list(KEYWORDS)
         hints = [
             f"{u!r}: did you mean {close[0]!r}?"
             for u in unknown
@@ -672,110 +530,11 @@ def make_pick_env(**kwargs: Any) -> BEOPickEnv:
         raise EnvConfigError(
             f"BEOPick-v0 got unknown keyword arguments {unknown}{hint}; valid ones are {valid}"
         )
-    return BEOPickEnv(**kwargs)
+    return BEOPickEnv(PickConfig(**kwargs))
 
 
-KEYWORDS: tuple[str, ...] = tuple(inspect.signature(BEOPickEnv.__init__).parameters)[1:]
-"""The constructor's keywords (what ``gym.make("BEOPick-v0", ...)`` accepts)."""
-
-
-def _time_limit(env: gym.Env) -> TimeLimit | None:
-    while isinstance(env, gym.Wrapper):
-        if isinstance(env, TimeLimit):
-            return env
-        env = env.env
-    return None
-
-
-def follow_time_limit(env: gym.Env) -> gym.Env:
-    """``gym.make``'s last step for BEOPick-v0 (registered as an additional wrapper that
-    returns ``env`` unchanged): make ``max_attempts`` and the ``TimeLimit`` agree.
-
-    ``gym.make`` adds the ``TimeLimit`` after building the env and never tells the env, so
-    they are reconciled here: ``max_attempts`` not given follows ``max_episode_steps``
-    (registered 1, or the caller's); ``max_attempts`` given sets the limit unless the caller
-    also passed a different ``max_episode_steps``, which is an :class:`EnvConfigError`. The
-    registered default is a :class:`~beo_bench.envs.RegisteredSteps`, which is how an explicit
-    ``max_episode_steps=1`` is told from the default. ``max_episode_steps=-1`` (no limit)
-    leaves ``max_attempts`` alone.
-    """
-    pick = env.unwrapped
-    limit = _time_limit(env)
-    if not isinstance(pick, BEOPickEnv) or limit is None:
-        return env
-    steps = limit._max_episode_steps
-    if not pick.max_attempts_given:
-        pick.max_attempts = int(steps)
-    elif isinstance(steps, RegisteredSteps):
-        steps = pick.max_attempts
-    elif steps != pick.max_attempts:
-        env.close()
-        raise EnvConfigError(
-            f"max_attempts={pick.max_attempts} and max_episode_steps={steps} disagree: an "
-            "episode ends after max_attempts grasps, so the time limit would cut it short or "
-            "never apply; give one of them (the other follows) or both equal"
-        )
-    limit._max_episode_steps = int(steps)
-    limit._cached_spec = None  # env.spec reports the limit as it is now
-    if pick.spec is not None:  # so that gym.make(env.spec) rebuilds this very env
-        pick.spec.kwargs["max_attempts"] = pick.max_attempts
-    return env
-
-
-def _whole(value: Any, what: str) -> int:
-    """``value`` as an int when it is a whole number (an int, or a float without fraction);
-    strings are refused too, since ``int("3")`` would hide a setting of the wrong type."""
-    real = isinstance(value, numbers.Real) and not isinstance(value, bool)
-    if not real or not math.isfinite(value) or float(value) != int(value):
-        raise EnvConfigError(f"{what}={value!r}: give a whole number")
-    return int(value)
-
-
-def _count_range(num_objects: Any) -> tuple[int, int]:
-    """(min, max) of a ``num_objects`` given as a count or a (min, max) pair."""
-    if isinstance(num_objects, numbers.Real) and not isinstance(num_objects, bool):
-        n = _whole(num_objects, "num_objects")
-        return n, n
-    if isinstance(num_objects, np.ndarray):
-        num_objects = num_objects.tolist()  # a 0-d array becomes a scalar, refused below
-    if isinstance(num_objects, (tuple, list)) and len(num_objects) == 2:
-        lo, hi = num_objects
-        return _whole(lo, "num_objects"), _whole(hi, "num_objects")
-    raise EnvConfigError(
-        f"num_objects={num_objects!r}: give a count such as 2 or a range (min, max) such as (1, 4)"
-    )
-
-
-def _image_size(image_size: Any) -> tuple[int, int]:
-    """(width, height) of an ``image_size``; a string is refused ("640" would otherwise
-    unpack digit by digit)."""
-    if isinstance(image_size, np.ndarray):
-        image_size = image_size.tolist()
-    if not isinstance(image_size, (tuple, list)) or len(image_size) != 2:
-        raise EnvConfigError(
-            f"image_size={image_size!r}: give (width, height) in pixels as two whole numbers, "
-            "e.g. (640, 480)"
-        )
-    width, height = image_size
-    return _whole(width, "image_size width"), _whole(height, "image_size height")
-
-
-def _category_names(categories: Any) -> tuple[str, ...]:
-    """The ``categories`` setting as a tuple of names, each once: ``target_class`` indexes
-    this list, so a repeated name would make two labels mean one class."""
-    if isinstance(categories, str) or not isinstance(categories, (tuple, list)):
-        raise EnvConfigError(
-            f"categories={categories!r}: give a list of category names, e.g. ['mug', 'bowl']"
-        )
-    if not all(isinstance(c, str) for c in categories):
-        raise EnvConfigError(f"categories={categories!r}: every entry must be a category name")
-    repeated = sorted(c for c, n in Counter(categories).items() if n > 1)
-    if repeated:
-        raise EnvConfigError(
-            f"categories lists {repeated} more than once: give each category once (the "
-            "target_class is an index into this list)"
-        )
-    return tuple(categories)
+KEYWORDS: tuple[str, ...] = tuple(f.name for f in fields(PickConfig) if f.init)
+""":class:`PickConfig`'s fields: what ``gym.make("BEOPick-v0", ...)`` accepts."""
 
 
 def _copy(obs: dict[str, Any]) -> dict[str, Any]:

@@ -414,6 +414,7 @@ def _isolated_sensor_shard(
 
 def _tabletop_shard(config: DatasetConfig, split: str, rng: np.random.Generator, n: int) -> Shard:
     from beo_bench.scenes.noise import DepthNoise, apply_noise
+    from beo_bench.scenes.pickconfig import PickConfig
     from beo_bench.scenes.renderer import Frame
     from beo_bench.scenes.tabletop import TabletopScenes
 
@@ -424,9 +425,11 @@ def _tabletop_shard(config: DatasetConfig, split: str, rng: np.random.Generator,
     if key not in _WORKER:
         # BEOPick-v0's scenes (640x480, its camera rig and table), without sensor noise
         _WORKER[key] = TabletopScenes(
-            config.object_set(split),
-            config.categories,
-            num_objects=(1, min(4, len(config.categories))),
+            PickConfig(
+                objects=config.object_set(split),
+                categories=tuple(config.categories),
+                num_objects=(1, min(4, len(config.categories))),
+            )
         )
     scenes: TabletopScenes = _WORKER[key]
     col = _Collector(config.categories, config.crop)
@@ -436,7 +439,7 @@ def _tabletop_shard(config: DatasetConfig, split: str, rng: np.random.Generator,
     if config.sensor is not None:
         from beo_bench.scenes.sensors import make_sensor
 
-        sensor = make_sensor(config.sensor, scenes.intrinsics)
+        sensor = make_sensor(config.sensor, scenes.config.intrinsics)
     while len(col.rows) < n:
         obs, truths = scenes.reset(seed=int(rng.integers(2**31)))
         depth = obs["depth"]

@@ -129,10 +129,10 @@ def fit_rest_prior(
     draws them (its default classes, settled by physics), sorted."""
     from tqdm import tqdm
 
-    from beo_bench.objects import ObjectSet, pickable_categories
+    from beo_bench.scenes.pickconfig import PickConfig
     from beo_bench.scenes.tabletop import TabletopScenes
 
-    tables = TabletopScenes(ObjectSet(split="train"), pickable_categories())
+    tables = TabletopScenes(PickConfig(split="train"))  # BEOPick-v0's default classes
     tilts: list[float] = []
     try:
         for i in tqdm(range(scenes), desc="rest prior", disable=not progress):

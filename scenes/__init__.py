@@ -5,6 +5,8 @@
 - :mod:`.builder`: MjSpec models (table, objects, gripper, camera);
 - :mod:`.layout`: rest poses and non-overlapping placement;
 - :mod:`.execute`: scripted, physical grasp execution;
+- :mod:`.pickconfig`: BEOPick-v0's settings, checked once (``PickConfig``: the env's, its
+  scenes' and the bench's tabletop and pick items');
 - :mod:`.tabletop`: BEOPick-v0's scenes drawn, settled and rendered (what the env's ``reset``
   runs; for code below the envs, which never imports them);
 - :mod:`.isolated`: views of an isolated instance (training data, perception suites);
@@ -43,7 +45,8 @@ _EXPORTS = {
     "GLUnavailableError": "gl",
     "TabletopScenes": "tabletop",
     "NoVisibleTargetError": "tabletop",
-    "default_categories": "tabletop",
+    "PickConfig": "pickconfig",
+    "default_categories": "pickconfig",
 }
 
 

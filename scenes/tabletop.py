@@ -14,21 +14,19 @@ the same scene, camera, target and image here as in ``BEOPickEnv.reset(seed=...)
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from beo_bench.errors import BeoBenchError
-from beo_bench.objects import ObjectSet, pickable_categories
-from beo_bench.scenes.builder import Scene, TableConfig, build_tabletop
-from beo_bench.scenes.camera import TABLE_RIG, CameraRig, Intrinsics
+from beo_bench.scenes.builder import Scene, build_tabletop
 from beo_bench.scenes.execute import park, settle
 from beo_bench.scenes.layout import ObjectTooLargeError, PlacementError, place_objects
-from beo_bench.scenes.renderer import UINT8_LABELS, Frame, Renderer
+from beo_bench.scenes.renderer import Frame, Renderer
 from beo_bench.types import Mat4, ObjectState
 
 if TYPE_CHECKING:
+    from beo_bench.scenes.pickconfig import PickConfig
     from beo_bench.scenes.sensors import Sensor
 
 SCENE_DRAWS = 20
@@ -39,38 +37,15 @@ CAMERA_DRAWS = 10
 """Camera poses a reset tries per scene for a visible target before drawing a new scene
 (a target hidden behind a larger object is usually seen from another side)."""
 
-MIN_TARGET_PIXELS_640x480 = 50
-"""Default least number of target pixels at 640x480 (the suites' ``min_pixels``: a
-scored view needs at least as many), scaled by image area for other sizes."""
-
 
 class NoVisibleTargetError(BeoBenchError, RuntimeError):
     """``reset`` found no scene whose target shows at least ``min_target_pixels`` pixels:
     an episode without a visible target cannot be solved, so none is produced."""
 
 
-def default_categories() -> tuple[str, ...]:
-    """BEOPick-v0's default ``categories`` (the ``target_class`` list, and the class list
-    its scenes' views carry): every registered category meant to be picked, sorted
-    (:func:`beo_bench.objects.pickable_categories`)."""
-    return pickable_categories()
-
-
-def default_min_target_pixels(intrinsics: Intrinsics) -> int:
-    """:data:`MIN_TARGET_PIXELS_640x480` scaled by the image area (at least 1)."""
-    area = intrinsics.width * intrinsics.height / (640 * 480)
-    return max(1, round(MIN_TARGET_PIXELS_640x480 * area))
-
-
 class TabletopScenes:
-    """Tabletop scenes of ``objects``, drawn as BEOPick-v0 draws them, and the current one.
-
-    ``categories``: the classes to draw from, in ``target_class`` order (each in
-    ``objects``); ``num_objects``: the (min, max) objects per scene, of distinct classes;
-    ``intrinsics``: the depth camera (default 640x480, 45 degrees); ``rig``: where cameras
-    are sampled (around the table top's centre); ``table``: the physical set-up;
-    ``min_target_pixels``: the least visible pixels of the target (default
-    :func:`default_min_target_pixels`).
+    """Tabletop scenes drawn as BEOPick-v0 draws them (``config``: its settings; the
+    env's own), and the current one.
 
     :meth:`reset` draws a new scene and returns its observation and ground truth (the env's
     ``obs_mode="image"`` observation without sensor noise, and ``env.ground_truth()``);
@@ -80,43 +55,8 @@ class TabletopScenes:
     :meth:`close`; a later draw makes a new one.
     """
 
-    def __init__(
-        self,
-        objects: ObjectSet,
-        categories: Sequence[str] | None = None,
-        *,
-        num_objects: tuple[int, int] = (1, 4),
-        intrinsics: Intrinsics | None = None,
-        rig: CameraRig = TABLE_RIG,
-        table: TableConfig | None = None,
-        min_target_pixels: int | None = None,
-    ) -> None:
-        self.objects = objects
-        self.categories: tuple[str, ...] = (
-            tuple(categories) if categories is not None else objects.categories
-        )
-        missing = [c for c in self.categories if c not in objects.categories]
-        if missing:
-            raise ValueError(
-                f"categories {missing} are not in the object set {list(objects.categories)}"
-            )
-        lo, hi = (int(n) for n in num_objects)
-        if not 1 <= lo <= hi <= len(self.categories):
-            raise ValueError(
-                f"num_objects={num_objects}: give (min, max) with 1 <= min <= max <= "
-                f"{len(self.categories)} (the classes to draw from: a scene's are distinct)"
-            )
-        self.num_objects = (lo, hi)
-        self.intrinsics = intrinsics if intrinsics is not None else Intrinsics()
-        self.rig = rig
-        self.table = table if table is not None else TableConfig()
-        self.min_target_pixels = (
-            default_min_target_pixels(self.intrinsics)
-            if min_target_pixels is None
-            else int(min_target_pixels)
-        )
-        # labels 0..k: one byte per pixel while they fit, as the renderer gives them
-        self.seg_dtype = np.dtype(np.uint8 if hi <= UINT8_LABELS else np.int32)
+    def __init__(self, config: PickConfig) -> None:
+        self.config = config  # checked when it was made
         # the current scene: what was drawn (category, index) and placed where, the camera
         # and the target's label
         self.scene: Scene | None = None
@@ -160,53 +100,52 @@ class TabletopScenes:
         target, :class:`~beo_bench.scenes.layout.PlacementError` when no draw fit on the
         table and :class:`~beo_bench.scenes.layout.ObjectTooLargeError` for an object too
         large for the table."""
-        if target_category is not None and target_category not in self.categories:
+        cfg = self.config
+        if target_category is not None and target_category not in cfg.classes:
             raise ValueError(
                 f"target category {target_category!r} is not among the classes drawn from; "
-                f"choose one of {list(self.categories)}"
+                f"choose one of {list(cfg.classes)}"
             )
         placed, best = 0, (-1, "")
-        look_at = np.array([0.0, 0.0, self.table.table_height])
+        look_at = np.array([0.0, 0.0, cfg.table.table_height])
         # Draws happen in the order they always did, so a seed whose first scene and camera
         # show the target gives the episode it gave before the visibility guarantee.
         for _ in range(SCENE_DRAWS):
-            k = int(rng.integers(self.num_objects[0], self.num_objects[1] + 1))
+            k = int(rng.integers(cfg.num_objects[0], cfg.num_objects[1] + 1))
             if target_category is None:
-                cats = [
-                    self.categories[j] for j in rng.choice(len(self.categories), k, replace=False)
-                ]
+                cats = [cfg.classes[j] for j in rng.choice(len(cfg.classes), k, replace=False)]
             else:
                 cats = self._with_target(rng, k, target_category)
-            drawn = [(c, int(rng.integers(self.objects.count(c)))) for c in cats]
-            insts = [self.objects.get(c, i) for c, i in drawn]
+            drawn = [(c, int(rng.integers(cfg.object_set.count(c)))) for c in cats]
+            insts = [cfg.object_set.get(c, i) for c, i in drawn]
             try:
                 poses = place_objects(
                     insts,
                     rng,
-                    self.table.table_height,
-                    self.table.area_half,
-                    table_half=self.table.table_half,
+                    cfg.table.table_height,
+                    cfg.table.area_half,
+                    table_half=cfg.table.table_half,
                 )
             except ObjectTooLargeError:
                 raise  # no other draw makes this object fit: say which one it is
             except PlacementError:
                 continue  # these did not fit: draw another set (deterministic under the seed)
             placed += 1
-            self.scene = build_tabletop(insts, poses, self.intrinsics, self.table)
+            self.scene = build_tabletop(insts, poses, cfg.intrinsics, cfg.table)
             self.drawn = (drawn, [np.array(T, dtype=np.float64) for T in poses])
             park(self.scene)
             settle(self.scene)
-            self.cam = self.rig.sample(rng, look_at)
+            self.cam = cfg.camera.sample(rng, look_at)
             if target_category is None:
                 self.target = int(rng.integers(k)) + 1
             else:  # the requested class is the target: nothing to draw
                 self.target = cats.index(target_category) + 1
             for view in range(CAMERA_DRAWS):
                 if view:
-                    self.cam = self.rig.sample(rng, look_at)
+                    self.cam = cfg.camera.sample(rng, look_at)
                 frame = self.render()
                 pixels = int(np.count_nonzero(frame.segmentation == self.target))
-                if pixels >= self.min_target_pixels:
+                if pixels >= cfg.target_pixels:
                     break
                 if pixels > best[0]:
                     best = (pixels, f"{cats[self.target - 1]} among {cats}")
@@ -221,7 +160,7 @@ class TabletopScenes:
                 )
             raise NoVisibleTargetError(
                 f"BEOPick-v0 reset: in {placed} scenes x {CAMERA_DRAWS} camera poses the target "
-                f"never showed {self.min_target_pixels} pixels (best {best[0]}: {best[1]}); "
+                f"never showed {cfg.target_pixels} pixels (best {best[0]}: {best[1]}); "
                 f"lower min_target_pixels, use a larger image_size, or a camera rig that "
                 f"frames the table (camera=...)"
             )
@@ -232,7 +171,7 @@ class TabletopScenes:
         the others a uniform choice of the remaining classes in a uniform order: the
         unrequested draw's classes given that its target is of class ``target`` (there, the
         target's class is uniform whatever k, so k keeps its own distribution)."""
-        others = [c for c in self.categories if c != target]
+        others = [c for c in self.config.classes if c != target]
         cats = [others[j] for j in rng.choice(len(others), k - 1, replace=False)]
         cats.insert(int(rng.integers(k)), target)
         return cats
@@ -243,8 +182,8 @@ class TabletopScenes:
         """Make the scene of an earlier draw current again (a copy of an env): ``drawn``
         (category, index) placed at ``poses``, seen from ``cam``, target label ``target``.
         Returns the newly compiled scene, at rest where it was placed (not settled)."""
-        insts = [self.objects.get(c, i) for c, i in drawn]
-        self.scene = build_tabletop(insts, poses, self.intrinsics, self.table)
+        insts = [self.config.object_set.get(c, i) for c, i in drawn]
+        self.scene = build_tabletop(insts, poses, self.config.intrinsics, self.config.table)
         self.drawn = (drawn, poses)
         self.cam = cam
         self.target = target
@@ -256,7 +195,7 @@ class TabletopScenes:
         bound to the current scene."""
         assert self.scene is not None
         if self.renderer is None:
-            self.renderer = Renderer(self.intrinsics)
+            self.renderer = Renderer(self.config.intrinsics)
             self._bound = None
         if self._bound is not self.scene:
             self.renderer.bind(self.scene.model, self.scene.geom_labels)
@@ -287,7 +226,7 @@ class TabletopScenes:
     def target_class(self) -> int:
         """The target's index in ``categories``."""
         assert self.scene is not None
-        return int(self.categories.index(self.scene.instances[self.target - 1].category))
+        return int(self.config.classes.index(self.scene.instances[self.target - 1].category))
 
     def observation(self, frame: Frame) -> dict[str, Any]:
         """The current scene's observation from its rendering ``frame``: ``depth``,
@@ -296,9 +235,9 @@ class TabletopScenes:
         return {
             "depth": frame.depth,
             # the renderer may already give uint8 labels: then this is no copy
-            "segmentation": frame.segmentation.astype(self.seg_dtype, copy=False),
+            "segmentation": frame.segmentation.astype(self.config.seg_dtype, copy=False),
             "target_class": self.target_class,
-            "intrinsics": self.intrinsics.K,
+            "intrinsics": self.config.intrinsics.K,
             "cam_to_world": self.cam.copy(),
         }
 

@@ -61,6 +61,7 @@ class Evaluator:
         # only in the class-given track (Suite.track): never a backend option's
         self.privileged = ctx.privileged
         self.class_hint = ctx.class_given
+        self.robust = ctx.backend.capabilities.grasp == "robust"
 
     @classmethod
     def of(
@@ -84,7 +85,7 @@ class Evaluator:
         ``item_rows`` (how many rows the item has: a reader can tell a complete item from one
         that lost a line). ``announce`` gets the rows known before the backend is called."""
         t0 = time.perf_counter()
-        rows = self.kind.run_item(self, index, announce)
+        rows = self.kind.run_item(self.items, self.predict, index, announce, robust=self.robust)
         if rows:
             rows[0]["item_ms"] = 1000 * (time.perf_counter() - t0)
             rows[0]["item_rows"] = len(rows)

@@ -52,10 +52,11 @@ def test_tabletop_scenes_are_the_seeds_own_draw() -> None:
     """The tabletop suite asks for no target: its scene i is the env's plain reset with the
     episode seed, as before the option existed."""
     from beo_bench.envs.pick import BEOPickEnv
+    from beo_bench.scenes.pickconfig import PickConfig
 
     suite = get_suite("tabletop")
     items = get_kind(Kind.TABLETOP).open(suite, False)
-    plain = BEOPickEnv(image_size=suite.image_size, sensor=suite.sensor)
+    plain = BEOPickEnv(PickConfig(image_size=suite.image_size, sensor=suite.sensor))
     try:
         for i in range(3):
             obs = items.reset(i)  # type: ignore[attr-defined]

@@ -58,6 +58,6 @@ def test_prepare_runs_once_before_the_items_with_the_suite_classes(tmp_path) -> 
         short_run(tmp_path, "pick", "test-prepared", 1, workers=1, resume=True)  # nothing to do
     finally:
         B.unregister_backend("test-prepared")
-    from beo_bench.scenes.tabletop import default_categories
+    from beo_bench.scenes.pickconfig import default_categories
 
     assert calls == [default_categories()]

@@ -1,5 +1,5 @@
-"""BEOPick-v0 follows gymnasium's and the RL libraries' conventions: the time limit agrees
-with ``max_attempts``, copies and pickles continue the episode, unsupported render modes and
+"""BEOPick-v0 follows gymnasium's and the RL libraries' conventions: the time limit is the
+episode's length, copies and pickles continue the episode, unsupported render modes and
 misspelt keywords fail at ``gym.make``, the point-cloud mode, and the env checkers."""
 
 from __future__ import annotations
@@ -12,76 +12,76 @@ import re
 import subprocess
 import sys
 import warnings
+from dataclasses import fields
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.wrappers import TimeLimit
 
 import beo_bench  # noqa: F401  (registers the ids)
-from beo_bench.envs.pick import BEOPickEnv, _time_limit
+from beo_bench.envs.pick import KEYWORDS, BEOPickEnv
 from beo_bench.errors import EnvConfigError
 from beo_bench.objects import ObjectSet
 from beo_bench.scenes.camera import backproject, project
+from beo_bench.scenes.pickconfig import PickConfig
 
 SMALL = {"image_size": (64, 48), "num_objects": 1}
 AIR = [0.4, 0.3, 0.9, 0.0, 1.0, 0.0, 0.0, 0.08]  # above a table corner: lifts nothing
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "env.md"
 
 
-# -- max_episode_steps and max_attempts ----------------------------------------------------------
-@pytest.mark.parametrize(
-    "kwargs, attempts",
-    [
-        ({}, 1),
-        ({"max_attempts": 3}, 3),
-        ({"max_episode_steps": 3}, 3),
-        ({"max_attempts": 3, "max_episode_steps": 3}, 3),
-        ({"max_episode_steps": 1}, 1),
-    ],
-)
-def test_time_limit_and_max_attempts_agree_through_make(kwargs, attempts) -> None:
+# -- the time limit ----------------------------------------------------------------------------
+def _time_limit(env: gym.Env) -> TimeLimit | None:
+    while isinstance(env, gym.Wrapper):
+        if isinstance(env, TimeLimit):
+            return env
+        env = env.env
+    return None
+
+
+@pytest.mark.parametrize("kwargs, steps", [({}, 1), ({"max_episode_steps": 3}, 3)])
+def test_the_time_limit_is_the_episode_length(kwargs, steps) -> None:
+    """Gymnasium's TimeLimit alone says how many grasps an episode allows: every miss
+    leaves it open (not terminated), and the limit truncates it at the last one."""
     assert gym.spec("BEOPick-v0").max_episode_steps == 1  # registered: one grasp
     e = gym.make("BEOPick-v0", **SMALL, **kwargs)
     try:
-        assert e.unwrapped.max_attempts == attempts
-        assert e.spec.max_episode_steps == attempts
+        assert e.spec.max_episode_steps == steps
         e.reset(seed=0)
-        for attempt in range(1, attempts + 1):
+        for attempt in range(1, steps + 1):
             _, _, terminated, truncated, info = e.step(AIR)
-            assert info["attempt"] == attempt
-            # never truncated before the last attempt the env allows
-            assert terminated == truncated == (attempt == attempts)
+            assert info["attempt"] == attempt and not terminated
+            assert truncated == (attempt == steps)
     finally:
         e.close()
 
 
-@pytest.mark.parametrize("attempts, steps", [(2, 3), (3, 1), (1, 2)])
-def test_disagreeing_max_attempts_and_max_episode_steps_fail_at_make(attempts, steps) -> None:
-    with pytest.raises(EnvConfigError, match=f"max_attempts={attempts} and max_episode_steps="):
-        gym.make("BEOPick-v0", max_attempts=attempts, max_episode_steps=steps, **SMALL)
-
-
-def test_no_time_limit_keeps_max_attempts() -> None:
-    e = gym.make("BEOPick-v0", max_attempts=2, max_episode_steps=-1, **SMALL)
-    assert _time_limit(e) is None and e.unwrapped.max_attempts == 2
-    e.close()
+def test_without_a_time_limit_misses_never_end_the_episode() -> None:
+    e = gym.make("BEOPick-v0", max_episode_steps=-1, **SMALL)
+    try:
+        assert _time_limit(e) is None
+        e.reset(seed=0)
+        for _ in range(2):
+            assert e.step(AIR)[2:4] == (False, False)
+    finally:
+        e.close()
 
 
 def test_make_from_the_spec_rebuilds_the_same_limits() -> None:
     e = gym.make("BEOPick-v0", max_episode_steps=3, **SMALL)
     again = gym.make(e.spec)
-    assert again.unwrapped.max_attempts == 3 and again.spec.max_episode_steps == 3
+    assert again.spec.max_episode_steps == 3 and again.unwrapped.config == e.unwrapped.config
     e.close()
     again.close()
 
 
 def test_vector_envs_get_the_limit_too() -> None:
     envs = gym.make_vec(
-        "BEOPick-v0", num_envs=2, vectorization_mode="sync", max_attempts=2, **SMALL
+        "BEOPick-v0", num_envs=2, vectorization_mode="sync", max_episode_steps=2, **SMALL
     )
-    assert all(sub.unwrapped.max_attempts == 2 for sub in envs.envs)
-    assert all(_time_limit(sub)._max_episode_steps == 2 for sub in envs.envs)
+    assert all(sub.spec.max_episode_steps == 2 for sub in envs.envs)
     envs.close()
 
 
@@ -100,7 +100,7 @@ def test_copies_continue_the_episode_exactly(obs_mode) -> None:
     e = gym.make(
         "BEOPick-v0",
         image_size=(96, 72),
-        max_attempts=3,
+        max_episode_steps=3,
         sensor="kinect-v1",
         obs_mode=obs_mode,
         **kw,
@@ -113,7 +113,7 @@ def test_copies_continue_the_episode_exactly(obs_mode) -> None:
     try:
         for c in copies:
             assert c.unwrapped._renderer is None  # never copied: made when next needed
-            assert c.unwrapped.max_attempts == 3 and _time_limit(c)._elapsed_steps == 1
+            assert c.spec.max_episode_steps == 3 and _time_limit(c)._elapsed_steps == 1
         results = [env.step(grasps[0].action) for env in (e, *copies)]
         assert results[0][4]["success"]  # the step exercises the physics of a real lift
         for r in results[1:]:
@@ -129,9 +129,11 @@ def test_copies_continue_the_episode_exactly(obs_mode) -> None:
 
 
 def test_copy_before_reset_and_after_close() -> None:
-    e = BEOPickEnv(**SMALL)
+    e = BEOPickEnv(PickConfig(**SMALL))
     c = copy.deepcopy(e)
-    assert c.scene is None and c.intrinsics == e.intrinsics
+    assert c.scene is None and c.config is e.config  # frozen: shared, never copied
+    p = pickle.loads(pickle.dumps(e))
+    assert p.config == e.config and p.config.classes == e.config.classes
     obs_c, _ = c.reset(seed=4)
     obs_e, _ = e.reset(seed=4)
     _assert_same_obs(obs_e, obs_c)
@@ -173,11 +175,10 @@ def test_supported_render_modes_are_not_wrapped(mode) -> None:
     e.close()
 
 
-def test_constructor_is_explicit_and_typed() -> None:
-    params = list(inspect.signature(BEOPickEnv.__init__).parameters.values())[1:]
-    assert len(params) == 14
-    for p in params:
-        assert p.kind is inspect.Parameter.KEYWORD_ONLY and p.annotation is not p.empty, p.name
+def test_keywords_are_the_configs_typed_and_documented_fields() -> None:
+    params = [f for f in fields(PickConfig) if f.init]
+    assert tuple(f.name for f in params) == KEYWORDS and len(KEYWORDS) == 13
+    assert all(f.type for f in params)
     doc = inspect.getdoc(BEOPickEnv)
     for section in (
         "Description",
@@ -190,15 +191,18 @@ def test_constructor_is_explicit_and_typed() -> None:
         "Version History",
     ):
         assert f"## {section}\n" in doc
-    for p in params:
-        assert f"``{p.name}``" in doc  # every argument is documented
+    for name in KEYWORDS:
+        assert f"``{name}``" in doc  # every argument is documented
 
 
 def test_misspelt_keyword_is_named_with_a_suggestion() -> None:
-    with pytest.raises(EnvConfigError, match=r"'max_atempts': did you mean 'max_attempts'"):
-        gym.make("BEOPick-v0", max_atempts=2)
-    with pytest.raises(TypeError, match="max_atempts"):  # Python's own error, unwrapped
-        BEOPickEnv(max_atempts=2)
+    with pytest.raises(EnvConfigError, match=r"'num_point': did you mean 'num_points'"):
+        gym.make("BEOPick-v0", num_point=2)
+    with pytest.raises(TypeError, match="num_point"):  # Python's own error, unwrapped
+        PickConfig(num_point=2)  # type: ignore[call-arg]
+    # the episode's length is gymnasium's max_episode_steps alone
+    with pytest.raises(EnvConfigError, match=r"unknown keyword arguments \['max_attempts'\]"):
+        gym.make("BEOPick-v0", max_attempts=2)
     with pytest.raises(EnvConfigError, match=r"num_points=.* only applies to obs_mode"):
         gym.make("BEOPick-v0", num_points=100)
     with pytest.raises(EnvConfigError, match="obs_mode='depth'"):
@@ -235,8 +239,10 @@ def test_segmentation_is_one_byte_while_labels_fit() -> None:
     # 255 object labels do not fit a byte beside the background: int32
     base = ObjectSet("test", ["mug"])
     many = {f"c{i:03d}": [base.get("mug", 0)] for i in range(255)}
-    big = BEOPickEnv(objects=ObjectSet.from_instances("test", many, "test"), num_objects=255)
-    assert big.max_objects == 255 and big.observation_space["segmentation"].dtype == np.int32
+    objects = ObjectSet.from_instances("test", many, "test")
+    big = BEOPickEnv(PickConfig(objects=objects, num_objects=255))
+    assert big.config.max_objects == 255
+    assert big.observation_space["segmentation"].dtype == np.int32
 
 
 # -- point clouds ------------------------------------------------------------------------------

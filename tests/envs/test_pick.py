@@ -76,8 +76,8 @@ def test_async_vector_env_runs() -> None:
     obs, _ = envs.reset(seed=11)
     assert obs["depth"].shape == (2, 72, 96)
     actions = np.tile(np.r_[0.0, 0.0, 1.0, DOWN, 0.08], (2, 1)).astype(np.float32)
-    _, rew, term, _, _ = envs.step(actions)
-    assert rew.shape == (2,) and term.all()
+    _, rew, term, trunc, _ = envs.step(actions)
+    assert rew.shape == (2,) and (term | trunc).all()
     envs.close()
 
 
@@ -90,7 +90,7 @@ def test_async_vector_env_runs() -> None:
         ({"image_size": (0, 480)}, "image size"),
         ({"categories": ["spaceship"]}, "spaceship"),
         ({"split": "holdout"}, "holdout"),
-        ({"max_attempts": 0}, "max_attempts"),
+        ({"min_target_pixels": 0}, "min_target_pixels"),
         ({"render_mode": "depth_video"}, "render_mode"),
     ],
 )
@@ -177,9 +177,9 @@ def test_quaternion_is_normalised() -> None:
 def test_grasp_in_empty_air_fails(env) -> None:
     env.reset(seed=2)
     u = env.unwrapped
-    corner = np.r_[0.4, 0.3, u.table.table_height + 0.05]  # a table corner, no object there
-    _, reward, terminated, _, info = env.step(np.r_[corner, DOWN, 0.08])
-    assert reward == 0.0 and terminated
+    corner = np.r_[0.4, 0.3, u.config.table.table_height + 0.05]  # a table corner, nothing there
+    _, reward, terminated, truncated, info = env.step(np.r_[corner, DOWN, 0.08])
+    assert reward == 0.0 and not terminated and truncated  # the one grasp the limit allows
     assert info["reason"] == "nothing_lifted" and info["lifted_label"] == 0
 
 
@@ -187,10 +187,12 @@ def test_grasp_inside_table_fails_cleanly(env) -> None:
     env.reset(seed=2)
     u = env.unwrapped
     before = u.data.qpos.copy()
-    inside = np.r_[0.0, 0.0, u.table.table_height - 0.01]
+    inside = np.r_[0.0, 0.0, u.config.table.table_height - 0.01]
     _, reward, terminated, _, info = env.step(np.r_[inside, DOWN, 0.08])
-    assert reward == 0.0 and terminated and info["reason"] == "inside_table"
-    np.testing.assert_array_equal(u.data.qpos[: len(before)], before)  # nothing moved
+    assert reward == 0.0 and not terminated and info["reason"] == "inside_table"
+    # nothing moved: the grasp was refused; the scene then settles again for the next
+    # attempt, which moves a resting object by well under a millimetre
+    np.testing.assert_allclose(u.data.qpos[: len(before)], before, atol=1e-4)
 
 
 def test_grasp_starting_inside_an_object_fails_cleanly() -> None:
@@ -241,7 +243,7 @@ def test_grasp_of_the_wrong_class_fails() -> None:
             continue
         _, reward, terminated, _, info = e.step(grasps[0].action)
         if info["lifted_label"] == other:
-            assert reward == 0.0 and terminated and not info["success"]
+            assert reward == 0.0 and not terminated and not info["success"]
             assert info["is_success"] is info["success"]  # SB3 / Gymnasium-Robotics key
             assert info["reason"] == "wrong_class"
             assert info["lifted_category"] != u.categories[u._obs["target_class"]]

@@ -12,7 +12,7 @@ import pytest
 from beo_bench.errors import CheckpointError
 from beo_bench.perception import beo_model, hbeo_train, published
 from beo_bench.perception.digest import state_digest
-from beo_bench.scenes.tabletop import default_categories
+from beo_bench.scenes.pickconfig import default_categories
 from tests.perception.contexts import run_context
 
 MODELS_PAGE = Path(__file__).resolve().parents[2] / "docs" / "reference-models.md"

@@ -15,7 +15,7 @@ from beo_bench.backend import get_backend
 from beo_bench.cli import main
 from beo_bench.errors import TrainingInRunError, UsageError
 from beo_bench.objects.cache import cache_root
-from beo_bench.scenes.tabletop import default_categories
+from beo_bench.scenes.pickconfig import default_categories
 from tests.perception.contexts import run_context
 
 TWO = ("mug", "bowl")

@@ -8,13 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from beo_bench.errors import EnvConfigError
 from beo_bench.objects import ObjectSet
-from beo_bench.scenes.camera import Intrinsics
-from beo_bench.scenes.tabletop import (
-    NoVisibleTargetError,
-    TabletopScenes,
-    default_categories,
-)
+from beo_bench.scenes.pickconfig import PickConfig, default_categories
+from beo_bench.scenes.tabletop import NoVisibleTargetError, TabletopScenes
 
 CATS = ("bowl", "mug", "can")
 SIZE = (64, 48)
@@ -36,11 +33,11 @@ def test_reset_is_the_envs_reset_bit_for_bit() -> None:
     from beo_bench.envs.pick import BEOPickEnv
 
     objects = ObjectSet("test", CATS)
-    env = BEOPickEnv(objects=objects, image_size=SIZE, num_objects=(1, 3))
-    scenes = TabletopScenes(objects, num_objects=(1, 3), intrinsics=Intrinsics(*SIZE))
+    config = PickConfig(objects=objects, image_size=SIZE, num_objects=(1, 3))
+    env = BEOPickEnv(config)
+    scenes = TabletopScenes(config)
     try:
-        assert scenes.categories == env.categories and scenes.seg_dtype == env.seg_dtype
-        assert scenes.min_target_pixels == env.min_target_pixels == 1
+        assert env.categories == CATS and config.target_pixels == 1
         for seed in (0, 7, None):  # None: both continue from the last seed's generator
             obs_e, info = env.reset(seed=seed)
             obs_s, truths = scenes.reset(seed)
@@ -76,7 +73,7 @@ UNREQUESTED = [
 def test_a_draw_without_a_target_class_is_the_seeds_scene_as_it_always_was() -> None:
     """The target-class option leaves the plain draw alone: every existing seed, the
     tabletop suite's included, gives the scene it gave before."""
-    scenes = TabletopScenes(ObjectSet("test"), default_categories(), intrinsics=Intrinsics(*SIZE))
+    scenes = TabletopScenes(PickConfig(image_size=SIZE))
     try:
         for seed, drawn, target, cam_x in UNREQUESTED:
             scenes.reset(seed)
@@ -95,8 +92,9 @@ def test_a_requested_target_class_is_the_envs_too_and_drawn_as_the_plain_draw_wo
     from beo_bench.envs.pick import BEOPickEnv
 
     objects = ObjectSet("test", CATS)
-    env = BEOPickEnv(objects=objects, image_size=SIZE, num_objects=(1, 3))
-    scenes = TabletopScenes(objects, num_objects=(1, 3), intrinsics=Intrinsics(*SIZE))
+    config = PickConfig(objects=objects, image_size=SIZE, num_objects=(1, 3))
+    env = BEOPickEnv(config)
+    scenes = TabletopScenes(config)
     try:
         for seed, asked in [(0, "can"), (4, "bowl"), (4, "mug")]:
             obs_e, _ = env.reset(seed=seed, options={"target_class": asked})
@@ -109,7 +107,7 @@ def test_a_requested_target_class_is_the_envs_too_and_drawn_as_the_plain_draw_wo
         env.close()
         scenes.close()
     many = TabletopScenes(
-        ObjectSet("test", ("bowl", "mug", "can", "bottle")), intrinsics=Intrinsics(*SIZE)
+        PickConfig(objects=ObjectSet("test", ("bowl", "mug", "can", "bottle")), image_size=SIZE)
     )
     rng = np.random.default_rng(0)
     n = 3000
@@ -127,11 +125,9 @@ def test_a_requested_target_class_is_the_envs_too_and_drawn_as_the_plain_draw_wo
 
 
 def test_close_is_not_final_and_errors_are_the_envs() -> None:
-    from beo_bench.envs import pick
-
     objects = ObjectSet("test", ("bowl",))
     scenes = TabletopScenes(
-        objects, num_objects=(1, 1), intrinsics=Intrinsics(*SIZE), min_target_pixels=1
+        PickConfig(objects=objects, num_objects=(1, 1), image_size=SIZE, min_target_pixels=1)
     )
     first, _ = scenes.reset(0)
     scenes.close()
@@ -140,14 +136,14 @@ def test_close_is_not_final_and_errors_are_the_envs() -> None:
     _same(first, again)
     assert scenes.render_rgb().shape == (SIZE[1], SIZE[0], 3)
     scenes.close()
-    # the env's documented error is the scenes' own
-    assert pick.NoVisibleTargetError is NoVisibleTargetError
     assert set(CATS) <= set(default_categories())
     hidden = TabletopScenes(
-        objects,
-        num_objects=(1, 1),
-        intrinsics=Intrinsics(*SIZE),
-        min_target_pixels=SIZE[0] * SIZE[1] + 1,
+        PickConfig(
+            objects=objects,
+            num_objects=(1, 1),
+            image_size=SIZE,
+            min_target_pixels=SIZE[0] * SIZE[1] + 1,
+        )
     )
     with pytest.raises(NoVisibleTargetError, match="min_target_pixels"):
         hidden.reset(0)
@@ -156,12 +152,12 @@ def test_close_is_not_final_and_errors_are_the_envs() -> None:
 
 def test_bad_settings_are_refused() -> None:
     objects = ObjectSet("test", ("bowl", "mug"))
-    with pytest.raises(ValueError, match="not in the object set"):
-        TabletopScenes(objects, ["bowl", "sofa"])
-    with pytest.raises(ValueError, match="num_objects"):
-        TabletopScenes(objects, num_objects=(1, 3))
-    with pytest.raises(ValueError, match="num_objects"):
-        TabletopScenes(objects, num_objects=(0, 1))
+    with pytest.raises(EnvConfigError, match="not in the object set"):
+        PickConfig(objects=objects, categories=("bowl", "sofa"))
+    with pytest.raises(EnvConfigError, match="num_objects"):
+        PickConfig(objects=objects, num_objects=(1, 3))
+    with pytest.raises(EnvConfigError, match="num_objects"):
+        PickConfig(objects=objects, num_objects=(0, 1))
 
 
 def test_scenes_never_import_the_envs() -> None:

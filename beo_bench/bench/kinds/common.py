@@ -6,7 +6,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -15,13 +15,14 @@ from beo_bench.bench.scoring import Answer, base_row, view_row
 from beo_bench.bench.suites import Kind, Suite
 from beo_bench.types import Estimate, GroundTruth, View
 
-if TYPE_CHECKING:
-    from beo_bench.bench.evaluate import Evaluator
-
 Rows = list[dict[str, Any]]
 Announce = Callable[[Rows], None]
 """Told an item's rows as far as they are known before the backend is called (the
 worker pool's ``begin`` message)."""
+
+Predict = Callable[[int, int, View], Answer]
+"""The run's backend on view ``j`` of item ``index``: its estimate (None where it failed),
+seconds, failure (:meth:`beo_bench.bench.evaluate.Evaluator.predict`)."""
 
 
 def no_announce(rows: Rows) -> None:
@@ -69,13 +70,26 @@ class Items(ABC):
         ]
 
 
-def run_view_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
+class RunItem(Protocol):
+    """Scores item ``index`` of ``items`` (its suite: ``items.suite``) with ``predict`` and
+    returns its rows; ``announce`` is told the rows known before ``predict`` is called;
+    ``robust``: the backend asks for the grasp most robust to its pose samples (its
+    capability ``grasp="robust"``; the pick kind reads it)."""
+
+    def __call__(
+        self, items: Items, predict: Predict, index: int, announce: Announce, *, robust: bool
+    ) -> Rows: ...
+
+
+def run_view_item(
+    items: Items, predict: Predict, index: int, announce: Announce, *, robust: bool = False
+) -> Rows:
     """An item whose views are each scored on their estimate: the views, announced, then
     every prediction, then the truths and the rows."""
-    items, suite = ev.items, ev.suite
+    suite = items.suite
     views = items.views(index)
     announce(items.base_rows(index, views))
-    answers = [ev.predict(index, j, v) for j, v in enumerate(views)]
+    answers = [predict(index, j, v) for j, v in enumerate(views)]
     truths = items.truths(index, views)
     return [
         view_row(
@@ -168,10 +182,6 @@ def rank_view_rows(suite: Suite, rows: Rows) -> Ranking:
     )
 
 
-Predict = Callable[[int, int, View], Answer]
-"""The run's backend on view ``j`` of item ``index`` (:meth:`Evaluator.predict`)."""
-
-
 def view_report_case(items: Items, row: dict[str, Any], predict: Predict | None) -> ReportCase:
     """Row ``row``'s view rebuilt from its item, with its truth; and, given ``predict``, the
     backend's estimate for it again."""
@@ -196,7 +206,7 @@ class ItemKind:
     """The class list the views of a suite carry."""
     open: Callable[[Suite, bool], Items]
     """The suite's items without a backend (``open(suite, class_given)``)."""
-    run_item: Callable[[Evaluator, int, Announce], Rows] = run_view_item
+    run_item: RunItem = run_view_item
     failed_rows: Callable[[Rows, str], Rows] = failed_view_rows
     view_values: Callable[[Suite, Rows], dict[str, np.ndarray]] = tally.estimate_values
     collect: Callable[[tally.Tally, Rows, dict[str, np.ndarray]], None] = tally.collect_estimates

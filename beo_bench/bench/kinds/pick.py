@@ -39,7 +39,6 @@ from beo_bench.objects import instance_from_key
 from beo_bench.types import GroundTruth, View
 
 if TYPE_CHECKING:
-    from beo_bench.bench.evaluate import Evaluator
     from beo_bench.objects.datasets import Dataset
 
 
@@ -77,14 +76,17 @@ class PickItems(SceneItems):
         return [self.pick_row(index, obs, len(self.scene_views(obs)))]
 
 
-def run_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
+def run_item(
+    items: Items, predict: Predict, index: int, announce: Announce, *, robust: bool = False
+) -> Rows:
     """One episode: the target is the object with the highest probability of the asked
     class; the grasp is planned on its estimated surface (``Estimate.mesh``, else marching
     cubes on ``shape``) placed by its estimated pose and size, with the other objects'
     estimated surfaces as obstacles (their observed points where the backend failed); the
-    env executes the best grasp once."""
-    items = ev.items
+    env executes the best grasp once; ``robust``: the one most robust to the estimate's pose
+    samples, where it has them."""
     assert isinstance(items, PickItems)
+    suite = items.suite
     env = items.env
     obs = items.reset(index)
     target = int(obs["target_class"])
@@ -94,7 +96,7 @@ def run_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
     row["failure"] = None
     estimates, total, failures = [], 0.0, []
     for j, v in enumerate(views):
-        est, seconds, failure = ev.predict(index, j, v)
+        est, seconds, failure = predict(index, j, v)
         estimates.append(est)
         total += seconds
         if failure:
@@ -116,7 +118,7 @@ def run_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
     cam_to_world = np.asarray(obs["cam_to_world"], dtype=np.float64)
     # what was wrong with the estimate the grasp is planned on (issue 49: pick's success
     # against each error; the object chosen, the target or not)
-    row.update(pick_errors(best, chosen_truth, cam_to_world, ev.suite.resolution, ev.suite.dataset))
+    row.update(pick_errors(best, chosen_truth, cam_to_world, suite.resolution, suite.dataset))
     mesh = estimate_mesh(best, cam_to_world)
     if mesh is None:
         row.update(success=False, reason="empty_shape")
@@ -128,10 +130,10 @@ def run_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
     ]
     t0 = time.perf_counter()
     grasps = plan_grasps(
-        mesh, env.table.table_height, np.concatenate(obstacles) if obstacles else None
+        mesh, env.config.table.table_height, np.concatenate(obstacles) if obstacles else None
     )
     grasp = grasps[0] if grasps else None
-    if grasps and ev.ctx.backend.capabilities.grasp == "robust" and best.pose_samples is not None:
+    if grasps and robust and best.pose_samples is not None:
         c2w_t = cam_to_world @ rigid(np.eye(3), np.asarray(best.translation))
         poses = np.stack([c2w_t @ rigid(R, np.zeros(3)) for R in best.pose_samples])
         weights = np.ones(len(poses)) if best.pose_weights is None else best.pose_weights
@@ -144,7 +146,7 @@ def run_item(ev: Evaluator, index: int, announce: Announce) -> Rows:
         return [row]
     _, reward, _, _, info = env.step(grasp.action)
     row.update(success=bool(reward > 0), reason=str(info["reason"]))
-    row.update(grasp_audit(grasp, info, label, chosen_truth, cam_to_world, ev.suite.dataset))
+    row.update(grasp_audit(grasp, info, label, chosen_truth, cam_to_world, suite.dataset))
     return [row]
 
 

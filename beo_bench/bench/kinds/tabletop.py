@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -11,6 +11,9 @@ from beo_bench.bench.kinds.common import ItemKind, Items, Rows
 from beo_bench.bench.suites import Kind, Suite, episode_seed
 from beo_bench.errors import UserDataError
 from beo_bench.types import GroundTruth, View
+
+if TYPE_CHECKING:
+    from beo_bench.scenes.pickconfig import PickConfig
 
 
 def categories(suite: Suite) -> tuple[str, ...]:
@@ -22,6 +25,26 @@ def categories(suite: Suite) -> tuple[str, ...]:
     from beo_bench.objects import pickable_categories
 
     return pickable_categories()  # BEOPick-v0's default class list
+
+
+def pick_config(suite: Suite) -> PickConfig:
+    """The BEOPick-v0 settings of a tabletop or pick suite's scenes: its split, image and
+    sensor (the scenes' depth as the suite's sensor captures it); on a dataset, the user's
+    objects, up to four of distinct classes a scene."""
+    from beo_bench.scenes.pickconfig import PickConfig
+
+    objects, num_objects = None, (1, 4)
+    if suite.dataset is not None:
+        objects = suite.dataset.objects(suite.split, suite.categories)
+        num_objects = (1, min(4, len(objects.categories)))
+    return PickConfig(
+        split=suite.split,
+        num_objects=num_objects,
+        objects=objects,
+        image_size=suite.image_size,
+        fovy_deg=suite.fovy_deg,
+        sensor=suite.sensor,
+    )
 
 
 def view_label(view: View) -> int:
@@ -41,18 +64,7 @@ class SceneItems(Items):
         if self._env is None:
             from beo_bench.envs.pick import BEOPickEnv
 
-            s = self.suite
-            kw: dict[str, Any] = {}
-            if s.dataset is not None:  # scenes of the user's objects (distinct classes each)
-                objects = s.dataset.objects(s.split, s.categories)
-                kw = {"objects": objects, "num_objects": (1, min(4, len(objects.categories)))}
-            self._env = BEOPickEnv(
-                split=s.split,
-                image_size=s.image_size,
-                fovy_deg=s.fovy_deg,
-                sensor=s.sensor,  # the scenes' depth as the suite's sensor captures it
-                **kw,
-            )
+            self._env = BEOPickEnv(pick_config(self.suite))
         return self._env
 
     def close(self) -> None:
