@@ -16,7 +16,7 @@ import errno
 import importlib
 import sys
 import warnings
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from types import ModuleType
 from typing import Any, NamedTuple
 
@@ -94,10 +94,10 @@ class _MainParser(SuggestingParser):
         return super().format_help()
 
 
-def build_parser(command: str | None = None) -> argparse.ArgumentParser:
-    """The command line's parser; with ``command``, only that command's options are
-    declared (the others are names in the list), so parsing its arguments imports its
-    module alone: ``--version`` and ``--help`` import none."""
+def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentParser:
+    """The command line's parser, declaring the options of ``commands`` (None: every
+    command's); the others are names in its list, and their modules are not imported:
+    ``main`` declares the one command it runs, none for ``--version`` and ``--help``."""
     p = _MainParser(
         prog="beo-bench",
         description="Benchmark object-centric perception (class, pose and full 3D shape from\n"
@@ -110,18 +110,18 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     # the top-level one does; only the top-level help lists the registries
     sub = p.add_subparsers(dest="command", required=True, parser_class=SuggestingParser)
     for c in COMMANDS:
-        if command is None or c.name == command:
+        if commands is None or c.name in commands:
             command_module(c.name).add(sub, c.help)
         else:
             sub.add_parser(c.name, help=c.help)
     return p
 
 
-def _command_in(argv: Sequence[str]) -> str | None:
+def _command_in(argv: Sequence[str]) -> tuple[str, ...]:
     """The command ``argv`` names: its first argument that is not an option (the top-level
-    options take no value); None when there is none or it is not a command."""
+    options take no value); none when there is none or it is not a command."""
     first = next((a for a in argv if not a.startswith("-")), None)
-    return first if first in _BY_NAME else None
+    return (first,) if first in _BY_NAME else ()
 
 
 RESUME_HINTS = {
