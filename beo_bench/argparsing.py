@@ -173,7 +173,7 @@ def field_option(container: Any, cls: type, name: str, **kwargs: Any) -> argpars
             raise TypeError(f"{cls.__name__}.{name} has no default: give one")
         kwargs["default"] = field.default
     flag = "--" + name.replace("_", "-")
-    return container.add_argument(flag, dest=name, **kwargs)  # type: ignore[no-any-return]
+    return container.add_argument(flag, dest=name, **kwargs)
 
 
 T = TypeVar("T")

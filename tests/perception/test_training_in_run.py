@@ -11,9 +11,9 @@ from pathlib import Path
 import pytest
 
 from beo_bench import cli
-from beo_bench.cli import train as train_command
 from beo_bench.backend import get_backend
 from beo_bench.cli import main
+from beo_bench.cli import train as train_command
 from beo_bench.errors import TrainingInRunError, UsageError
 from beo_bench.objects.cache import cache_root
 from beo_bench.scenes.tabletop import default_categories
