@@ -8,13 +8,18 @@ would then change meaning under a user's script. :class:`SuggestingParser` turns
 an unknown flag or an invalid choice (a command, ``--track``, ``--split``, ...) with the
 closest known one, compared case-insensitively (Python 3.11's argparse has no
 ``suggest_on_error``). Both stay argparse's own usage errors: one message, exit status 2.
+
+Also the argument types that check a number's range (a usage error before anything runs),
+and options declared by a config dataclass's fields (:func:`field_option`,
+:func:`from_namespace`).
 """
 
 from __future__ import annotations
 
 import argparse
-from collections.abc import Sequence
-from typing import Any
+import dataclasses
+from collections.abc import Callable, Sequence
+from typing import Any, TypeVar
 
 from beo_bench.names import closest, did_you_mean
 
@@ -81,3 +86,103 @@ def unrecognized(extras: Sequence[str], flags: Sequence[str]) -> str:
                 hints.append(f"{flag}: did you mean {match}?")
     text = f"unrecognized arguments: {' '.join(extras)}"
     return text + (f" ({'; '.join(hints)})" if hints else "")
+
+
+# -- argument types: an out-of-range number is a usage error (exit 2) before anything runs --
+def bounded_int(lo: int, hi: int | None = None, why: str = "") -> Callable[[str], int]:
+    """An argparse ``type`` accepting whole numbers in ``lo..hi`` (no upper bound when
+    ``hi`` is None); ``why`` ends the message when a value is refused."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+        if value < lo or (hi is not None and value > hi):
+            wanted = f">= {lo}" if hi is None else f"from {lo} to {hi}"
+            wanted = f"a whole number {wanted}"
+            raise argparse.ArgumentTypeError(f"{value} is out of range: give {wanted}{why}")
+        return value
+
+    parse.__name__ = "int"  # argparse names the type in some of its messages
+    return parse
+
+
+positive_int = bounded_int(1)
+nonneg_int = bounded_int(0)
+seed_int = bounded_int(0, why=" (numpy seeds are non-negative)")
+# Voxel grids hold D^3 cells per instance (and training stacks thousands of them): 128^3
+# is 2 M cells, 8 MB per float32 grid; beyond it memory, not the method, is the limit. Below
+# 8 cells per edge a shape is no longer recognisable.
+resolution_int = bounded_int(8, 128, why=" voxels per edge (memory grows as D^3)")
+
+
+def positive_float(text: str) -> float:
+    """An argparse ``type``: a finite number > 0 (``nan`` and ``inf`` refused)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text} is out of range: give a number > 0")
+    return value
+
+
+def fraction(text: str) -> float:
+    """An argparse ``type``: a number in (0, 1]."""
+    value = positive_float(text)
+    if value > 1:
+        raise argparse.ArgumentTypeError(f"{text} is out of range: give a number in (0, 1]")
+    return value
+
+
+def rate(text: str) -> float:
+    """An argparse ``type``: a share in [0, 1] (``--max-failure-rate 0``: no failure)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0 <= value <= 1:
+        raise argparse.ArgumentTypeError(f"{text} is out of range: give a share in [0, 1]")
+    return value
+
+
+def open_fraction(text: str) -> float:
+    """An argparse ``type``: a number in (0, 1) (a significance level)."""
+    value = positive_float(text)
+    if value >= 1:
+        raise argparse.ArgumentTypeError(f"{text} is out of range: give a number in (0, 1)")
+    return value
+
+
+# -- options from a config dataclass's fields -----------------------------------------------
+# A command whose options configure a dataclass (``train``: TrainRequest) declares each
+# option by its field: the flag, the destination and the default are the field's, so they
+# cannot drift from the config; what is the command line's own (the type that checks the
+# text, the help) is given where the option is declared. The namespace goes back into the
+# dataclass by the same names (:func:`from_namespace`).
+def field_option(container: Any, cls: type, name: str, **kwargs: Any) -> argparse.Action:
+    """Add ``--NAME`` (underscores as dashes) for field ``name`` of dataclass ``cls`` to
+    ``container`` (a parser or an argument group); its default is the field's unless
+    ``default`` is given; the other keywords are ``add_argument``'s."""
+    field = next((f for f in dataclasses.fields(cls) if f.name == name), None)
+    if field is None:
+        raise TypeError(f"{cls.__name__} has no field {name!r}")
+    if "default" not in kwargs:
+        if field.default is dataclasses.MISSING:
+            raise TypeError(f"{cls.__name__}.{name} has no default: give one")
+        kwargs["default"] = field.default
+    flag = "--" + name.replace("_", "-")
+    return container.add_argument(flag, dest=name, **kwargs)
+
+
+T = TypeVar("T")
+
+
+def from_namespace(cls: type[T], args: argparse.Namespace, **values: Any) -> T:
+    """An instance of dataclass ``cls`` from ``args``: each field the command line has an
+    option of takes its value, ``values`` (what the command computed, e.g. a dataset) win,
+    and a field the command has no option of keeps its default."""
+    names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    given = {k: v for k, v in vars(args).items() if k in names}
+    return cls(**{**given, **values})

@@ -11,7 +11,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from beo_bench import reports
+from beo_bench.bench import campaign
+from beo_bench.bench.runner import default_workers
+from beo_bench.envs import pickcheck
 from beo_bench.errors import BeoBenchError
+from beo_bench.view import view_scene
 
 DEMO_SIZES = {
     "known-pose": 36,
@@ -45,11 +50,9 @@ def picked_seed(split: str = DEMO_SPLIT, start: int = 0, limit: int = SEED_SEARC
     it finds a grasp of the target and executing its best grasp lifts the target (one
     episode of :func:`beo_bench.envs.pickcheck.ground_truth_pick_check` per seed, so this is
     exactly what ``beo-bench pick-check`` counts as a success; deterministic)."""
-    from beo_bench.envs.pickcheck import ground_truth_pick_check
-
     skipped: list[tuple[int, str]] = []
     for seed in range(start, start + limit):
-        episode = ground_truth_pick_check(episodes=1, seed=seed, split=split).episodes[0]
+        episode = pickcheck.ground_truth_pick_check(episodes=1, seed=seed, split=split).episodes[0]
         if episode.success:
             return PickedSeed(seed, episode.category, tuple(skipped))
         skipped.append((seed, episode.reason))
@@ -67,10 +70,6 @@ def run_demo(
 ) -> None:
     """Everything ``beo-bench demo`` does, printing through ``say``; files go to ``out``
     (``objects.png``, ``scene_SEED.png``/``.rrd``, ``runs/``, ``leaderboards/``)."""
-    from beo_bench import reports
-    from beo_bench.bench.runner import default_workers
-    from beo_bench.view import view_scene
-
     out = Path(out)
     workers = workers or default_workers()
     say(f"beo-bench demo: the object library ({DEMO_SPLIT} split)\n")
@@ -104,18 +103,15 @@ def run_demo(
 def demo_suites(out: Path, workers: int | None, say: Callable[[str], None] = print) -> list[Path]:
     """Every suite, shortened (:data:`DEMO_SIZES`), with every registered backend; then the
     leaderboard. Re-running resumes the finished runs (nothing is recomputed)."""
-    from beo_bench import reports
-    from beo_bench.bench.campaign import Campaign, run_campaign
-
     backends = reports.every_backend()
     say(f"\nbeo-bench demo: short suites with {', '.join(backends)}\n")
-    c = Campaign(
+    c = campaign.Campaign(
         dict(DEMO_SIZES),
         [(b, {}) for b in backends],
         runs=out / "runs",
         leaderboards=out / "leaderboards",
         workers=workers,
     )
-    written = run_campaign(c)
+    written = campaign.run_campaign(c)
     say(reports.leaderboard_text(written, c.leaderboards))
     return written

@@ -22,7 +22,8 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class TrainRequest:
-    """A ``train`` command's options (None: the model's default)."""
+    """A ``train`` command's options (None: the model's default); the command's flags are
+    declared by these fields (``beo_bench.argparsing.field_option``)."""
 
     dataset: Dataset | None = None
     """``--objects``: train on a user's dataset (None: the procedural library)."""
@@ -37,7 +38,8 @@ class TrainRequest:
     images: int | None = None
     val_images: int | None = None
     epochs: int | None = None
-    recipe: str | None = None
+    recipe: str = "default"
+    """``--recipe``: default, reference or per-category (``hbeo_train.default_config``)."""
     seed: int | None = None
     crop: int | None = None
     size: str | None = None
@@ -120,7 +122,7 @@ def hbeo_config(req: TrainRequest, kind: Kind) -> HBEOConfig:
         instances=req.per_category,
         images=req.images,
         epochs=req.epochs,
-        recipe=req.recipe or "default",
+        recipe=req.recipe,
         dataset=req.dataset,
     )
     return with_overrides(

@@ -147,7 +147,7 @@ def _failing_command(monkeypatch, exc: BaseException) -> None:
     def boom(args) -> int:
         raise exc
 
-    monkeypatch.setattr(cli, "cmd_compare", boom)
+    monkeypatch.setattr(cli.command_module("compare"), "run", boom)
 
 
 @pytest.mark.parametrize(
@@ -185,7 +185,7 @@ def test_interrupted_run_says_how_to_resume(capsys, monkeypatch) -> None:
     def interrupted(args) -> int:
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "cmd_run", interrupted)
+    monkeypatch.setattr(cli.command_module("run"), "run", interrupted)
     assert main(RUN) == 130
     assert _one_error_line(capsys) == (
         "beo-bench: interrupted; run the same command with --resume to continue"

@@ -12,7 +12,8 @@ import pytest
 
 from beo_bench.backend import describe_backend, list_backends, load_plugins
 from beo_bench.bench.suites import SUITES
-from beo_bench.cli import build_parser, main, registry_listing
+from beo_bench.cli import build_parser, main
+from beo_bench.cli.listing import registry_listing
 from beo_bench.errors import BackendError
 from beo_bench.objects.cache import KINDS
 from tests.plugins import install_plugin
@@ -156,3 +157,72 @@ def test_shared_options_keep_each_commands_defaults(argv, expected) -> None:
 def test_shared_options_keep_each_commands_help(capsys, command, text) -> None:
     out = _help(capsys, [*command, "--help"])
     assert text in " ".join(out.split())
+
+
+def test_version_and_help_import_no_command_and_a_command_imports_its_own() -> None:
+    """Each command's module is imported when that command runs: ``--version`` and the
+    top-level ``--help`` import none, ``run --help`` imports ``run``'s alone."""
+    code = (
+        "import sys\n"
+        "from beo_bench.cli import COMMANDS, main\n"
+        "def loaded():\n"
+        "    names = (c.name for c in COMMANDS if f'beo_bench.cli.{c.module}' in sys.modules)\n"
+        "    return sorted(names)\n"
+        "for argv, want in ((['--version'], []), (['--help'], []), (['run', '--help'], ['run'])):\n"
+        "    try:\n"
+        "        main(argv)\n"
+        "    except SystemExit as e:\n"
+        "        assert e.code == 0\n"
+        "    assert loaded() == want, (argv, loaded())\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+
+
+def test_train_options_are_the_train_requests_fields() -> None:
+    """``train``'s flags for a :class:`TrainRequest` field carry the field's name and
+    default, and the parsed options go back into the request by name: no flag given is
+    the default request, every flag given reaches its field."""
+    from dataclasses import fields
+
+    from beo_bench.cli import train
+    from beo_bench.training import TrainRequest
+
+    parser = build_parser(["train"])
+    assert train.train_request(parser.parse_args(["train", "hbeo"])) == TrainRequest()
+    values = {
+        "split": None,  # --split needs --objects
+        "categories": ("mug",),
+        "per_category": 3,
+        "resolution": 16,
+        "variance_fraction": 0.5,
+        "images": 8,
+        "val_images": 2,
+        "epochs": 1,
+        "recipe": "reference",
+        "seed": 7,
+        "crop": 32,
+        "size": "dissertation",
+        "rotation": "6d",
+        "batch_size": 4,
+        "projection_weighting": "variance",
+        "sensor": "d435",
+    }
+    # every field but the dataset (built from --objects and its loading options) is a flag
+    assert set(values) == {f.name for f in fields(TrainRequest)} - {"dataset"}
+    argv = ["train", "hbeo"]
+    for name, value in values.items():
+        if value is not None:
+            flag = "--" + name.replace("_", "-")
+            argv += [flag, *(value if isinstance(value, tuple) else [str(value)])]
+    assert train.train_request(parser.parse_args(argv)) == TrainRequest(**values)
+
+
+def test_field_option_refuses_a_name_that_is_not_a_field() -> None:
+    import argparse
+
+    from beo_bench.argparsing import field_option
+    from beo_bench.training import TrainRequest
+
+    with pytest.raises(TypeError, match="no field 'epoch'"):
+        field_option(argparse.ArgumentParser(), TrainRequest, "epoch")

@@ -8,7 +8,8 @@ import pytest
 
 from beo_bench.bench import columns
 from beo_bench.bench.compare import ComparisonWarning, paired
-from beo_bench.cli import COLUMNS, format_runs, main
+from beo_bench.cli import main
+from beo_bench.cli.common import COLUMNS, format_runs
 from beo_bench.errors import UsageError
 from tests.bench.synthetic_runs import pose_row, write_run
 

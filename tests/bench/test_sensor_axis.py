@@ -17,7 +17,8 @@ from beo_bench.bench import runner
 from beo_bench.bench.leaderboard import regenerate
 from beo_bench.bench.runs import RunConfig, RunContext, RunUsageError, run_name
 from beo_bench.bench.suites import SUITES, get_suite
-from beo_bench.cli import SENSOR_NAMES, build_parser, main
+from beo_bench.cli import build_parser, main
+from beo_bench.cli.options import SENSOR_NAMES
 from beo_bench.scenes.sensors import SENSORS, SensorError
 from tests.bench.synthetic_runs import pose_row, write_run
 

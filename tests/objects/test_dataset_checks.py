@@ -220,7 +220,7 @@ def test_near_the_upper_limit_is_flagged_too(tmp_path) -> None:
 
 def test_objects_prints_the_unit_and_scale_report(tmp_path, capsys, monkeypatch) -> None:
     root = make_folder(tmp_path / "data", ball=1.0, junk=True)
-    monkeypatch.setattr(cli, "_print_skipped", lambda d: None)
+    monkeypatch.setattr(cli.command_module("objects"), "print_skipped", lambda d: None)
     # the report and the error come before any object is processed
     assert main(["objects", "--objects", str(root), "--split", "all", "--workers", "1"]) == 2
     captured = capsys.readouterr()

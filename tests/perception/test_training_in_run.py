@@ -13,6 +13,7 @@ import pytest
 from beo_bench import cli
 from beo_bench.backend import get_backend
 from beo_bench.cli import main
+from beo_bench.cli import train as train_command
 from beo_bench.errors import TrainingInRunError, UsageError
 from beo_bench.objects.cache import cache_root
 from beo_bench.scenes.pickconfig import default_categories
@@ -84,13 +85,13 @@ def _trained_by(argv: list[str]) -> Path:
         from beo_bench.perception.beo_model import default_name, model_path
         from beo_bench.training import beo_config
 
-        req = cli._train_request(args)
+        req = train_command.train_request(args)
         cats = beo_config(req).categories
         name = default_name(cats, args.resolution, args.per_category, req.dataset)
         return model_path(name) / "config.json"
     from beo_bench.perception.hbeo_train import default_name, model_path
 
-    return model_path(default_name(cli._hbeo_config(args, args.model))) / "weights.pt"
+    return model_path(default_name(train_command.hbeo_config(args, args.model))) / "weights.pt"
 
 
 @pytest.mark.parametrize(

@@ -1,0 +1,66 @@
+"""``beo-bench objects``: process and summarise an object set."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from beo_bench import reports
+from beo_bench.argparsing import resolution_int
+from beo_bench.cli.common import categories_of, dataset_of, print_skipped
+from beo_bench.cli.options import (
+    SCENE_SPLITS,
+    categories_parent,
+    dataset_parent,
+    per_category_parent,
+    split_parent,
+    workers_parent,
+)
+from beo_bench.errors import UsageError
+
+
+def add(sub: Any, help: str) -> None:
+    o = sub.add_parser(
+        "objects",
+        help=help,
+        parents=[
+            dataset_parent(),
+            split_parent(SCENE_SPLITS, "test", "all: every model of a --objects dataset"),
+            categories_parent(),
+            per_category_parent(None, "instances per category (default: the split's size)"),
+            workers_parent(2, None),
+        ],
+    )
+    o.add_argument(
+        "--root", default=None, help="a ShapeNetCore v2, ModelNet or per-category mesh folder"
+    )
+    o.add_argument(
+        "--resolution", type=resolution_int, default=32, help="voxel grid size D (8-128)"
+    )
+    o.add_argument("--sheet", type=Path, default=None, help="write a contact sheet PNG")
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.objects is not None and args.root is not None:
+        raise UsageError("give the dataset once: --objects ROOT (--root is its older spelling)")
+    args.objects, args.root = args.objects or args.root, None  # checked as --objects is
+    dataset = dataset_of(args)
+    if dataset is not None:
+        print(f"dataset {dataset.root}: {dataset.layout} layout, digest {dataset.digest}")
+    objects, counts = reports.select_objects(
+        args.split, categories_of(args), args.per_category, dataset=dataset, root=args.root
+    )
+    report = reports.summarise_objects(
+        objects,
+        args.split,
+        resolution=args.resolution,
+        workers=args.workers,
+        sheet=args.sheet,
+        sheet_per_category=args.per_category or 6,  # the sheet shows what --per-category asks
+        split_counts=counts,
+    )
+    print()
+    print(report.text())
+    print_skipped(dataset)
+    return 0
