@@ -27,7 +27,7 @@ from beo_bench.objects import (
 from beo_bench.objects.cache import mesh_hash
 from beo_bench.objects.dresser import MAX_COLUMNS, plan
 from beo_bench.objects.registry import generate, instance_params
-from beo_bench.objects.symmetry import rotation_iou
+from beo_bench.objects.symmetry import analyse_symmetry, rotation_iou, symmetry_name
 
 Params = Mapping[str, Any]
 Check = Callable[[Sequence[ObjectInstance]], None]
@@ -136,6 +136,7 @@ class Expect:
     declared 2-fold about z (the others declare no symmetry at all); ``quarter_xy_on``: on
     that many first instances, quarter turns about x and y change the solid too;
     ``rebuilt``: the test indices whose keys and parameters must rebuild them;
+    ``estimated``: the geometric symmetry estimator finds the declared group;
     ``drawn``/``occurs``: what the train split draws (``occurs``: each holds for some
     instance); ``checks``: the category's own geometric checks on the test instances."""
 
@@ -145,6 +146,7 @@ class Expect:
     two_fold: Callable[[Params], bool] = _never
     quarter_xy_on: int = 0
     rebuilt: tuple[int, ...] = (0, 1, 2)
+    estimated: bool = True
     occurs: Mapping[str, Callable[[Params], bool]] = field(default_factory=dict)
     checks: tuple[Check, ...] = ()
 
@@ -242,6 +244,10 @@ EXPECT: dict[str, Expect] = {
         # wider than deep (at least 1.3 x), under 7.5 cm deep: picked across the depth
         shape=lambda e, p: e[1] > 1.3 * e[0] and e[0] < 0.075,
         quarter_xy_on=10,
+        # a closed case differs from its half turn by millimetres of relief: the estimator,
+        # at IoU 0.95 about the centre of mass, calls some 2-fold (docs/objects.md says why
+        # it is declared without symmetry)
+        estimated=False,
         drawn=(
             Drawn("form", {"low", "chest", "tall"}),
             Drawn("support", {"plinth", "legs", "bracket"}),
@@ -279,6 +285,10 @@ EXPECT: dict[str, Expect] = {
         # wider than deep: a quarter turn about z is no symmetry of the plan
         shape=lambda e, p: e[1] > 1.15 * e[0],
         quarter_xy_on=10,
+        # a closed case differs from its half turn by millimetres of relief: the estimator,
+        # at IoU 0.95 about the centre of mass, calls some 2-fold (docs/objects.md says why
+        # it is declared without symmetry)
+        estimated=False,
         drawn=(
             Drawn("style", {"drawers", "table", "cabinet"}),
             Drawn("support", {"plinth", "legs", "bracket"}, CASE),
@@ -392,6 +402,14 @@ def test_symmetry_as_declared(category: str, test_set: list[ObjectInstance]) -> 
     for inst in test_set[: e.quarter_xy_on]:
         for R in (QUARTER_X, QUARTER_Y):
             assert rotation_iou(inst.mesh, R) < IOU_KEEPS, (inst.key, R.round(3))
+
+
+@pytest.mark.parametrize("category", [c for c, e in EXPECT.items() if e.estimated], scope="module")
+def test_the_estimator_finds_the_declared_group(
+    category: str, test_set: list[ObjectInstance]
+) -> None:
+    for inst in test_set[:8]:
+        assert analyse_symmetry(inst.mesh).name == symmetry_name(inst.symmetry), inst.key
 
 
 @pytest.mark.parametrize("category", CATEGORIES)
