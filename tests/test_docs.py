@@ -14,6 +14,7 @@ import os
 import re
 import subprocess
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 
 import pytest
@@ -165,14 +166,7 @@ def test_shell_blocks_run_or_parse(page: Path, tmp_path: Path) -> None:
         calls = _recorded(log)
         if b.marker == "check":
             assert calls or "make" in b.code, f"{b.where()}: a check block without a command"
-            for argv in calls:
-                try:
-                    check_command(argv)
-                except Exception as e:  # the parser's or a registry's refusal
-                    pytest.fail(
-                        f"shell block at {b.where()}: `beo-bench {' '.join(argv)}`: {e}",
-                        pytrace=False,
-                    )
+            _check_commands(calls, f"shell block at {b.where()}")
 
 
 @pytest.mark.parametrize("page", PAGES, ids=IDS)
@@ -195,14 +189,16 @@ def test_yaml_blocks_parse_and_their_commands_check(page: Path) -> None:
             doc = yaml.safe_load(b.code)
         except yaml.YAMLError as e:
             pytest.fail(f"yaml block at {b.where()} does not parse: {e}", pytrace=False)
-        for argv in yaml_commands(doc):
-            try:
-                check_command(argv)
-            except Exception as e:  # the parser's or a registry's refusal
-                pytest.fail(
-                    f"yaml block at {b.where()}: `beo-bench {' '.join(argv)}`: {e}",
-                    pytrace=False,
-                )
+        _check_commands(yaml_commands(doc), f"yaml block at {b.where()}")
+
+
+def _check_commands(calls: Iterable[list[str]], where: str) -> None:
+    """Each ``beo-bench`` argv goes through the real parser and registries."""
+    for argv in calls:
+        try:
+            check_command(argv)
+        except Exception as e:  # the parser's or a registry's refusal
+            pytest.fail(f"{where}: `beo-bench {' '.join(argv)}`: {e}", pytrace=False)
 
 
 def _prose(page: Path) -> list[tuple[int, str]]:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 
 from beo_bench.bop import results as br
 from beo_bench.bop import store as bst
@@ -197,27 +198,11 @@ def test_a_rotation_printed_to_4_decimals_scores_as_its_nearest_rotation(tmp_pat
     assert np.linalg.det(R) == pytest.approx(1.0, abs=1e-12)
     np.testing.assert_allclose(R, R0, atol=1e-4)
     np.testing.assert_array_equal(nearest_rotation(np.eye(3)), np.eye(3))
-    box = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-    faces = np.array(
-        [
-            [0, 1, 3],
-            [0, 3, 2],
-            [4, 6, 7],
-            [4, 7, 5],
-            [0, 4, 5],
-            [0, 5, 1],
-            [2, 3, 7],
-            [2, 7, 6],
-            [0, 2, 6],
-            [0, 6, 4],
-            [1, 5, 7],
-            [1, 7, 3],
-        ]
-    )
+    box = trimesh.creation.box(extents=(2.0, 2.0, 2.0))
     K = np.array([[50.0, 0, 16], [0, 50.0, 16], [0, 0, 1]])
     with pytest.raises(ValueError, match="proper rotation"):
-        render_depth(box, faces, e.R, [0, 0, 10], K, 32, 32)
-    assert render_depth(box, faces, R, [0, 0, 10], K, 32, 32).max() > 0
+        render_depth(box.vertices, box.faces, e.R, [0, 0, 10], K, 32, 32)
+    assert render_depth(box.vertices, box.faces, R, [0, 0, 10], K, 32, 32).max() > 0
 
 
 def test_a_bad_second_line_ends_the_reading(tmp_path: Path) -> None:
