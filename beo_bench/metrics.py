@@ -8,8 +8,8 @@ Conventions shared by every function here:
 - Symmetry groups are in the BOP toolkit's ``models_info`` form
   (:class:`beo_bench.types.Symmetry`); a symmetry element ``S`` maps the object onto itself,
   so poses ``R`` and ``R @ S`` are indistinguishable.
-- Aggregates over many episodes (rates, accuracies, bootstrap intervals) drop NaN entries;
-  an aggregate over nothing is NaN.
+- Aggregates over many episodes (rates, accuracies) drop NaN entries; an aggregate over
+  nothing is NaN. Intervals and paired tests over items are in :mod:`beo_bench.stats`.
 - Shape errors raise ``ValueError`` saying what was expected.
 
 References:
@@ -28,13 +28,12 @@ References:
 - [ONet] Mescheder et al., "Occupancy Networks", CVPR 2019 (Chamfer-L1, voxel IoU).
 - [Tatarchenko] Tatarchenko et al., "What Do Single-view 3D Reconstruction Networks
   Learn?", CVPR 2019 (F-score at a distance threshold).
-- [Efron] Efron & Tibshirani, "An Introduction to the Bootstrap", 1993 (percentile CI).
 """
 
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -55,7 +54,6 @@ __all__ = [
     "NOCS_THRESHOLDS",
     "Surface",
     "bin_accuracy",
-    "bootstrap_ci",
     "camera_frame_iou",
     "chamfer_l1",
     "class_accuracy",
@@ -1173,101 +1171,3 @@ def runtime_stats(seconds: ArrayLike) -> dict[str, float]:
         "ms_mean": float(ms.mean()),
         "hz": 1000.0 / med if med > 0 else float("inf"),
     }
-
-
-# --------------------------------------------------------------------------- bootstrap
-
-
-def bootstrap_ci(
-    values: ArrayLike,
-    statistic: Callable[..., Any] = np.mean,
-    n_resamples: int = 1000,
-    confidence: float = 0.95,
-    seed: int = 0,
-    groups: ArrayLike | None = None,
-) -> tuple[float, float]:
-    """Percentile bootstrap confidence interval ``(lo, hi)`` of ``statistic`` [Efron].
-
-    Draws an (n_resamples, n) matrix of indices with replacement from
-    ``numpy.random.default_rng(seed)`` (deterministic), evaluates ``statistic`` on every
-    row (``statistic(samples, axis=1)`` when it accepts ``axis``, else row by row) and
-    returns the ``(1 - confidence) / 2`` and ``(1 + confidence) / 2`` percentiles. NaNs are
-    dropped first; no values -> ``(nan, nan)``; bools count as 0/1.
-
-    ``groups`` (one label per value) makes it a cluster bootstrap: the *groups* are drawn
-    with replacement (an (n_resamples, G) matrix of group indices, groups in sorted label
-    order) and each drawn group brings all its values, so values that share a group (the
-    views of one tabletop scene, which are not independent) move together, as the suite
-    samples them. With one value per group it draws exactly as without ``groups``. The
-    statistic is then taken over the pooled values of each resample (for ``np.mean``: the
-    drawn groups' summed values over their summed counts; for ``np.median``: the median of
-    the pooled values, as ``np.median`` takes it).
-    """
-    v = _vector(values, "values")
-    if not 0.0 < confidence < 1.0:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
-    if int(n_resamples) < 1:
-        raise ValueError(f"n_resamples must be >= 1, got {n_resamples}")
-    if groups is not None:
-        g = np.asarray(groups).reshape(-1)
-        if g.shape != v.shape:
-            raise ValueError(f"groups must give one label per value: {g.size} for {v.size}")
-        keep = ~np.isnan(v)
-        stats = _cluster_stats(v[keep], g[keep], statistic, int(n_resamples), seed)
-        return _percentiles(stats, confidence)
-    v = v[~np.isnan(v)]
-    if v.size == 0:
-        return float("nan"), float("nan")
-    rng = np.random.default_rng(seed)
-    samples = v[rng.integers(0, v.size, size=(int(n_resamples), v.size))]
-    try:
-        stats = np.asarray(statistic(samples, axis=1), dtype=np.float64)
-        if stats.shape != (int(n_resamples),):
-            raise TypeError("statistic did not reduce along axis 1")
-    except TypeError:
-        stats = np.array([float(statistic(row)) for row in samples])
-    return _percentiles(stats, confidence)
-
-
-def _percentiles(stats: np.ndarray, confidence: float) -> tuple[float, float]:
-    if stats.size == 0:
-        return float("nan"), float("nan")
-    alpha = (1.0 - confidence) / 2.0
-    lo, hi = np.nanpercentile(stats, [100.0 * alpha, 100.0 * (1.0 - alpha)])
-    return float(lo), float(hi)
-
-
-def _cluster_stats(
-    v: np.ndarray, groups: np.ndarray, statistic: Callable[..., Any], n: int, seed: int
-) -> np.ndarray:
-    """``statistic`` of each of ``n`` cluster resamples (see :func:`bootstrap_ci`)."""
-    if v.size == 0:
-        return np.zeros(0)
-    labels, member = np.unique(groups, return_inverse=True)
-    G = len(labels)
-    draws = np.random.default_rng(seed).integers(0, G, size=(n, G))
-    if statistic is np.mean:
-        sums = np.bincount(member, weights=v, minlength=G)
-        counts = np.bincount(member, minlength=G).astype(np.float64)
-        return sums[draws].sum(axis=1) / counts[draws].sum(axis=1)
-    # how often each group is drawn, then each value's weight in its resample
-    flat = (np.arange(n)[:, None] * G + draws).ravel()
-    times = np.bincount(flat, minlength=n * G).reshape(n, G)
-    weights = times[:, member]  # (n, N): integer multiplicities of each value
-    if statistic is np.median:
-        order = np.argsort(v, kind="stable")
-        return _weighted_medians(v[order], weights[:, order])
-    return np.array([float(statistic(np.repeat(v, w))) for w in weights])
-
-
-def _weighted_medians(sorted_v: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """``np.median`` of each row's sample, given as the sorted values repeated ``weights``
-    times (integers): the mean of the elements at ranks ``floor((T-1)/2)`` and
-    ``ceil((T-1)/2)`` of the T pooled values."""
-    cum = np.cumsum(weights, axis=1)
-    total = cum[:, -1]
-    out = np.empty(len(weights))
-    for i, (c, t) in enumerate(zip(cum, total, strict=True)):
-        lo, hi = np.searchsorted(c, [(t - 1) // 2 + 1, t // 2 + 1])
-        out[i] = 0.5 * (sorted_v[lo] + sorted_v[hi])
-    return out

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from beo_bench import metrics
+from beo_bench import metrics, stats
 from beo_bench.bench.suites import Suite
 
 SAMPLE_FIELDS = ("sample_best_err_deg", "sample_best_rank", "sample_spread_deg")
@@ -175,7 +175,7 @@ class Tally:
             return
         self.m[name] = float(statistic(v))
         if self.intervals:
-            self.ci[name] = list(metrics.bootstrap_ci(v, statistic, groups=self.items[keep]))
+            self.ci[name] = list(stats.bootstrap_ci(v, statistic, groups=self.items[keep]))
 
     def mean(self, name: str, values: np.ndarray) -> None:
         self._stat(name, values, np.mean)
