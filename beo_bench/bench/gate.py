@@ -1048,10 +1048,8 @@ def _outcome(v_diff: float, lo: float, hi: float, p_holm: float, alpha: float,
              higher_is_better: bool) -> str:  # fmt: skip
     if p_holm <= alpha and v_diff != 0:
         return REGRESSION
-    better, worse = (lo > 0, hi < 0) if higher_is_better else (hi < 0, lo > 0)
-    if better:
-        return IMPROVEMENT
-    return WORSE_WITHIN_MARGIN if worse else NO_DIFFERENCE
+    side = compare.verdict(lo, hi, higher_is_better)  # the interval's side, as compare reads it
+    return {"better": IMPROVEMENT, "worse": WORSE_WITHIN_MARGIN}.get(side, NO_DIFFERENCE)
 
 
 def gate(
