@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from beo_bench.metrics._arrays import _vector
+
 __all__ = [
     "DEFAULT_PERMUTATIONS",
     "EXACT_MAX_ITEMS",
@@ -47,14 +49,6 @@ error is then at most 0.005 (at p = 0.5; 0.002 near p = 0.05)."""
 
 ViewKey = tuple[int, int]
 """(item, view)."""
-
-
-def _vector(x: ArrayLike, name: str) -> np.ndarray:
-    """A 1-D float array (scalars become length 1)."""
-    a = np.atleast_1d(np.asarray(x, dtype=np.float64))
-    if a.ndim != 1:
-        raise ValueError(f"{name} must be a 1-D sequence of numbers, got shape {a.shape}")
-    return a
 
 
 # --------------------------------------------------------------------------- bootstrap
