@@ -1,7 +1,7 @@
 """The BOP format's figures: what the field's figures add to scoring a view, and how fast a
 suite goes out as a BOP dataset and a results file comes back as a run.
 
-- Wall ms per view of the BOP and NOCS figures (``fieldscores.score_bop``: two ray-cast
+- Wall ms per view of the BOP and NOCS figures (``scoring.score_bop``: two ray-cast
   depth renders of the true model for VSD, MSSD and MSPD over every model vertex, NOCS's
   box IoU), on warm ``pose-3dof`` views (128x128) and ``tabletop`` views (640x480), against
   the view's own render and capture measured in the same run (the ratio is the target: the
@@ -24,7 +24,7 @@ from harness import report
 
 from beo_bench.bench.bopscore import score_results
 from beo_bench.bench.export import export_bop, open_items
-from beo_bench.bench.fieldscores import bop_model, score_bop
+from beo_bench.bench.scoring import bop_model, score_bop
 from beo_bench.bench.suites import get_suite
 from beo_bench.bop.results import BopEstimate, write_results
 from beo_bench.bop.scenes import read_scene, scene_ids

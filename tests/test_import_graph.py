@@ -107,6 +107,7 @@ LAYERS = [
         ("beo_bench.bench", "beo_bench.perception", "beo_bench.envs", "beo_bench.cli"),
     ),
     ("beo_bench.metrics", ("beo_bench.bench", "beo_bench.perception", "beo_bench.envs")),
+    ("beo_bench.stats", ("beo_bench.bench", "beo_bench.perception", "beo_bench.envs")),
     ("beo_bench.types", ("beo_bench.bench", "beo_bench.perception", "beo_bench.envs")),
     ("beo_bench.envs", ("beo_bench.bench", "beo_bench.perception", "beo_bench.cli")),
     ("beo_bench.bench", ("beo_bench.cli",)),

@@ -372,35 +372,6 @@ def test_pick_summary_and_runtime_stats() -> None:
     assert r["n"] == 20
 
 
-# --------------------------------------------------------------------------- bootstrap
-
-
-def test_bootstrap_ci() -> None:
-    rng = np.random.default_rng(1)
-    small = rng.normal(3.0, 1.0, 50)
-    big = rng.normal(3.0, 1.0, 2000)
-    lo, hi = M.bootstrap_ci(small)
-    assert lo < small.mean() < hi
-    assert 0.3 < hi - lo < 0.8  # about 2 * 1.96 / sqrt(50) = 0.55
-    lo2, hi2 = M.bootstrap_ci(big)
-    assert lo2 < big.mean() < hi2
-    assert hi2 - lo2 < (hi - lo) / 3
-    assert M.bootstrap_ci(small, seed=5) == M.bootstrap_ci(small, seed=5)
-    assert M.bootstrap_ci(small, seed=5) != M.bootstrap_ci(small, seed=6)
-    assert M.bootstrap_ci(np.append(small, np.nan)) == pytest.approx((lo, hi))  # NaN dropped
-    nan_lo, nan_hi = M.bootstrap_ci([np.nan])
-    assert np.isnan(nan_lo) and np.isnan(nan_hi)
-    # statistics without an axis argument go row by row on the same resamples
-    assert M.bootstrap_ci(small, lambda x: float(np.median(x))) == pytest.approx(
-        M.bootstrap_ci(small, np.median)
-    )
-    narrow = M.bootstrap_ci(small, confidence=0.5)
-    assert lo < narrow[0] < narrow[1] < hi
-    assert M.bootstrap_ci([2.0, 2.0, 2.0]) == (2.0, 2.0)
-    with pytest.raises(ValueError, match="1-D"):
-        M.bootstrap_ci(np.ones((2, 2)))
-
-
 # --------------------------------------------------------------------------- symmetric truth
 
 
@@ -615,37 +586,3 @@ def test_a_perfect_estimate_scores_f_1_at_any_occupancy_probability_above_half(p
         s = E.score_shape(est, gt, truth)
         assert s["fscore"] >= 0.99, (cat, p, s)
         assert s["chamfer_l1"] < 1e-4 and s["iou"] == 1.0
-
-
-def test_cluster_bootstrap_resamples_groups() -> None:
-    rng = np.random.default_rng(2)
-    v = rng.normal(size=40)
-    # one value per group: the same draws as without groups
-    assert M.bootstrap_ci(v, groups=np.arange(40)) == pytest.approx(M.bootstrap_ci(v))
-    assert M.bootstrap_ci(v, np.median, groups=np.arange(40)) == pytest.approx(
-        M.bootstrap_ci(v, np.median)
-    )
-    # views of a scene share its difficulty: 60 scenes x 4 views, strongly correlated
-    scene = rng.normal(size=60)
-    views = np.repeat(scene, 4) + 0.2 * rng.normal(size=240)
-    groups = np.repeat(np.arange(60), 4)
-    by_view = np.subtract(*M.bootstrap_ci(views)[::-1])
-    by_scene = np.subtract(*M.bootstrap_ci(views, groups=groups)[::-1])
-    assert by_scene > 1.5 * by_view  # ~sqrt(4): views are nearly copies of their scene
-    # and it is the interval of the scene means' bootstrap (equal-size groups)
-    means = views.reshape(60, 4).mean(axis=1)
-    assert by_scene == pytest.approx(np.subtract(*M.bootstrap_ci(means)[::-1]), rel=1e-9)
-    # the median of the pooled values, as np.median takes it, for every resample
-    lab, draws = np.array([0, 0, 1, 2, 2, 2]), np.random.default_rng(0).integers(0, 3, (7, 3))
-    vals = np.array([5.0, 1.0, 3.0, 2.0, 8.0, 4.0])
-    got = M._cluster_stats(vals, lab, np.median, 7, 0)
-    want = [np.median(np.concatenate([vals[lab == g] for g in row])) for row in draws]
-    np.testing.assert_allclose(got, want)
-    got = M._cluster_stats(vals, lab, np.max, 7, 0)  # any other statistic: pooled, row by row
-    np.testing.assert_allclose(got, [max(vals[np.isin(lab, row)]) for row in draws])
-    # NaNs are dropped with their labels; a label per value is required
-    assert M.bootstrap_ci(np.append(v, np.nan), groups=np.arange(41)) == pytest.approx(
-        M.bootstrap_ci(v, groups=np.arange(40))
-    )
-    with pytest.raises(ValueError, match="one label per value"):
-        M.bootstrap_ci(v, groups=np.arange(3))

@@ -212,7 +212,7 @@ def test_translation_error_of_equivalent_poses_of_library_objects_is_zero() -> N
 
 
 def test_unrefined_values_are_bops_own() -> None:
-    """``refine=False`` (what BOP's recalls threshold: bench.fieldscores) is the toolkit's
+    """``refine=False`` (what BOP's recalls threshold: bench.scoring.score_bop) is the toolkit's
     value on its sampled group, to rounding, where the refined one is below it."""
     flip = Rotation.from_euler("x", 180, degrees=True).as_matrix()
     sym = continuous_symmetry(axis=(0.0, 0.3, 1.0), offset=(0.01, -0.02, 0.03), flips=[flip])

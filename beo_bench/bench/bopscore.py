@@ -41,8 +41,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from beo_bench.bench.export import image_of, object_ids, open_items
-from beo_bench.bench.fieldscores import bop_model, score_bop
-from beo_bench.bench.scoring import base_row, pose_metrics, viewpoints
+from beo_bench.bench.scoring import base_row, bop_model, pose_metrics, score_bop, viewpoints
 from beo_bench.bench.suites import Kind, Suite
 from beo_bench.bop import protocol
 from beo_bench.bop.results import BopEstimate, check_head, nearest_rotation, read_results

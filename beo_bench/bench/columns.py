@@ -62,7 +62,7 @@ METRICS: tuple[MetricSpec, ...] = (
                paired=False),
     MetricSpec("gross_err_rate", "> 15 deg", ">15deg", 100, "{:.1f}%", False, brief=True),
     MetricSpec("acc_10deg5cm", "10deg5cm", "10deg5cm", 100, "{:.1f}%", True),
-    # the field's figures (bench.fieldscores): BOP 2019's average recalls, NOCS's report
+    # the field's figures (bench.scoring): BOP 2019's average recalls, NOCS's report
     MetricSpec("ar_bop", "BOP AR", "BOP AR", 1, "{:.3f}", True),
     MetricSpec("ar_vsd", "AR_VSD", "AR_VSD", 1, "{:.3f}", True, board=False),
     MetricSpec("ar_mssd", "AR_MSSD", "AR_MSSD", 1, "{:.3f}", True, board=False),

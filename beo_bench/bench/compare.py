@@ -32,10 +32,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from beo_bench.bench.columns import METRICS, MetricSpec, spec
 from beo_bench.errors import CorruptDataError, UsageError
+from beo_bench.stats import per_item_sums, ratio_interval
 
 RESULTS_NAME = "results.jsonl"
 SUMMARY_NAME = "summary.json"
@@ -281,23 +280,6 @@ def verdict(lo: float, hi: float, higher_is_better: bool) -> str:
     return "no difference"
 
 
-def per_item_sums(
-    va: dict[tuple[int, int], float], vb: dict[tuple[int, int], float]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per common item (sorted): the sums of A's and B's values over the views both scored,
-    and how many views that is."""
-    sums: dict[int, list[float]] = {}
-    for key in sorted(va.keys() & vb.keys()):
-        x, y = va[key], vb[key]
-        if np.isfinite(x) and np.isfinite(y):
-            s = sums.setdefault(key[0], [0.0, 0.0, 0.0])
-            s[0] += x
-            s[1] += y
-            s[2] += 1
-    arr = np.array(list(sums.values()), dtype=np.float64).reshape(-1, 3)
-    return arr[:, 0], arr[:, 1], arr[:, 2]
-
-
 def paired_metric(
     a_values: dict[tuple[int, int], float],
     b_values: dict[tuple[int, int], float],
@@ -316,11 +298,7 @@ def paired_metric(
         return None
     d = sb - sa
     diff = float(d.sum() / n.sum())
-    rng = np.random.default_rng(seed)
-    idx = rng.integers(0, len(n), size=(int(n_resamples), len(n)))
-    stats = d[idx].sum(axis=1) / n[idx].sum(axis=1)
-    q = 100 * (1 - confidence) / 2
-    lo, hi = (float(x) for x in np.percentile(stats, [q, 100 - q]))
+    lo, hi = ratio_interval(d, n, n_resamples, seed, tail=100 * (1 - confidence) / 2)
     m = spec(key)
     return PairedResult(
         key=key,

@@ -1411,9 +1411,9 @@ def interval_widths(boards: Boards) -> str:
     """docs/benchmark.md's table of what n items can tell: the 95% half-width of a rate
     near 50% (the widest), 80% and 95%, of a paired difference of two rates when 10% or
     30% of the items differ between the runs, and the smallest such difference a gate
-    finds with 80% power (:mod:`beo_bench.bench.gate`'s formulas; ``boards`` is not
+    finds with 80% power (:mod:`beo_bench.stats`' formulas; ``boards`` is not
     read: these figures follow from n alone)."""
-    from beo_bench.bench.gate import detectable_difference, paired_half_width, rate_half_width
+    from beo_bench.stats import detectable_difference, paired_half_width, rate_half_width
 
     head = (
         ["items n"]

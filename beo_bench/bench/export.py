@@ -228,7 +228,7 @@ def _write_split(
     ``targets`` (None: a training split has none). Returns the images written."""
     from tqdm import tqdm
 
-    from beo_bench.bench.fieldscores import bop_model
+    from beo_bench.bench.scoring import bop_model
     from beo_bench.bop.files import BopTarget
     from beo_bench.bop.protocol import VISIB_GT_MIN
     from beo_bench.bop.scenes import GtInstance, SceneWriter

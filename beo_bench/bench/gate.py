@@ -24,10 +24,12 @@ worse than the baseline by more than the metric's **margin** (:data:`MARGINS`: 5
 mean rotation error, 1 cm of mean translation error, 5 points of class accuracy, 10 of pick
 success...; a difference a practitioner would call a regression), tested by a one-sided
 paired **sign-flip permutation test** over units of the differences less the margin
-(:func:`sign_flip_p`): under "worse by exactly the margin" each unit's shifted difference is
-as likely negated; exact over every sign pattern up to :data:`EXACT_MAX_ITEMS` units that
-differ, else :data:`DEFAULT_PERMUTATIONS` seeded random patterns. The p-values of every test
-one gate makes are corrected together by **Holm's** step-down method (:func:`holm`), so a
+(:func:`beo_bench.stats.sign_flip_p`): under "worse by exactly the margin" each unit's
+shifted difference is as likely negated; exact over every sign pattern up to
+:data:`~beo_bench.stats.EXACT_MAX_ITEMS` units that differ, else
+:data:`~beo_bench.stats.DEFAULT_PERMUTATIONS` seeded random patterns. The p-values of every
+test one gate makes are corrected together by **Holm's** step-down method
+(:func:`beo_bench.stats.holm`), so a
 gate over unchanged code fails with probability at most ``alpha`` however many metrics it
 tests. The direction is the metric's (``MetricSpec.higher_is_better``,
 :mod:`beo_bench.bench.columns`): an improvement never fails the gate. The report also gives
@@ -55,7 +57,6 @@ import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from statistics import NormalDist
 from typing import Any
 from xml.etree import ElementTree as ET
 
@@ -65,6 +66,16 @@ from beo_bench.atomic import atomic_write_bytes
 from beo_bench.bench import compare
 from beo_bench.bench.columns import BY_KEY, METRICS, MetricSpec, value_range
 from beo_bench.errors import CorruptDataError, ThresholdError, UsageError
+from beo_bench.stats import (
+    DEFAULT_PERMUTATIONS,
+    EXACT_MAX_ITEMS,
+    ViewKey,
+    holm,
+    item_sums,
+    ratio_interval,
+    sign_flip_p,
+    smallest_p,
+)
 
 BASELINE_FORMAT = "beo-bench-baseline"
 BASELINE_VERSION = 1
@@ -77,12 +88,6 @@ skipped metrics (1: a verdict per suite and metric)."""
 UNSCORED_RECORD_KEYS = ("size", "description", "item_timeout_s")
 """Suite record fields that change no score (the number of items is compared item by item
 instead)."""
-EXACT_MAX_ITEMS = 16
-"""Up to this many items with a non-zero difference the sign-flip test enumerates every
-pattern (2^16 = 65,536: milliseconds); above it, random patterns."""
-DEFAULT_PERMUTATIONS = 10_000
-"""Random sign patterns above :data:`EXACT_MAX_ITEMS` items: the p-value's Monte Carlo
-error is then at most 0.005 (at p = 0.5; 0.002 near p = 0.05)."""
 DEFAULT_ALPHA = 0.05
 REGRESSION = "regression"
 """Worse than the baseline by more than the metric's margin (adjusted p at most alpha)."""
@@ -91,8 +96,6 @@ IMPROVEMENT = "improvement"
 WORSE_WITHIN_MARGIN = "worse, within the margin"
 """The interval lies on the worse side, but the test does not find it beyond the margin."""
 NO_DIFFERENCE = "no difference"
-
-ViewKey = tuple[int, int]
 
 
 class GateUsageError(UsageError):
@@ -617,65 +620,6 @@ def pair_runs(
 
 
 # -- the test -----------------------------------------------------------------------------------
-def sign_flip_p(
-    diffs: np.ndarray,
-    permutations: int = DEFAULT_PERMUTATIONS,
-    seed: int = 0,
-    alternative: str = "two-sided",
-) -> float:
-    """The p-value of the paired sign-flip permutation test that the units' summed
-    differences ``diffs`` have mean 0: the share of sign patterns whose sum is at least the
-    observed one, in absolute value (``alternative="two-sided"``) or as it is (``"greater"``:
-    the one-sided test that the mean is above 0, the gate's, with the differences already
-    oriented worse-positive and less the margin). Units whose difference is exactly 0 are
-    the same under a flip, so only the others are flipped; up to :data:`EXACT_MAX_ITEMS` of
-    them every pattern is enumerated (an exact test), beyond that ``permutations`` random
-    patterns drawn from ``seed`` and the observed one ((1 + hits) / (1 + permutations), a
-    valid p-value)."""
-    if alternative not in ("two-sided", "greater"):
-        raise ValueError(f"alternative {alternative!r}: 'two-sided' or 'greater'")
-    d = np.asarray(diffs, dtype=np.float64)
-    d = d[d != 0]
-    if not len(d):
-        return 1.0
-    two = alternative == "two-sided"
-    observed = abs(float(d.sum())) if two else float(d.sum())
-
-    def stat(sums: np.ndarray) -> np.ndarray:
-        return np.abs(sums) if two else sums
-
-    # the same terms summed in another order differ in the last bits: a pattern that gives
-    # the observed sum must count as reaching it
-    tol = 1e-9 * float(np.abs(d).sum())
-    k = len(d)
-    if k <= EXACT_MAX_ITEMS:
-        patterns = np.arange(2**k, dtype=np.int64)[:, None] >> np.arange(k) & 1
-        sums = stat((1 - 2 * patterns) @ d)
-        return float(np.mean(sums >= observed - tol))
-    rng = np.random.default_rng(seed)
-    hits, left = 0, int(permutations)
-    while left:  # in blocks: 10,000 patterns of 1,000 items would be 80 MB at once
-        n = min(left, 1000)
-        signs = rng.integers(0, 2, size=(n, k)) * 2 - 1
-        hits += int(np.count_nonzero(stat(signs @ d) >= observed - tol))
-        left -= n
-    return (1 + hits) / (1 + int(permutations))
-
-
-def holm(pvalues: Sequence[float]) -> list[float]:
-    """Holm's step-down adjusted p-values: the k-th smallest (from 0) times ``m - k``, made
-    non-decreasing in that order and capped at 1. Rejecting where the adjusted value is at
-    most alpha keeps the family-wise error rate at most alpha, under any dependence
-    between the tests."""
-    m = len(pvalues)
-    out = [1.0] * m
-    running = 0.0
-    for rank, i in enumerate(sorted(range(m), key=lambda j: pvalues[j])):
-        running = max(running, min(1.0, (m - rank) * float(pvalues[i])))
-        out[i] = running
-    return out
-
-
 @dataclass(frozen=True)
 class GateOptions:
     """How the gate tests (``beo-bench gate`` flags)."""
@@ -758,20 +702,6 @@ class Pool:
     parts: tuple[SuiteDiff, ...]
 
 
-def _item_sums(
-    va: dict[ViewKey, float], vb: dict[ViewKey, float]
-) -> dict[int, tuple[float, float, int]]:
-    """Per item: the sums of A's and B's values over the views both scored (finite in
-    both), and how many views that is."""
-    out: dict[int, tuple[float, float, int]] = {}
-    for key in sorted(va.keys() & vb.keys()):
-        x, y = va[key], vb[key]
-        if math.isfinite(x) and math.isfinite(y):
-            sx, sy, k = out.get(key[0], (0.0, 0.0, 0))
-            out[key[0]] = (sx + x, sy + y, k + 1)
-    return out
-
-
 def pool(
     pairs: Sequence[tuple[ScoredRun, ScoredRun]], key: str
 ) -> tuple[Pool | None, list[Skipped]]:
@@ -784,7 +714,7 @@ def pool(
         if missing:
             skipped.append(Skipped(run.label, key, f"{' and '.join(missing)} has no {key}"))
             continue
-        sums = _item_sums(base.values[key], run.values[key])
+        sums = item_sums(base.values[key], run.values[key])
         if not sums:
             why = "no view scored on it in both runs (the class of a class-given run is not)"
             skipped.append(Skipped(run.label, key, why))
@@ -799,16 +729,6 @@ def pool(
         return None, skipped
     arr = np.array([units[u] for u in sorted(units)], dtype=np.float64)
     return Pool(arr[:, 0], arr[:, 1], arr[:, 2], tuple(parts)), skipped
-
-
-def _bootstrap(d: np.ndarray, n: np.ndarray, resamples: int, seed: int) -> tuple[float, float]:
-    """The 95% percentile interval of ``sum(d) / sum(n)`` over units drawn with
-    replacement (the cluster bootstrap of a mean over views, as ``compare``'s)."""
-    rng = np.random.default_rng(seed)
-    idx = rng.integers(0, len(n), size=(int(resamples), len(n)))
-    stats = d[idx].sum(axis=1) / n[idx].sum(axis=1)
-    lo, hi = np.percentile(stats, [2.5, 97.5])
-    return float(lo), float(hi)
 
 
 @dataclass(frozen=True)
@@ -891,18 +811,6 @@ class Verdict:
             f", {m.format_diff(self.hi)}], margin {m.format(self.margin)}, p = "
             f"{self.p_holm:.3g} after Holm, {self.n_items} items)"
         )
-
-
-def smallest_p(units: int, permutations: int = DEFAULT_PERMUTATIONS) -> float:
-    """The smallest p-value the one-sided sign-flip test can give on ``units`` units: every
-    unit worse, only the observed pattern reaches its sum, ``2^-units`` exactly up to
-    :data:`EXACT_MAX_ITEMS` differing units; above it ``1 / (1 + permutations)`` (the
-    observed pattern counts). A regression confined to a suite of ``units`` items, the
-    other units no worse than the margin, cannot reach a smaller p pooled either: flipping
-    the other units' (non-positive) differences only raises the sum, so at least one
-    pattern of the suite's ``2^units`` reaches the observed sum for each of theirs."""
-    exact = 2.0**-units
-    return exact if units <= EXACT_MAX_ITEMS else max(exact, 1.0 / (1 + int(permutations)))
 
 
 @dataclass(frozen=True)
@@ -1140,10 +1048,8 @@ def _outcome(v_diff: float, lo: float, hi: float, p_holm: float, alpha: float,
              higher_is_better: bool) -> str:  # fmt: skip
     if p_holm <= alpha and v_diff != 0:
         return REGRESSION
-    better, worse = (lo > 0, hi < 0) if higher_is_better else (hi < 0, lo > 0)
-    if better:
-        return IMPROVEMENT
-    return WORSE_WITHIN_MARGIN if worse else NO_DIFFERENCE
+    side = compare.verdict(lo, hi, higher_is_better)  # the interval's side, as compare reads it
+    return {"better": IMPROVEMENT, "worse": WORSE_WITHIN_MARGIN}.get(side, NO_DIFFERENCE)
 
 
 def gate(
@@ -1191,7 +1097,7 @@ def gate(
         d = pooled.b - pooled.a
         views = float(pooled.n.sum())
         diff = float(d.sum()) / views
-        lo, hi = _bootstrap(d, pooled.n, o.resamples, o.seed)
+        lo, hi = ratio_interval(d, pooled.n, o.resamples, o.seed, tail=2.5)
         verdicts.append(
             Verdict(
                 metric=key,
@@ -1216,50 +1122,6 @@ def gate(
     return GateReport(
         tuple(verdicts), o, baseline_source, tuple(b.label for b in not_run), tuple(skipped)
     )
-
-
-# -- what n items can tell -----------------------------------------------------------------------
-Z95 = NormalDist().inv_cdf(0.975)
-"""The two-sided 95% normal quantile (1.96)."""
-
-
-def rate_half_width(rate: float, n: int) -> float:
-    """The half-width of the 95% interval of a rate (a class accuracy, a > 15 deg rate, pick
-    success) measured on ``n`` items: ``1.96 sqrt(rate (1 - rate) / n)``, what the
-    summary's bootstrap over items approaches for one view an item."""
-    return Z95 * math.sqrt(rate * (1 - rate) / n)
-
-
-def paired_half_width(discordant: float, n: int) -> float:
-    """The half-width of the 95% interval of the paired difference of two rates on ``n``
-    items when a share ``discordant`` of the items is right in one run and wrong in the
-    other, and no difference on the whole: each item's difference is then +-1 on that share,
-    0 elsewhere, of variance ``discordant``, so ``1.96 sqrt(discordant / n)``. Items both
-    runs get right or both get wrong cost nothing: pairing is why a gate needs fewer items
-    than two intervals that must not overlap."""
-    return Z95 * math.sqrt(discordant / n)
-
-
-def detectable_difference(discordant: float, n: int, power: float = 0.8) -> float:
-    """The smallest paired difference of two rates that a two-sided 5% test on ``n`` items
-    finds with probability ``power`` when a share ``discordant`` of the items differ
-    (normal approximation): the test rejects past ``1.96 sqrt(discordant / n)`` (the null's
-    spread), and a difference ``delta`` spreads as ``sqrt((discordant - delta^2) / n)``, so
-    ``delta`` solves ``delta - 1.96 sqrt(q / n) = z_power sqrt((q - delta^2) / n)``, found by
-    bisection in ``[0, discordant]`` (no difference can exceed the share that differs)."""
-    z = NormalDist().inv_cdf(power)
-    q = discordant
-
-    def short(delta: float) -> float:  # < 0 while delta is found with less than `power`
-        return delta - Z95 * math.sqrt(q / n) - z * math.sqrt(max(q - delta * delta, 0.0) / n)
-
-    lo, hi = 0.0, q
-    if short(hi) < 0:
-        return math.inf  # not even every differing item going one way is found
-    for _ in range(60):
-        mid = (lo + hi) / 2
-        lo, hi = (mid, hi) if short(mid) < 0 else (lo, mid)
-    return hi
 
 
 # -- writing the reports ------------------------------------------------------------------------

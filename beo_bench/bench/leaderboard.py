@@ -1113,10 +1113,10 @@ def primary_results(suite: str, tracks: dict[str | None, list[Section]]) -> list
     """Every declared comparison of the page (:func:`primary_comparisons`) on its track's
     first section (the suite's own sensor): B - A over the items both runs scored, with the
     paired bootstrap interval (:func:`beo_bench.bench.compare.paired_runs`) and the
-    sign-flip p over items that ``beo-bench gate`` uses (:func:`beo_bench.bench.gate.
-    sign_flip_p`), Holm-adjusted over the comparisons found (:func:`beo_bench.bench.gate.
-    holm`): one family per page."""
-    from beo_bench.bench.gate import holm, sign_flip_p
+    sign-flip p over items that ``beo-bench gate`` uses (:func:`beo_bench.stats.sign_flip_p`),
+    Holm-adjusted over the comparisons found (:func:`beo_bench.stats.holm`): one family per
+    page."""
+    from beo_bench.stats import holm, per_item_sums, sign_flip_p
 
     loaded: dict[Path, compare.Run | None] = {}
     found: list[tuple[Primary, compare.PairedResult | None, float]] = []
@@ -1137,7 +1137,7 @@ def primary_results(suite: str, tracks: dict[str | None, list[Section]]) -> list
             found.append((pc, None, 1.0))
             continue
         va, vb = compare.view_values(a_run), compare.view_values(b_run)
-        sa, sb, _ = compare.per_item_sums(va[pc.metric], vb[pc.metric])
+        sa, sb, _ = per_item_sums(va[pc.metric], vb[pc.metric])
         found.append((pc, got[0], sign_flip_p(sb - sa)))
     ran = [i for i, (_, r, _) in enumerate(found) if r is not None]
     adjusted = dict(zip(ran, holm([found[i][2] for i in ran]), strict=True))

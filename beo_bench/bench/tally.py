@@ -14,8 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from beo_bench import metrics
+from beo_bench import metrics, stats
 from beo_bench.bench.suites import Suite
+from beo_bench.bop import nocs, protocol
 
 SAMPLE_FIELDS = ("sample_best_err_deg", "sample_best_rank", "sample_spread_deg")
 """Row fields of a backend that returns rotation samples, in the order
@@ -98,6 +99,47 @@ def flags(rows: list[dict[str, Any]], key: str, missing: float) -> np.ndarray:
     return np.array([float(bool(r[key])) if key in r else missing for r in rows])
 
 
+def recall_values(rows: list[dict[str, Any]], image_width: int) -> dict[str, np.ndarray]:
+    """Per view, its share of BOP's average recalls (``ar_vsd``, ``ar_mssd``, ``ar_mspd``
+    and their mean ``ar_bop``) and NOCS's box-IoU hits (``iou3d_25``/``50``/``75``): with
+    one estimate per target, a recall at one threshold is the mean over targets of "its
+    error is below the threshold", so the average recall is the mean over targets of each
+    one's hit rate over the thresholds (BOP's ``eval_bop19_pose``: VSD over every
+    (tau, threshold), MSSD over fractions of the diameter, MSPD over pixels scaled by
+    ``image_width / 640``). A failed view is a miss (0); a view below ``visib_gt_min`` is
+    no target (NaN: left out of the means, as BOP leaves it out of the denominator)."""
+    n = len(rows)
+    vsd_th = np.asarray(protocol.VSD_THRESHOLDS)
+    mssd_th = np.asarray(protocol.MSSD_THRESHOLDS)
+    mspd_th = np.asarray(protocol.MSPD_THRESHOLDS_PX) * (image_width / 640.0)
+    out = {k: np.zeros(n) for k in ("ar_vsd", "ar_mssd", "ar_mspd")}
+    ious = {f"iou3d_{round(100 * t)}": np.zeros(n) for t in nocs.NOCS_IOU_THRESHOLDS}
+    for i, r in enumerate(rows):
+        if r.get("bop_visib_fract", 1.0) < protocol.VISIB_GT_MIN:
+            for v in (*out.values(), *ious.values()):
+                v[i] = np.nan
+            continue
+        shares = r.get("bop_recall")
+        if shares is not None:  # matched as BOP matches several estimates (bopscore)
+            for k in ("vsd", "mssd", "mspd"):
+                out[f"ar_{k}"][i] = float(shares[k])
+        elif r.get("failure") or r.get("bop_vsd") is None:
+            continue  # not found: a miss at every threshold
+        else:
+            vsd = np.asarray(r["bop_vsd"], dtype=np.float64)
+            out["ar_vsd"][i] = np.mean(vsd[:, None] < vsd_th[None, :])
+            diam = float(r["bop_diameter_mm"])
+            out["ar_mssd"][i] = np.mean(float(r["bop_mssd_mm"]) < mssd_th * diam)
+            px = r.get("bop_mspd_px")
+            out["ar_mspd"][i] = 0.0 if px is None else np.mean(float(px) < mspd_th)
+        iou = r.get("iou3d")
+        for t, v in zip(nocs.NOCS_IOU_THRESHOLDS, ious.values(), strict=True):
+            # NOCS's compute_3d_matches: iou > threshold, strictly, in float32
+            v[i] = float(iou is not None and np.float32(iou) > np.float32(t))
+    out["ar_bop"] = (out["ar_vsd"] + out["ar_mssd"] + out["ar_mspd"]) / 3.0
+    return {**out, **ious}
+
+
 def estimate_values(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, np.ndarray]:
     """Of views scored on an estimate (isolated and tabletop items): per summary metric
     that is a mean over views, each view's value (NaN: not scored,
@@ -131,8 +173,6 @@ def estimate_values(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, np.nd
         if any("bop_diameter_mm" in r for r in rows):
             # the field's figures (BOP 2019's average recalls, NOCS's box IoU): rows of runs
             # older than them have none, and get none (a failure alone is no figure)
-            from beo_bench.bench.fieldscores import recall_values
-
             out.update(recall_values(rows, suite.image_size[0]))
     for key in ("iou", "iou_cam", "edt_err", "fscore", "chamfer_l1"):
         v = col(key)
@@ -175,7 +215,7 @@ class Tally:
             return
         self.m[name] = float(statistic(v))
         if self.intervals:
-            self.ci[name] = list(metrics.bootstrap_ci(v, statistic, groups=self.items[keep]))
+            self.ci[name] = list(stats.bootstrap_ci(v, statistic, groups=self.items[keep]))
 
     def mean(self, name: str, values: np.ndarray) -> None:
         self._stat(name, values, np.mean)

@@ -13,8 +13,9 @@ from xml.etree import ElementTree as ET
 import numpy as np
 import pytest
 
+from beo_bench import stats
 from beo_bench.bench import gate
-from beo_bench.bench.gate import GateOptions, GateUsageError, holm, sign_flip_p
+from beo_bench.bench.gate import GateOptions, GateUsageError
 from beo_bench.cli import main
 from tests.bench.synthetic_runs import pose_row, write_run
 
@@ -28,61 +29,7 @@ def _run(path: Path, shift: float = 0.0, n: int = 30, **kw) -> Path:
     return path
 
 
-# -- the test and the correction -------------------------------------------------------------
-def test_sign_flip_is_exact_on_few_items() -> None:
-    d = np.array([1.0, 2.0, 3.0, 4.0, -0.5])
-    every = [abs(sum(s * x for s, x in zip(signs, d, strict=True)))
-             for signs in itertools.product((1, -1), repeat=len(d))]  # fmt: skip
-    expected = np.mean([t >= abs(d.sum()) - 1e-12 for t in every])
-    assert sign_flip_p(d) == pytest.approx(expected)
-    assert sign_flip_p(np.array([1.0, 1.0, 1.0])) == pytest.approx(2 / 8)
-    # items that do not differ change nothing under a flip: the same p
-    assert sign_flip_p(np.array([1.0, 1.0, 1.0, 0.0, 0.0])) == pytest.approx(2 / 8)
-    assert sign_flip_p(np.zeros(5)) == 1.0
-
-
-def test_sign_flip_samples_many_items_deterministically() -> None:
-    d = np.ones(40)  # only the two all-equal patterns reach |sum| = 40: p = 2 / 2^40
-    p = sign_flip_p(d, permutations=2000, seed=3)
-    assert p == pytest.approx(1 / 2001)  # nothing sampled reaches it; the observed counts
-    noise = np.random.default_rng(1).normal(size=40)
-    assert sign_flip_p(noise, 2000, 5) == sign_flip_p(noise, 2000, 5)  # seeded
-    assert 0.05 < sign_flip_p(noise, 2000, 5) <= 1
-
-
-def test_the_one_sided_sign_flip_counts_sums_at_least_the_observed_one() -> None:
-    d = np.array([1.0, 2.0, 3.0, 4.0, -0.5])
-    every = [sum(s * x for s, x in zip(signs, d, strict=True))
-             for signs in itertools.product((1, -1), repeat=len(d))]  # fmt: skip
-    expected = np.mean([t >= d.sum() - 1e-12 for t in every])
-    assert sign_flip_p(d, alternative="greater") == pytest.approx(expected) == 2 / 32
-    assert sign_flip_p(np.array([1.0, 1.0, 1.0]), alternative="greater") == pytest.approx(1 / 8)
-    # every unit better: the one-sided test of "worse" finds nothing (two-sided: 2/8)
-    assert sign_flip_p(-np.ones(3), alternative="greater") == 1.0
-    assert sign_flip_p(-np.ones(3)) == pytest.approx(2 / 8)
-    with pytest.raises(ValueError, match="'two-sided' or 'greater'"):
-        sign_flip_p(d, alternative="less")
-
-
-def test_the_one_sided_test_keeps_its_level_on_noise() -> None:
-    """Differences symmetric about 0 (a stochastic backend re-seeded): the one-sided test
-    rejects at 5% about 5% of the time, and less with a margin subtracted."""
-    rng = np.random.default_rng(7)
-    plain = shifted = 0
-    for k in range(300):
-        d = rng.normal(0, 10, size=40)
-        plain += sign_flip_p(d, 499, k, "greater") <= 0.05
-        shifted += sign_flip_p(d - 2.0, 499, k, "greater") <= 0.05
-    assert 0.025 <= plain / 300 <= 0.085 and shifted / 300 < 0.02
-
-
-def test_holm_by_hand() -> None:
-    # sorted: 0.005 x 4 = 0.02, 0.01 x 3 = 0.03, 0.03 x 2 = 0.06, 0.04 x 1 -> max 0.06
-    assert holm([0.01, 0.04, 0.03, 0.005]) == pytest.approx([0.03, 0.06, 0.06, 0.02])
-    assert holm([0.5]) == [0.5] and holm([0.9, 0.8]) == [1.0, 1.0]
-    assert holm([0.2, 0.01]) == pytest.approx([0.2, 0.02]) and holm([]) == []
-
-
+# -- the correction, in a gate ----------------------------------------------------------------
 def test_holm_keeps_a_metric_that_alone_would_fail_from_failing_among_three(tmp_path) -> None:
     """Five items, every one worse by more than the metric's margin: the exact one-sided p
     is 1/32 = 0.031 on each metric. Alone it fails the gate; three such tests at once,
@@ -396,22 +343,22 @@ def test_the_interval_formulas_agree_with_the_bootstrap_and_the_gate(tmp_path) -
                         for i, g in enumerate(gross)], track="class-free")  # fmt: skip
     lo, hi = summary["ci95"]["gross_err_rate"]
     rate = float(gross.mean())
-    assert (hi - lo) / 2 == pytest.approx(gate.rate_half_width(rate, n), rel=0.15)
+    assert (hi - lo) / 2 == pytest.approx(stats.rate_half_width(rate, n), rel=0.15)
 
     # 30% of the items right in one run and wrong in the other, as many each way
     a = {(i, 0): float(i % 20 < 6 and i % 2 == 1) for i in range(n)}
     b = {(i, 0): float(i % 20 < 6 and i % 2 == 0) for i in range(n)}
     r = paired_metric(a, b, "class_acc", n_resamples=2000)
-    assert (r.hi - r.lo) / 2 == pytest.approx(gate.paired_half_width(0.3, n), rel=0.15)
+    assert (r.hi - r.lo) / 2 == pytest.approx(stats.paired_half_width(0.3, n), rel=0.15)
 
     n, q = 100, 0.3
-    delta = gate.detectable_difference(q, n)
-    assert 0.14 < delta < 0.16 and gate.detectable_difference(q, 20) == float("inf")
+    delta = stats.detectable_difference(q, n)
+    assert 0.14 < delta < 0.16 and stats.detectable_difference(q, 20) == float("inf")
     found = 0
     for k in range(200):
         u = np.random.default_rng(100 + k).random(n)
         d = np.where(u < (q + delta) / 2, 1.0, np.where(u < q, -1.0, 0.0))
-        found += sign_flip_p(d, permutations=999, seed=k) <= 0.05
+        found += stats.sign_flip_p(d, permutations=999, seed=k) <= 0.05
     assert 0.7 <= found / 200 <= 0.9  # the table's 80% power, within sampling error
 
 
@@ -480,7 +427,7 @@ def test_a_gate_whose_items_cannot_reach_the_corrected_threshold_says_so(tmp_pat
     and two metrics: 1/64 <= 0.025, the collapse fails (3) and nothing is said. Five items
     and two metrics: 1/32 > 0.025, the same collapse cannot fail: it fails alone (3) and
     passes with two (0) -- loudly, on stderr and in every report."""
-    assert gate.smallest_p(6) == 1 / 64 and gate.smallest_p(40, 999) == 1 / 1000
+    assert stats.smallest_p(6) == 1 / 64 and stats.smallest_p(40, 999) == 1 / 1000
     two = ["--metrics", "iou_mean", "fscore_mean"]
     a6, b6 = _collapse(tmp_path, 6)
     assert main(["gate", str(b6), "--baseline", str(a6), *two]) == 3

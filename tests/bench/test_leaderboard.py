@@ -670,7 +670,7 @@ def test_primary_comparisons_are_holm_corrected_as_one_family_per_page(tmp_path)
     bootstrap intervals excluding 0) are *no difference* once Holm's step-down adjusts them
     over the page's five found comparisons (the gate's ``holm``: 5p for the smallest two
     here); declared comparisons whose runs are not there are listed as not run."""
-    from beo_bench.bench.gate import holm
+    from beo_bench.stats import holm
 
     board = _mdn_modes_board(tmp_path)
     data = json.loads((board / "pose-3dof_paired.json").read_text())

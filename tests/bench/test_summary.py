@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from beo_bench import metrics
+from beo_bench import metrics, stats
 from beo_bench.bench import summary as S
 from beo_bench.bench.suites import get_suite
 
@@ -138,8 +138,8 @@ def test_intervals_resample_items_not_views() -> None:
     s = S.summarise(TABLETOP, "x", rows)
     rot = np.array([r["rot_err_deg"] for r in rows])
     lo, hi = s["ci95"]["rot_err_deg_mean"]
-    by_view = np.subtract(*metrics.bootstrap_ci(rot)[::-1])
-    by_item = np.subtract(*metrics.bootstrap_ci(rot, groups=[r["item"] for r in rows])[::-1])
+    by_view = np.subtract(*stats.bootstrap_ci(rot)[::-1])
+    by_item = np.subtract(*stats.bootstrap_ci(rot, groups=[r["item"] for r in rows])[::-1])
     assert hi - lo == pytest.approx(by_item)
     assert hi - lo > 1.5 * by_view  # the views of a scene are nearly copies: ~sqrt(4) wider
     assert lo < s["metrics"]["rot_err_deg_mean"] < hi
@@ -148,7 +148,7 @@ def test_intervals_resample_items_not_views() -> None:
     # one view per item (isolated suites): the same interval as resampling views
     single = [_row(i, rot_err_deg=float(r)) for i, r in enumerate(rot[:60])]
     got = S.summarise(POSE, "x", single)["ci95"]["rot_err_deg_mean"]
-    assert got == pytest.approx(list(metrics.bootstrap_ci(rot[:60])))
+    assert got == pytest.approx(list(stats.bootstrap_ci(rot[:60])))
 
 
 def test_views_told_their_class_are_not_scored_on_it() -> None:

@@ -1,5 +1,5 @@
-"""The field's figures of a view (``bench.fieldscores``): BOP 2019's average recalls and
-NOCS's box-IoU hits per row (``recall_values``) on rows written by hand, the summary's
+"""The field's figures of a view (``bench.scoring.score_bop``): BOP 2019's average recalls and
+NOCS's box-IoU hits per row (``tally.recall_values``) on rows written by hand, the summary's
 columns of them (``tally.estimate_values``), and an in-tree run of the bounds, whose rows
 carry the BOP fields and whose figures are those of a perfect and of a random estimate."""
 
@@ -10,10 +10,10 @@ import math
 import numpy as np
 import pytest
 
-from beo_bench.bench.fieldscores import BOP_FIELDS, recall_values
 from beo_bench.bench.runner import read_rows
+from beo_bench.bench.scoring import BOP_FIELDS
 from beo_bench.bench.suites import get_suite
-from beo_bench.bench.tally import estimate_values
+from beo_bench.bench.tally import estimate_values, recall_values
 from tests.bench.runs import FAST_RANDOM, short_run
 from tests.bench.synthetic_runs import pose_row
 
