@@ -25,7 +25,8 @@ from beo_bench.bench.columns import brief_columns
 from beo_bench.errors import BeoBenchError, ThresholdError, UsageError
 
 if TYPE_CHECKING:
-    from beo_bench.bench.runs import RunContext, Summary
+    from beo_bench.bench.rundir import Summary
+    from beo_bench.bench.runs import RunContext
     from beo_bench.perception.hbeo_train import HBEOConfig, Kind
 
 
@@ -441,8 +442,8 @@ COLUMNS = brief_columns()
 def format_runs(runs: Sequence[Summary | dict[str, Any]]) -> str:
     """A plain table of runs: one row per run (its suite and track, backend and options),
     the columns that any of them measured."""
-    from beo_bench.bench.compare import sensor_tag_of, track_of
-    from beo_bench.bench.runs import Summary, backend_label
+    from beo_bench.bench.rundir import Summary, sensor_tag_of, track_of
+    from beo_bench.bench.runs import backend_label
 
     summaries = [s.to_json() if isinstance(s, Summary) else s for s in runs]
 
@@ -480,9 +481,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     """The runs' table; then, unless ``--table``, each run paired with the first on the
     items both scored (B - A with a bootstrap interval over items, and a verdict), and a
     footnote that the verdicts are uncorrected and ``gate`` is the pass/fail check."""
-    from beo_bench.bench import compare
+    from beo_bench.bench import compare, rundir
 
-    loaded = [compare.load_summary(p) for p in args.runs]
+    loaded = [rundir.load_summary(p) for p in args.runs]
     if args.table or len(loaded) < 2:
         print(format_runs([s for _, s in loaded]))
         return 0

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from beo_bench.bench.fieldscores import BOP_FIELDS, recall_values
-from beo_bench.bench.runner import read_rows
+from beo_bench.bench.rundir import read_rows
 from beo_bench.bench.suites import get_suite
 from beo_bench.bench.tally import estimate_values
 from tests.bench.runs import FAST_RANDOM, short_run
