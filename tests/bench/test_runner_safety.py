@@ -137,7 +137,7 @@ def test_scan_rows_keeps_the_first_complete_set_of_each_item(tmp_path) -> None:
     path = tmp_path / "results.jsonl"
     path.write_text("".join(lines))
     scan = scan_rows(path)
-    kept = [(r["item"], r["view"]) for r in scan.rows]
+    kept = [(r.item, r.view) for r in scan.rows]
     assert kept == [(0, 0), (0, 1), (0, 2), (1, 0), (1, 1), (1, 2)]
     assert scan.damaged == [6] and scan.torn_tail
     assert sorted(scan.incomplete) == [1, 2] and scan.duplicates == [0]
