@@ -13,7 +13,8 @@ from typing import Any
 
 import yaml  # the dev extra's (pyproject.toml): a missing PyYAML fails here, never skips
 
-from beo_bench.bench.runs import REPORT_NAME, run_name
+from beo_bench.bench.rundir import REPORT_NAME
+from beo_bench.bench.runs import run_name
 from beo_bench.bench.suites import expand_suites
 from tests.docs_blocks import ROOT, YAML_LANGS, blocks, check_command, shell_commands, yaml_commands
 

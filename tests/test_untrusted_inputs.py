@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from beo_bench.bench import leaderboard, runner
+from beo_bench.bench import leaderboard, rundir
+from beo_bench.bench.runs import RunUsageError
 from beo_bench.cli import main
 from beo_bench.errors import CheckpointError, InvalidKeyError
 from beo_bench.objects import cache, instance_from_key
@@ -73,22 +74,22 @@ def test_run_refuses_a_users_folder_and_leaves_it_alone(capsys, tmp_path) -> Non
 
 
 def test_a_run_marks_its_directory_and_an_older_run_directory_still_resumes(tmp_path) -> None:
-    d = runner._run_dir(tmp_path / "run")  # what `run` does first (a real run: minutes cold)
-    assert (d / runner.MARKER_NAME).read_text() == runner.MARKER_TEXT
+    d = rundir.open_run_dir(tmp_path / "run")  # what `run` does first (a real run: minutes cold)
+    assert (d / rundir.MARKER_NAME).read_text() == rundir.MARKER_TEXT
     (d / "results.jsonl").write_text("")
-    runner._run_dir(d)  # its own directory: taken again
+    rundir.open_run_dir(d)  # its own directory: taken again
     # a run directory of a version before the marker: its valid run.json vouches for it
-    (d / runner.MARKER_NAME).unlink()
+    (d / rundir.MARKER_NAME).unlink()
     record = {"suite": {"name": "pose-1dof"}, "backend": "random", "backend_kwargs": {}}
     (d / "run.json").write_text(json.dumps(record))
-    runner._run_dir(d)
-    assert (d / runner.MARKER_NAME).read_text() == runner.MARKER_TEXT
+    rundir.open_run_dir(d)
+    assert (d / rundir.MARKER_NAME).read_text() == rundir.MARKER_TEXT
     # ... but a run.json another program wrote does not
-    (d / runner.MARKER_NAME).unlink()
+    (d / rundir.MARKER_NAME).unlink()
     (d / "run.json").write_text('{"not": "ours"}')
-    with pytest.raises(runner.RunUsageError, match="did not create"):
-        runner._run_dir(d)
-    assert not (d / runner.MARKER_NAME).exists()
+    with pytest.raises(RunUsageError, match="did not create"):
+        rundir.open_run_dir(d)
+    assert not (d / rundir.MARKER_NAME).exists()
 
 
 @pytest.mark.parametrize("files", [["README.md"], ["README.md", "pose-1dof.md", "pose-1dof.json"]])

@@ -5,6 +5,7 @@ leaderboards").
 - :mod:`.suites`: the suite registry (``get_suite``, ``list_suites``);
 - :mod:`.evaluate`: turns item ``i`` of a suite into scored result rows;
 - :mod:`.runner`: ``beo-bench run`` (local processes or Ray, ``--resume``, one writer);
+- :mod:`.rundir`: a run directory (its identity, lock, resume checks, rows, ``Summary``);
 - :mod:`.pool`: the worker processes, with a deadline per item;
 - :mod:`.campaign`: ``beo-bench all`` (every suite, track and backend);
 - :mod:`.summary`: a run's metrics with bootstrap intervals;

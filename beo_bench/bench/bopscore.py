@@ -33,14 +33,23 @@ again here (the export is not read), so a results file written for an export mad
 from __future__ import annotations
 
 import hashlib
-import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
+from beo_bench.bench import rundir
 from beo_bench.bench.export import image_of, object_ids, open_items
+from beo_bench.bench.rundir import (
+    RECORD_NAME,
+    REPORT_NAME,
+    RESULTS_NAME,
+    SUMMARY_NAME,
+    Summary,
+    json_text,
+)
+from beo_bench.bench.runs import CorruptRunError, RunConfig, RunUsageError
 from beo_bench.bench.scoring import base_row, bop_model, pose_metrics, score_bop, viewpoints
 from beo_bench.bench.suites import Kind, Suite
 from beo_bench.bop import protocol
@@ -48,9 +57,6 @@ from beo_bench.bop.results import BopEstimate, check_head, nearest_rotation, rea
 from beo_bench.errors import BeoBenchError, UsageError
 from beo_bench.names import check_name
 from beo_bench.types import Estimate, GroundTruth, View
-
-if TYPE_CHECKING:
-    from beo_bench.bench.runs import Summary
 
 NO_ESTIMATE = "no estimate in the results file"
 """A view's failure when the results file has no estimate of its object in its image."""
@@ -244,10 +250,7 @@ def _check_out(out: Path, record: dict[str, Any]) -> None:
     """Refuse an ``out`` (claimed and locked by the caller) that holds anything but an
     earlier score of the same method on the same suite: a ``run`` of a backend, another
     method's score, or results without a run record. Nothing in it is touched."""
-    from beo_bench.bench.runner import RECORD_NAME, RESULTS_NAME, SUMMARY_NAME, _read_record
-    from beo_bench.bench.runs import CorruptRunError, RunUsageError
-
-    old = _read_record(out / RECORD_NAME)  # a damaged or foreign one: CorruptRunError
+    old = rundir.read_record(out / RECORD_NAME)  # a damaged or foreign one: CorruptRunError
     if old is None:
         held = [n for n in (RESULTS_NAME, SUMMARY_NAME) if (out / n).exists()]
         if held:
@@ -270,13 +273,6 @@ def _check_out(out: Path, record: dict[str, Any]) -> None:
         )
 
 
-def _json(obj: Any, indent: int | None = None) -> str:
-    """``obj`` as JSON text with no NaN or infinity (never valid JSON): a ValueError."""
-    from beo_bench.bench.pool import jsonable
-
-    return json.dumps(obj, indent=indent, sort_keys=True, default=jsonable, allow_nan=False)
-
-
 def score_results(
     suite: Suite,
     results: Path | str,
@@ -289,18 +285,7 @@ def score_results(
     returns the summary. The file is checked before ``out`` is made; then ``out`` is
     claimed (its marker) and locked (``run.lock``) as ``run`` does, and refused when it
     holds a ``run`` of a backend or another method's score (:func:`_check_out`)."""
-    from beo_bench.atomic import atomic_write_bytes
-    from beo_bench.bench.runner import (
-        RECORD_NAME,
-        REPORT_NAME,
-        RESULTS_NAME,
-        SUMMARY_NAME,
-        _identity,
-        _run_dir,
-        lock_run_dir,
-        machine_provenance,
-    )
-    from beo_bench.bench.runs import RunConfig
+    from beo_bench.bench.runner import machine_provenance
     from beo_bench.bench.summary import summarise
     from beo_bench.objects import LIBRARY_VERSION
 
@@ -328,21 +313,21 @@ def score_results(
         estimates = read_results(path, set(ids.info), known_images, scope)
         digest = _sha256(path)
         record = {
-            **_identity(RunConfig(suite, name, {}, False)),
+            **rundir.run_identity(RunConfig(suite, name, {}, False)),
             "model_digest": digest,
             "library_version": LIBRARY_VERSION,
             "uses_class_hint": False,
             "privileged": False,
             "bop_results": {"file": path.name, "sha256": digest, "estimates": len(estimates)},
         }
-        out = _run_dir(Path(out))
-        with lock_run_dir(out):  # held from the check to the last write: one writer
+        out = rundir.open_run_dir(Path(out))
+        with rundir.lock_run_dir(out):  # held from the check to the last write: one writer
             _check_out(out, record)
             rows = score_rows(suite, estimates, ids, items, progress)
             summary = summarise(
                 suite,
                 name,
-                rows,
+                rundir.rows_of(rows),
                 uses_class_hint=False,
                 model_digest=digest,
                 provenance={
@@ -359,9 +344,9 @@ def score_results(
             # score with the directory as it was
             try:
                 texts = {
-                    RECORD_NAME: _json(record, indent=2) + "\n",
-                    RESULTS_NAME: "".join(_json(r) + "\n" for r in rows),
-                    SUMMARY_NAME: _json(summary.to_json(), indent=2) + "\n",
+                    RECORD_NAME: json_text(record, allow_nan=False) + "\n",
+                    RESULTS_NAME: "".join(json_text(r, None, False) + "\n" for r in rows),
+                    SUMMARY_NAME: json_text(summary.to_json(), allow_nan=False) + "\n",
                 }
             except ValueError as e:
                 raise BeoBenchError(
@@ -370,7 +355,7 @@ def score_results(
                 ) from None
             (out / REPORT_NAME).unlink(missing_ok=True)  # an earlier score's: now stale
             for file_name, text in texts.items():
-                atomic_write_bytes(out / file_name, text)
+                rundir.write_text(out / file_name, text)
     finally:
         items.close()
     return summary

@@ -25,7 +25,6 @@ its verdicts to say so.
 
 from __future__ import annotations
 
-import json
 import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -33,11 +32,18 @@ from pathlib import Path
 from typing import Any
 
 from beo_bench.bench.columns import METRICS, MetricSpec, spec
-from beo_bench.errors import CorruptDataError, UsageError
+from beo_bench.bench.rundir import (
+    RESULTS_NAME,
+    ItemsIdentity,
+    load_summary,
+    read_rows,
+    span,
+    summary_size,
+    track_of,
+)
+from beo_bench.errors import UsageError
 from beo_bench.stats import per_item_sums, ratio_interval
 
-RESULTS_NAME = "results.jsonl"
-SUMMARY_NAME = "summary.json"
 CLASS_FREE = "class-free"
 VERDICTS = ("better", "worse", "no difference")
 UNCORRECTED_NOTE = (
@@ -52,28 +58,6 @@ class ComparisonWarning(UserWarning):
 
 
 # -- loading runs ------------------------------------------------------------------------------
-def load_summary(path: Path | str) -> tuple[Path, dict[str, Any]]:
-    """A run's directory and summary, from the directory or its ``summary.json``.
-    Missing: :class:`UsageError`; unreadable: :class:`CorruptDataError`."""
-    p = Path(path)
-    f = p / SUMMARY_NAME if p.is_dir() else p
-    if not f.exists():
-        raise UsageError(f"{f} does not exist: give run directories or summary.json files")
-    try:
-        summary = json.loads(f.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise CorruptDataError(
-            f"{f} is not a readable summary ({e}); rerun that run with `beo-bench run "
-            "--resume` to rewrite it"
-        ) from e
-    if not isinstance(summary, dict) or not {"suite", "backend", "metrics"} <= set(summary):
-        raise CorruptDataError(
-            f"{f} is not a beo-bench run summary (no suite, backend or metrics); give the "
-            "summary.json of a run, or rerun that run with `beo-bench run --resume`"
-        )
-    return f.parent, summary
-
-
 @dataclass(frozen=True)
 class Run:
     """A finished run: its directory, summary and result rows (the items it summarised)."""
@@ -87,12 +71,6 @@ class Run:
         return {int(r["item"]) for r in self.rows}
 
 
-def _size(summary: dict[str, Any]) -> int | None:
-    """How many items the summary covers (its suite's size), None when it does not say."""
-    size = summary.get("provenance", {}).get("suite", {}).get("size")
-    return int(size) if isinstance(size, int) and not isinstance(size, bool) else None
-
-
 def load_run(path: Path | str) -> Run:
     """The run at ``path`` (a run directory or its ``summary.json``), with the rows of the
     items its summary covers (results files may hold more: a run summarised over a prefix).
@@ -102,103 +80,54 @@ def load_run(path: Path | str) -> Run:
 
 def run_from(where: Path, summary: dict[str, Any]) -> Run:
     """A :class:`Run` from a directory and its already loaded summary."""
-    from beo_bench.bench.runner import read_rows
-
     results = where / RESULTS_NAME
     if not results.is_file():
         raise UsageError(
             f"{where} has no {RESULTS_NAME}, so its items cannot be paired with another run's: "
             "give the run directory that holds it (or `compare --table` for the summaries alone)"
         )
-    size = _size(summary)
+    size = summary_size(summary)
     rows = [r for r in read_rows(results) if size is None or r["item"] < size]
     rows.sort(key=lambda r: (r["item"], r["view"]))
     return Run(where, summary, tuple(rows))
 
 
 # -- what may be compared ------------------------------------------------------------------------
-def track_of(summary: dict[str, Any]) -> str | None:
-    """The run's track (``class-given``, ``class-free``; None for a suite without tracks),
-    from the summary or, failing that, the suite its provenance records."""
-    track = summary.get("track", summary.get("provenance", {}).get("suite", {}).get("track"))
-    return str(track) if track is not None else None
-
-
-def sensor_of(summary: dict[str, Any]) -> str:
-    """The depth sensor the run's views were captured by: the summary's ``sensor`` or, in
-    a summary written before sensors existed, what its suite record says
-    (:func:`~beo_bench.bench.suites.record_sensor`: ``noise: false`` is the ideal render)."""
-    from beo_bench.bench.suites import record_sensor
-
-    sensor = summary.get("sensor")
-    if isinstance(sensor, str):
-        return sensor
-    return record_sensor(summary.get("provenance", {}).get("suite", {}))
-
-
-def default_sensor_of(suite: str) -> str:
-    """The registered suite's own sensor (``ideal`` for a suite this package does not
-    know)."""
-    from beo_bench.bench.suites import SUITES, base_name
-    from beo_bench.scenes.sensors import DEFAULT_SENSOR
-
-    base = SUITES.get(base_name(suite))
-    return base.sensor if base is not None else DEFAULT_SENSOR
-
-
-def sensor_tag_of(summary: dict[str, Any]) -> str | None:
-    """The run's sensor when it is not its suite's own (what names the run, as
-    ``Suite.sensor_tag``), else None. A run recorded before sensors existed was at its
-    suite version's own sensor (None)."""
-    recorded = summary.get("provenance", {}).get("suite", {})
-    if not isinstance(summary.get("sensor"), str) and "sensor" not in recorded:
-        return None
-    sensor = sensor_of(summary)
-    return None if sensor == default_sensor_of(str(summary.get("suite"))) else sensor
-
-
 def hint_unused(summary: dict[str, Any]) -> bool:
     """A class-free run of a backend that cannot use the class hint: it would score the
     same in the class-given track, so it stands in that track too."""
     return track_of(summary) == CLASS_FREE and summary.get("uses_class_hint") is False
 
 
-def _identity(summary: dict[str, Any]) -> dict[str, Any]:
-    """What must be equal for two runs to have scored the same items the same way."""
-    return {
-        "suite": summary.get("suite"),
-        "suite version": summary.get("suite_version"),
-        "seed": summary.get("seed"),
-        "object library version": summary.get("provenance", {}).get("library_version"),
-    }
-
-
-def mismatch(a: dict[str, Any], b: dict[str, Any]) -> str:
-    """Why two runs cannot be paired ("" when they can): a different suite, suite version,
-    seed, object library or track. A run that does not use the class hint matches either
-    track (see :func:`hint_unused`)."""
-    ia, ib = _identity(a), _identity(b)
-    diffs = [
-        f"{k} {ia[k]!r} vs {ib[k]!r}"
-        for k in ia
-        if ia[k] != ib[k] and not (k == "object library version" and None in (ia[k], ib[k]))
-    ]
+def mismatch(a: dict[str, Any], b: dict[str, Any], across_sensors: bool = False) -> str:
+    """Why two runs cannot be paired ("" when they can): their items' identities differ
+    (:class:`~beo_bench.bench.rundir.ItemsIdentity`: suite, version, seed, track, sensor,
+    object library, suite record). A run that does not use the class hint matches either
+    track (see :func:`hint_unused`); ``across_sensors``: runs of the same items under two
+    sensors pair (a robustness comparison)."""
     ta, tb = track_of(a), track_of(b)
-    if ta != tb and not (None not in (ta, tb) and (hint_unused(a) or hint_unused(b))):
-        diffs.append(f"track {ta!r} vs {tb!r}")
-    return "; ".join(diffs)
+    either = None not in (ta, tb) and (hint_unused(a) or hint_unused(b))
+    diffs = ItemsIdentity.of(a).differences(
+        ItemsIdentity.of(b), track=not either, sensor=not across_sensors
+    )
+    return "; ".join(f"{what} {x!r} vs {y!r}" for what, x, y in diffs)
 
 
-def check_comparable(a: Run | dict[str, Any], b: Run | dict[str, Any], names: str = "") -> None:
-    """Raise :class:`UsageError` unless the two runs can be paired."""
+def check_comparable(
+    a: Run | dict[str, Any],
+    b: Run | dict[str, Any],
+    names: str = "",
+    across_sensors: bool = False,
+) -> None:
+    """Raise :class:`UsageError` unless the two runs can be paired (:func:`mismatch`)."""
     sa = a.summary if isinstance(a, Run) else a
     sb = b.summary if isinstance(b, Run) else b
-    why = mismatch(sa, sb)
+    why = mismatch(sa, sb, across_sensors)
     if why:
         raise UsageError(
             f"cannot pair {names or 'these runs'}: {why}. A paired comparison needs runs of "
-            "one suite, suite version, track and seed (the same items, scored the same way); "
-            "use `beo-bench compare --table` to list runs side by side"
+            "one suite, suite version, track, sensor and seed (the same items, scored the same "
+            "way); use `beo-bench compare --table` to list runs side by side"
         )
 
 
@@ -322,16 +251,18 @@ def paired_runs(
     n_resamples: int = 1000,
     confidence: float = 0.95,
     seed: int = 0,
+    across_sensors: bool = False,
 ) -> list[PairedResult]:
     """B - A per metric (``keys``, default: :func:`pairable`) over the common items.
-    Runs that cannot be paired: :class:`UsageError`; runs with different items: a
+    Runs that cannot be paired (:func:`check_comparable`; ``across_sensors``: two sensors'
+    runs of the same items pair): :class:`UsageError`; runs with different items: a
     :class:`ComparisonWarning`, then the common items are compared."""
-    check_comparable(a, b, f"{a.path} and {b.path}")
+    check_comparable(a, b, f"{a.path} and {b.path}", across_sensors)
     common = a.items & b.items
     if not common:
         raise UsageError(
-            f"{a.path} and {b.path} have no item in common (items {_span(a.items)} and "
-            f"{_span(b.items)}): run both over the same items (the same --episodes)"
+            f"{a.path} and {b.path} have no item in common (items {span(a.items)} and "
+            f"{span(b.items)}): run both over the same items (the same --episodes)"
         )
     if a.items != b.items:
         warnings.warn(
@@ -363,10 +294,6 @@ def paired(
     """B - A per headline metric for the runs in ``a_dir`` and ``b_dir`` (directories or
     their ``summary.json``): see :func:`paired_runs`."""
     return paired_runs(load_run(a_dir), load_run(b_dir), keys, n_resamples, confidence, seed)
-
-
-def _span(items: set[int]) -> str:
-    return f"{min(items)}..{max(items)}" if items else "none"
 
 
 # -- text --------------------------------------------------------------------------------------

@@ -21,7 +21,6 @@ from typing import Any
 import numpy as np
 
 from beo_bench.bench.columns import spec
-from beo_bench.bench.compare import sensor_tag_of
 from beo_bench.bench.leaderboard import (
     DISSERTATION_MODELNET10,
     DISSERTATION_PROTOCOL,
@@ -36,6 +35,7 @@ from beo_bench.bench.leaderboard import (
     ordering_verdict,
     primary_comparisons,
 )
+from beo_bench.bench.rundir import sensor_tag_of
 from beo_bench.bench.runs import backend_label
 from beo_bench.bench.suites import get_suite
 

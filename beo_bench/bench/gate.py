@@ -65,6 +65,17 @@ import numpy as np
 from beo_bench.atomic import atomic_write_bytes
 from beo_bench.bench import compare
 from beo_bench.bench.columns import BY_KEY, METRICS, MetricSpec, value_range
+from beo_bench.bench.rundir import (
+    RESULTS_NAME,
+    SUMMARY_NAME,
+    ItemsIdentity,
+    load_summary,
+    scan_rows,
+    sensor_tag_of,
+    span,
+    summary_size,
+    track_of,
+)
 from beo_bench.errors import CorruptDataError, ThresholdError, UsageError
 from beo_bench.stats import (
     DEFAULT_PERMUTATIONS,
@@ -85,9 +96,6 @@ REPORT_FORMAT = "beo-bench-gate"
 REPORT_VERSION = 2
 """2: a verdict per (backend, metric) pooled over suites, with its margin, suites and
 skipped metrics (1: a verdict per suite and metric)."""
-UNSCORED_RECORD_KEYS = ("size", "description", "item_timeout_s")
-"""Suite record fields that change no score (the number of items is compared item by item
-instead)."""
 DEFAULT_ALPHA = 0.05
 REGRESSION = "regression"
 """Worse than the baseline by more than the metric's margin (adjusted p at most alpha)."""
@@ -248,14 +256,8 @@ class ScoredRun:
     """Where it was read (a run directory, or ``FILE#label``), for messages."""
     label: str
     """``SUITE[@TRACK][~SENSOR]``: what pairs a run with its baseline."""
-    suite: str
-    suite_version: int | None
-    seed: int | None
-    track: str | None
-    sensor: str
-    library_version: int | None
-    record: dict[str, Any]
-    """The suite record (``provenance["suite"]``) without :data:`UNSCORED_RECORD_KEYS`."""
+    identity: ItemsIdentity
+    """What fixed its items and their scoring (a baseline's must be the same)."""
     backend: str
     """The backend and its options, as tables name them (``icp (starts=48)``)."""
     views: tuple[ViewKey, ...]
@@ -267,18 +269,18 @@ class ScoredRun:
     def items(self) -> frozenset[int]:
         return frozenset(i for i, _ in self.views)
 
+    @property
+    def suite(self) -> str:
+        return self.identity.suite
+
 
 def suite_label(summary: dict[str, Any]) -> str:
     """``SUITE[@TRACK][~SENSOR]`` of a run's summary (the sensor only when it is not the
     suite's own, as the run's directory name has it)."""
-    track = compare.track_of(summary)
+    track = track_of(summary)
     text = f"{summary['suite']}@{track}" if track else str(summary["suite"])
-    tag = compare.sensor_tag_of(summary)
+    tag = sensor_tag_of(summary)
     return text + (f"~{tag}" if tag else "")
-
-
-def _comparable_record(record: dict[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in record.items() if k not in UNSCORED_RECORD_KEYS}
 
 
 def _check_results(where: Path, summary: dict[str, Any]) -> None:
@@ -286,20 +288,18 @@ def _check_results(where: Path, summary: dict[str, Any]) -> None:
     status 1): lines that do not parse, a torn last line, an item's rows incomplete or
     twice, or fewer items than its summary covers. Read past, the lost items would leave
     the test (and could flip its verdict) or read as a run of other items."""
-    from beo_bench.bench.runner import scan_rows
-
-    results = where / compare.RESULTS_NAME
+    results = where / RESULTS_NAME
     if not results.is_file():
         return  # compare.run_from says so
     scan = scan_rows(results)
     damage = scan.report(results)
-    size = compare._size(summary)
+    size = summary_size(summary)
     if not damage and size is not None:
-        lost = set(range(size)) - {int(r["item"]) for r in scan.rows}
+        lost = set(range(size)) - {r.item for r in scan.rows}
         if lost:
             damage = (
                 f"{results}: holds no rows of {len(lost)} of the {size} items its summary "
-                f"covers (items {_span(frozenset(lost))})"
+                f"covers (items {span(lost)})"
             )
     if damage:
         raise CorruptDataError(
@@ -318,17 +318,10 @@ def scored_run(where: Path, summary: dict[str, Any]) -> ScoredRun:
     run = compare.run_from(where, summary)
     values = {k: v for k, v in compare.view_values(run).items() if k in BY_KEY and BY_KEY[k].paired}
     prov = summary.get("provenance", {})
-    version = summary.get("suite_version")
     return ScoredRun(
         source=str(where),
         label=suite_label(summary),
-        suite=str(summary["suite"]),
-        suite_version=int(version) if isinstance(version, int) else None,
-        seed=summary.get("seed"),
-        track=compare.track_of(summary),
-        sensor=compare.sensor_of(summary),
-        library_version=prov.get("library_version"),
-        record=_comparable_record(prov.get("suite", {})),
+        identity=ItemsIdentity.of(summary),
         backend=backend_label(str(summary["backend"]), prov.get("backend_kwargs") or {}),
         views=tuple(sorted((int(r["item"]), int(r["view"])) for r in run.rows)),
         values=values,
@@ -343,21 +336,21 @@ def find_runs(paths: Iterable[Path | str]) -> list[tuple[Path, dict[str, Any]]]:
     out: list[tuple[Path, dict[str, Any]]] = []
     for given in paths:
         p = Path(given)
-        if p.is_file() or (p / compare.SUMMARY_NAME).is_file():
-            out.append(compare.load_summary(p))
+        if p.is_file() or (p / SUMMARY_NAME).is_file():
+            out.append(load_summary(p))
             continue
         if not p.is_dir():
             raise GateUsageError(
                 f"{p} does not exist: give run directories, their summary.json, or the --runs "
                 "directory of `beo-bench all`"
             )
-        subs = sorted(d for d in p.iterdir() if (d / compare.SUMMARY_NAME).is_file())
+        subs = sorted(d for d in p.iterdir() if (d / SUMMARY_NAME).is_file())
         if not subs:
             raise GateUsageError(
                 f"{p} holds no run (no summary.json in it or in its sub-directories): give run "
                 "directories, or the --runs directory of `beo-bench all`"
             )
-        out += [compare.load_summary(d) for d in subs]
+        out += [load_summary(d) for d in subs]
     return out
 
 
@@ -381,13 +374,13 @@ def baseline_entry(run: ScoredRun) -> dict[str, Any]:
         per_item.setdefault(item, []).append(view)
     return {
         "label": run.label,
-        "suite": run.suite,
-        "suite_version": run.suite_version,
-        "seed": run.seed,
-        "track": run.track,
-        "sensor": run.sensor,
-        "library_version": run.library_version,
-        "suite_record": run.record,
+        "suite": run.identity.suite,
+        "suite_version": run.identity.suite_version,
+        "seed": run.identity.seed,
+        "track": run.identity.track,
+        "sensor": run.identity.sensor,
+        "library_version": run.identity.library_version,
+        "suite_record": run.identity.record,
         "backend": run.backend,
         "git_commit": run.git_commit,
         "views": {str(i): vs for i, vs in per_item.items()},
@@ -474,13 +467,15 @@ def _entry_run(path: Path, k: int, e: Any) -> ScoredRun:
         return ScoredRun(
             source=f"{path}#{e['label']}",
             label=str(e["label"]),
-            suite=str(e["suite"]),
-            suite_version=e["suite_version"],
-            seed=e["seed"],
-            track=e["track"],
-            sensor=str(e["sensor"]),
-            library_version=e["library_version"],
-            record=dict(e["suite_record"]),
+            identity=ItemsIdentity(
+                suite=str(e["suite"]),
+                suite_version=e["suite_version"],
+                seed=e["seed"],
+                track=e["track"],
+                sensor=str(e["sensor"]),
+                library_version=e["library_version"],
+                record=dict(e["suite_record"]),
+            ),
             backend=str(e["backend"]),
             views=tuple(views),
             values=values,
@@ -516,7 +511,7 @@ def is_baseline_file(path: Path | str) -> bool:
     """Whether ``path`` is a file that is not a run's ``summary.json`` (so: read as a
     baseline file, which says what is wrong with it if it is not one)."""
     p = Path(path)
-    return p.is_file() and p.name != compare.SUMMARY_NAME
+    return p.is_file() and p.name != SUMMARY_NAME
 
 
 def load_baseline(path: Path | str) -> list[ScoredRun]:
@@ -530,36 +525,11 @@ def load_baseline(path: Path | str) -> list[ScoredRun]:
 
 
 # -- pairing runs with their baselines --------------------------------------------------------
-def _span(items: frozenset[int]) -> str:
-    return f"{min(items)}..{max(items)}" if items else "none"
-
-
 def mismatch(run: ScoredRun, base: ScoredRun) -> str:
     """Why ``run`` cannot be gated against ``base`` ("" when it can), baseline's value
-    first."""
-    diffs = [
-        f"{what} {b!r} (baseline) vs {a!r}"
-        for what, a, b in (
-            ("suite", run.suite, base.suite),
-            ("suite version", run.suite_version, base.suite_version),
-            ("seed", run.seed, base.seed),
-            ("track", run.track, base.track),
-            ("sensor", run.sensor, base.sensor),
-        )
-        if a != b
-    ]
-    if None not in (run.library_version, base.library_version) and (
-        run.library_version != base.library_version
-    ):
-        diffs.append(f"object library version {base.library_version!r} vs {run.library_version!r}")
-    said = {"name", "version", "seed", "track", "sensor"}
-    keys = sorted((run.record.keys() | base.record.keys()) - said)
-    diffs += [
-        f"suite record {k} {base.record.get(k)!r} vs {run.record.get(k)!r}"
-        for k in keys
-        if run.record.get(k) != base.record.get(k)
-    ]
-    return "; ".join(diffs)
+    first: their items' identities differ (:class:`~beo_bench.bench.rundir.ItemsIdentity`)."""
+    diffs = base.identity.differences(run.identity)
+    return "; ".join(f"{what} {b!r} (baseline) vs {a!r}" for what, b, a in diffs)
 
 
 def check_pair(run: ScoredRun, base: ScoredRun) -> None:
@@ -575,7 +545,7 @@ def check_pair(run: ScoredRun, base: ScoredRun) -> None:
     if run.items != base.items:
         raise GateUsageError(
             f"cannot gate {run.source} against {base.source}: the run scored items "
-            f"{_span(run.items)} ({len(run.items)}) and the baseline {_span(base.items)} "
+            f"{span(run.items)} ({len(run.items)}) and the baseline {span(base.items)} "
             f"({len(base.items)}): run it with --episodes {len(base.items)} (the baseline's "
             "items), or write a new baseline from a run of these items"
         )
@@ -720,7 +690,7 @@ def pool(
             skipped.append(Skipped(run.label, key, why))
             continue
         for item, (x, y, k) in sums.items():
-            u = units.setdefault((run.suite, str(run.seed), item), [0.0, 0.0, 0.0])
+            u = units.setdefault((run.suite, str(run.identity.seed), item), [0.0, 0.0, 0.0])
             u[0], u[1], u[2] = u[0] + x, u[1] + y, u[2] + k
         xa, xb, views = (sum(s[j] for s in sums.values()) for j in range(3))
         parts.append(SuiteDiff(run.label, xa / views, xb / views, (xb - xa) / views,

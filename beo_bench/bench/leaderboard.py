@@ -56,7 +56,7 @@ from typing import Any
 import numpy as np
 
 from beo_bench.atomic import atomic_write_bytes
-from beo_bench.bench import ablations, compare
+from beo_bench.bench import ablations, compare, rundir
 from beo_bench.bench.columns import (
     BOARD_PER_CATEGORY,
     BOARD_PER_CATEGORY_DEFAULT,
@@ -196,7 +196,7 @@ def load_rows(runs: Path) -> list[Row]:
     return [
         Row(summary, where)
         for where, summary in (
-            compare.load_summary(p) for p in sorted(Path(runs).rglob(compare.SUMMARY_NAME))
+            rundir.load_summary(p) for p in sorted(Path(runs).rglob(rundir.SUMMARY_NAME))
         )
     ]
 
@@ -220,7 +220,7 @@ def model_digest(s: dict[str, Any]) -> str:
 
 def items(s: dict[str, Any]) -> int:
     """How many items the run covers (its suite's size; its row count when not recorded)."""
-    size = compare._size(s)
+    size = rundir.summary_size(s)
     return size if size is not None else int(s["n"])
 
 
@@ -793,7 +793,7 @@ def track_rows(rows: list[Row]) -> dict[str | None, list[Row]]:
     unless the backend has a class-given run with the same options, seed and items)."""
     by_track: dict[str | None, list[Row]] = {}
     for r in rows:
-        by_track.setdefault(compare.track_of(r.summary), []).append(r)
+        by_track.setdefault(rundir.track_of(r.summary), []).append(r)
     given = by_track.get("class-given")
     if given is not None:
         own = {(label(r.summary), r.summary.get("seed"), items(r.summary)) for r in given}
@@ -1580,11 +1580,11 @@ def _sensor_key(tag: str | None) -> tuple[int, str]:
 
 def sensor_rows(rows: list[Row]) -> dict[str | None, list[Row]]:
     """The rows by the sensor they were captured by: None for the suite's own
-    (:func:`~beo_bench.bench.compare.sensor_tag_of`), then each other sensor, in the order
+    (:func:`~beo_bench.bench.rundir.sensor_tag_of`), then each other sensor, in the order
     of ``SENSORS``."""
     groups: dict[str | None, list[Row]] = {}
     for r in rows:
-        groups.setdefault(compare.sensor_tag_of(r.summary), []).append(r)
+        groups.setdefault(rundir.sensor_tag_of(r.summary), []).append(r)
     return {k: groups[k] for k in sorted(groups, key=_sensor_key)}
 
 
@@ -1641,7 +1641,7 @@ def robustness(suite: str, parts: dict[str | None, dict[str | None, list[Section
     kinect-v1 -> d435``; then each sensor's run paired with the backend's run under the
     first of them (B - A over the items both scored, a bootstrap interval that resamples
     items, a verdict: :func:`beo_bench.bench.compare.paired_runs`)."""
-    from beo_bench.bench.compare import default_sensor_of
+    from beo_bench.bench.rundir import default_sensor_of
 
     own = default_sensor_of(suite)
     names = {tag: own if tag is None else tag for tag in parts}
@@ -1762,7 +1762,8 @@ def _sensor_pairs(
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", compare.ComparisonWarning)  # a shorter run: its items
-            results = compare.paired_runs(a_run, b_run, [k for k in keys if k in both])
+            wanted = [k for k in keys if k in both]
+            results = compare.paired_runs(a_run, b_run, wanted, across_sensors=True)
     except UsageError:  # another seed or version: not the same items
         return []
     return [SensorPair(track, backend, sensor, ref, r) for r in results]
@@ -2140,7 +2141,7 @@ def _regenerate(runs: Path, out: Path, update: bool, ablation: bool) -> list[Pat
                 robust.markdown("####"),
                 "",
             ]
-        own = compare.default_sensor_of(suite)
+        own = rundir.default_sensor_of(suite)
         for tag, sensor_tracks in parts.items():
             if tag is None:
                 continue

@@ -36,13 +36,8 @@ from beo_bench.atomic import atomic_write_bytes
 from beo_bench.bench.failures import FailureSummary, summarise_failures
 from beo_bench.bench.kinds import get_kind
 from beo_bench.bench.kinds.common import ReportCase
-from beo_bench.bench.runs import (
-    REPORT_NAME,
-    REPORT_VIEWS,
-    RESULTS_NAME,
-    RunContext,
-    backend_label,
-)
+from beo_bench.bench.rundir import REPORT_NAME, RESULTS_NAME
+from beo_bench.bench.runs import REPORT_VIEWS, RunContext, backend_label
 
 if TYPE_CHECKING:
     from beo_bench.backend import Backend

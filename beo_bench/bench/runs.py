@@ -1,4 +1,4 @@
-"""What a run is: its configuration, its context, its name, its files, its errors, its summary.
+"""What a run is: its configuration, its context, its name, its errors.
 
 A user asks for a run with a :class:`RunConfig` (suite, backend name, options as given,
 ``--allow-privileged``). The driver resolves it once into a :class:`RunContext`: the suite
@@ -8,10 +8,8 @@ the backend is handed the truth. The context is frozen and picklable; it is the 
 that workers, the evaluator and ``Backend.prepare(ctx)`` receive (no per-process state
 carries a run's configuration).
 
-A run directory holds :data:`RECORD_NAME`, :data:`RESULTS_NAME`, :data:`SUMMARY_NAME`,
-:data:`LOCK_NAME` and :data:`MARKER_NAME` (and :data:`REPORT_NAME` when asked for); its
-default name is :func:`run_name`. The summary is a :class:`Summary` (``summary.json`` is
-its :meth:`Summary.to_json`).
+A run directory's default name is :func:`run_name`; its files, identity, lock, rows and
+summary are :mod:`beo_bench.bench.rundir`'s.
 """
 
 from __future__ import annotations
@@ -45,21 +43,8 @@ class CorruptRunError(RunError, CorruptDataError):
     line: nothing is overwritten, the message says what to do."""
 
 
-LOCK_NAME = "run.lock"
-RESULTS_NAME = "results.jsonl"
-RECORD_NAME = "run.json"
-SUMMARY_NAME = "summary.json"
-REPORT_NAME = "report.html"
-"""The run's offline report of its worst views (:mod:`beo_bench.bench.report`)."""
 REPORT_VIEWS = 8
 """The worst views a run's report shows unless ``--report-views`` says otherwise."""
-MARKER_NAME = ".beo-bench-run"
-MARKER_TEXT = (
-    "This directory is a run directory of beo-bench (`beo-bench run --out`, `beo-bench all`).\n"
-    "A run writes and resumes here only while this file marks the directory as its own.\n"
-)
-"""The file marking a directory a run made: a run writes only into an empty directory or
-one carrying it, so nothing the user keeps in a folder given as ``--out`` is replaced."""
 
 
 # -- names -----------------------------------------------------------------------------------
@@ -233,64 +218,3 @@ def suite_categories(suite: Suite) -> tuple[str, ...]:
     from beo_bench.bench.kinds import get_kind
 
     return get_kind(suite.kind).categories(suite)
-
-
-# -- the summary -----------------------------------------------------------------------------
-@dataclass
-class Summary:
-    """A run's summary (``summary.json``; docs/design.md "Public names"): what the suite
-    measured over the run's rows (:func:`beo_bench.bench.summary.summarise`), and what a
-    leaderboard groups and labels rows by (the track, whether the backend can use the class
-    hint, the model it scored, whether it was handed the truth) with the run's provenance."""
-
-    suite: str
-    suite_version: int
-    track: str | None
-    backend: str
-    n: int
-    failures: int
-    failure_kinds: dict[str, int]
-    metrics: dict[str, Any]
-    ci95: dict[str, Any]
-    categories: list[str]
-    per_category: dict[str, dict[str, Any]]
-    scoring: dict[str, Any]
-    seed: int
-    uses_class_hint: bool = False
-    model_digest: str | None = None
-    privileged: bool = False
-    provenance: dict[str, Any] = field(default_factory=dict)
-    sensor: str | None = None
-    """The depth sensor the views were captured by (``Suite.sensor``); None in a summary
-    written before sensors existed (its ``provenance["suite"]`` says ``noise``:
-    :func:`~beo_bench.bench.compare.sensor_of` reads either)."""
-
-    def to_json(self) -> dict[str, Any]:
-        """The summary as the JSON object ``summary.json`` holds."""
-        return dataclasses.asdict(self)
-
-    # Read access by key, as to a loaded summary.json: what compares and leaderboards
-    # read, from files or from runs just finished, alike.
-    def __getitem__(self, key: str) -> Any:
-        if key not in _SUMMARY_FIELDS:
-            raise KeyError(key)
-        return getattr(self, key)
-
-    def __contains__(self, key: object) -> bool:
-        return key in _SUMMARY_FIELDS
-
-    def get(self, key: str, default: Any = None) -> Any:
-        return getattr(self, key) if key in _SUMMARY_FIELDS else default
-
-    def keys(self) -> list[str]:
-        return list(_SUMMARY_FIELDS)
-
-    @classmethod
-    def from_json(cls, obj: dict[str, Any]) -> Summary:
-        """A summary read back (keys it does not know, from other versions, are dropped;
-        missing optional ones take their defaults)."""
-        names = {f.name for f in dataclasses.fields(cls)}
-        return cls(**{k: v for k, v in obj.items() if k in names})
-
-
-_SUMMARY_FIELDS = tuple(f.name for f in dataclasses.fields(Summary))

@@ -39,6 +39,7 @@ paired comparison of two runs all read it.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -46,7 +47,7 @@ import numpy as np
 from beo_bench import metrics
 from beo_bench.bench.columns import SUMMARY_PER_CATEGORY
 from beo_bench.bench.kinds import get_kind
-from beo_bench.bench.runs import Summary
+from beo_bench.bench.rundir import Row, Summary, json_rows
 from beo_bench.bench.suites import Suite
 from beo_bench.bench.tally import (
     CHAMFER_CAP,
@@ -93,11 +94,12 @@ def view_values(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, np.ndarra
     return get_kind(suite.kind).view_values(suite, rows)
 
 
-def _collect(suite: Suite, rows: list[dict[str, Any]], intervals: bool = True) -> Tally:
+def _collect(suite: Suite, rows: Sequence[Row], intervals: bool = True) -> Tally:
     """The metrics a suite measures, over ``rows``."""
-    M = Tally(np.array([r["item"] for r in rows]), intervals)
-    values = view_values(suite, rows)
-    get_kind(suite.kind).collect(M, rows, values)
+    M = Tally(np.array([r.item for r in rows]), intervals)
+    data = json_rows(rows)
+    values = view_values(suite, data)
+    get_kind(suite.kind).collect(M, data, values)
     for name, v in values.items():
         M.mean(name, v)
         if name in MEDIANS:
@@ -105,10 +107,10 @@ def _collect(suite: Suite, rows: list[dict[str, Any]], intervals: bool = True) -
     return M
 
 
-def _per_category(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+def _per_category(suite: Suite, rows: Sequence[Row]) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
-    for cat in sorted({r["category"] for r in rows}):
-        sub = [r for r in rows if r["category"] == cat]
+    for cat in sorted({r.category for r in rows}):
+        sub = [r for r in rows if r.category == cat]
         M = _collect(suite, sub, intervals=False)
         out[cat] = {"n": len(sub), **{k: M.m[k] for k in SUMMARY_PER_CATEGORY if k in M.m}}
     return out
@@ -125,14 +127,10 @@ def scoring(suite: Suite) -> dict[str, Any]:
     }
 
 
-def _ms(rows: list[dict[str, Any]], key: str) -> np.ndarray:
-    return np.array([np.nan if r.get(key) is None else float(r[key]) for r in rows])
-
-
 def summarise(
     suite: Suite,
     backend: str,
-    rows: list[dict[str, Any]],
+    rows: Sequence[Row],
     uses_class_hint: bool = False,
     model_digest: str | None = None,
     privileged: bool = False,
@@ -143,13 +141,15 @@ def summarise(
     (whether it can use the class hint, its model's digest, whether it was handed the
     truth) and the run's provenance."""
     M = _collect(suite, rows)
-    stats = metrics.runtime_stats(_ms(rows, "ms") / 1000.0)
+    ms = np.array([np.nan if r.ms is None else r.ms for r in rows])
+    stats = metrics.runtime_stats(ms / 1000.0)
     if stats["n"]:
         M.m["ms_per_view_median"] = stats["ms_median"]
         M.m["ms_per_view_p95"] = stats["ms_p95"]
         M.m["views_per_s"] = stats["hz"]
-    get_kind(suite.kind).timing(M, rows)
-    names = {r["true_class"]: r["category"] for r in rows}
+    data = json_rows(rows)
+    get_kind(suite.kind).timing(M, data)
+    names = {r.true_class: r.category for r in rows}
     categories = [names.get(i, f"class {i}") for i in range(1 + max(names, default=-1))]
     return Summary(
         categories=categories,
@@ -158,8 +158,8 @@ def summarise(
         track=suite.track,
         backend=backend,
         n=len(rows),
-        failures=sum(1 for r in rows if r.get("failure")),
-        failure_kinds=failure_kinds(rows),
+        failures=sum(1 for r in rows if r.failure),
+        failure_kinds=failure_kinds(data),
         metrics=M.m,
         ci95=M.ci,
         per_category=_per_category(suite, rows),

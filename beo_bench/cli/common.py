@@ -8,10 +8,10 @@ from collections.abc import Sequence
 from typing import Any
 
 from beo_bench.bench.columns import brief_columns
-from beo_bench.bench.compare import sensor_tag_of, track_of
 from beo_bench.bench.failures import reasons_text, summary_pick_reasons
+from beo_bench.bench.rundir import Summary, sensor_tag_of, track_of
 from beo_bench.bench.runner import run_end
-from beo_bench.bench.runs import RunContext, Summary, backend_label
+from beo_bench.bench.runs import RunContext, backend_label
 from beo_bench.bench.suites import SUITES, UnknownSuiteError, get_suite
 from beo_bench.bench.suites import Kind as SuiteKind
 from beo_bench.cli.options import DATASET_DEFAULTS

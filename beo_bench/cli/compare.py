@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from beo_bench.bench import compare
+from beo_bench.bench import compare, rundir
 from beo_bench.cli.common import format_runs
 
 
@@ -36,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
     """The runs' table; then, unless ``--table``, each run paired with the first on the
     items both scored (B - A with a bootstrap interval over items, and a verdict), and a
     footnote that the verdicts are uncorrected and ``gate`` is the pass/fail check."""
-    loaded = [compare.load_summary(p) for p in args.runs]
+    loaded = [rundir.load_summary(p) for p in args.runs]
     if args.table or len(loaded) < 2:
         print(format_runs([s for _, s in loaded]))
         return 0

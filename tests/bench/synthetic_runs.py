@@ -10,6 +10,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from beo_bench.bench.rundir import rows_of
 from beo_bench.bench.suites import Suite, get_suite
 from beo_bench.bench.summary import summarise
 
@@ -82,7 +83,7 @@ def write_run(
     summary = summarise(
         s,
         backend,
-        sorted(rows, key=lambda r: (r["item"], r["view"])),
+        rows_of(sorted(rows, key=lambda r: (r["item"], r["view"]))),
         uses_class_hint=uses_hint,
         model_digest=digest,
         privileged=privileged,

@@ -150,6 +150,8 @@ def test_class_accuracy_is_paired_only_where_both_were_scored(tmp_path) -> None:
         ({"version": 99}, "suite version"),
         ({"track": "class-free"}, "track 'class-given' vs 'class-free'"),
         ({"seed": 7}, "seed 2000 vs 7"),
+        # the sensor is part of what a run scored (rundir.ItemsIdentity), as for the gate
+        ({"sensor": "kinect-v1"}, "sensor 'ideal' vs 'kinect-v1'"),
     ],
 )
 def test_runs_of_different_suites_versions_tracks_or_seeds_are_refused(

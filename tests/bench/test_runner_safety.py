@@ -18,17 +18,9 @@ from pathlib import Path
 import pytest
 
 from beo_bench import backend as B
-from beo_bench.bench.runner import (
-    CorruptRunError,
-    ResultsWarning,
-    RunConfig,
-    RunError,
-    RunUsageError,
-    WorkerPool,
-    read_rows,
-    run,
-    scan_rows,
-)
+from beo_bench.bench.rundir import ResultsWarning, read_rows, scan_rows
+from beo_bench.bench.runner import RunConfig, RunError, WorkerPool, run
+from beo_bench.bench.runs import CorruptRunError, RunUsageError
 from beo_bench.bench.suites import get_suite
 from beo_bench.bench.summary import TIMING_KEYS
 from beo_bench.errors import CorruptDataError, UsageError
@@ -85,9 +77,9 @@ def test_a_second_run_into_a_locked_directory_is_refused_naming_the_holder(tmp_p
         [sys.executable, "-c", textwrap.dedent("""
             import sys
             from pathlib import Path
-            from beo_bench.bench.runner import _run_dir, lock_run_dir
+            from beo_bench.bench.rundir import lock_run_dir, open_run_dir
             # as a run does: claim the directory (its marker), then lock it
-            with lock_run_dir(_run_dir(Path(sys.argv[1]))):
+            with lock_run_dir(open_run_dir(Path(sys.argv[1]))):
                 print("locked", flush=True)
                 sys.stdin.read()
             """), str(out)],
@@ -145,7 +137,7 @@ def test_scan_rows_keeps_the_first_complete_set_of_each_item(tmp_path) -> None:
     path = tmp_path / "results.jsonl"
     path.write_text("".join(lines))
     scan = scan_rows(path)
-    kept = [(r["item"], r["view"]) for r in scan.rows]
+    kept = [(r.item, r.view) for r in scan.rows]
     assert kept == [(0, 0), (0, 1), (0, 2), (1, 0), (1, 1), (1, 2)]
     assert scan.damaged == [6] and scan.torn_tail
     assert sorted(scan.incomplete) == [1, 2] and scan.duplicates == [0]

@@ -13,7 +13,7 @@ import shutil
 import numpy as np
 import pytest
 
-from beo_bench.bench import runner
+from beo_bench.bench import rundir
 from beo_bench.bench.leaderboard import regenerate
 from beo_bench.bench.runs import RunConfig, RunContext, RunUsageError, run_name
 from beo_bench.bench.suites import SUITES, get_suite
@@ -64,19 +64,19 @@ def test_a_sensor_other_than_the_suite_own_names_the_run() -> None:
 
 def test_the_sensor_is_part_of_the_identity_a_resume_checks(tmp_path) -> None:
     suite = get_suite("pose-1dof")
-    ideal = runner._identity(RunContext.of(RunConfig(suite, "oracle")))
-    kinect = runner._identity(RunContext.of(RunConfig(suite.with_sensor("kinect-v1"), "oracle")))
+    ideal = rundir.run_identity(RunContext.of(RunConfig(suite, "oracle")))
+    kinect = rundir.run_identity(RunContext.of(RunConfig(suite.with_sensor("kinect-v1"), "oracle")))
     assert ideal["suite"]["sensor"] == "ideal" and kinect["suite"]["sensor"] == "kinect-v1"
-    runner._check_same_run(ideal, ideal, tmp_path)
+    rundir.check_same_run(ideal, ideal, tmp_path)
     with pytest.raises(RunUsageError, match="sensor"):
-        runner._check_same_run(ideal, kinect, tmp_path)
+        rundir.check_same_run(ideal, kinect, tmp_path)
     # a run recorded before sensors existed (noise: false or true) is refused in one line
     legacy = json.loads(json.dumps(ideal))
     del legacy["suite"]["sensor"]
     for noise in (False, True):
         legacy["suite"]["noise"] = noise
         with pytest.raises(RunUsageError, match=r"older beo-bench.*new --out") as e:
-            runner._check_same_run(legacy, ideal, tmp_path)
+            rundir.check_same_run(legacy, ideal, tmp_path)
         assert "\n" not in str(e.value)
 
 

@@ -11,7 +11,8 @@ import pytest
 
 from beo_bench import metrics, stats
 from beo_bench.bench import summary as S
-from beo_bench.bench.suites import get_suite
+from beo_bench.bench.rundir import Summary, rows_of
+from beo_bench.bench.suites import Suite, get_suite
 
 POSE = get_suite("pose-3dof")
 TABLETOP = get_suite("tabletop")
@@ -19,6 +20,11 @@ TABLETOP = get_suite("tabletop")
 LOWER_IS_BETTER = {"rot_err_deg_mean", "gross_err_rate", "trans_err_cm_mean",
                    "size_err_pct_mean", "mssd_cm_mean", "mspd_px_mean", "edt_err_mean",
                    "chamfer_l1_mean", "failure_rate"}  # fmt: skip
+
+
+def _summarise(suite: Suite, rows: list[dict]) -> Summary:
+    """The summary of rows given as JSON objects."""
+    return S.summarise(suite, "x", rows_of(rows))
 
 
 def _row(item: int, view: int = 0, **values) -> dict:
@@ -61,7 +67,7 @@ def _failed(item: int, view: int = 0, reason: str = "RuntimeError: boom") -> dic
 def test_a_failure_scores_the_worst_case_in_every_mean() -> None:
     ok = [_row(i, rot_err_deg=2.0, trans_err_cm=1.0, iou=0.8, fscore=0.9) for i in range(8)]
     some_failed = [*ok[:6], _failed(6), _failed(7, reason="timeout after 60 s")]
-    a, b = S.summarise(POSE, "x", ok), S.summarise(POSE, "x", some_failed)
+    a, b = _summarise(POSE, ok), _summarise(POSE, some_failed)
     worst = S.worst_cases(POSE)
     means = [k for k in S.view_values(POSE, ok) if k != "class_acc"]
     assert set(means) >= {"rot_err_deg_mean", "trans_err_cm_mean", "size_err_pct_mean",
@@ -112,7 +118,7 @@ def test_gross_errors_and_nocs_accuracies_are_the_metrics_definitions() -> None:
     pairs = enumerate(zip(rot, trans, strict=True))
     rows = [_row(i, rot_err_deg=r, trans_err_cm=t) for i, (r, t) in pairs]
     rows.append(_failed(len(rows)))
-    m = S.summarise(POSE, "x", rows)["metrics"]
+    m = _summarise(POSE, rows)["metrics"]
     rot_w, trans_w = [*rot, 180.0], [*trans, S.TRANSLATION_CAP_CM]
     assert m["gross_err_rate"] == metrics.gross_error_rate(rot_w) == 3 / 7
     for name, acc in metrics.nocs_accuracies(rot_w, trans_w).items():
@@ -135,7 +141,7 @@ def _scenes(n: int, views: int, seed: int = 0) -> list[dict]:
 
 def test_intervals_resample_items_not_views() -> None:
     rows = _scenes(60, 4)
-    s = S.summarise(TABLETOP, "x", rows)
+    s = _summarise(TABLETOP, rows)
     rot = np.array([r["rot_err_deg"] for r in rows])
     lo, hi = s["ci95"]["rot_err_deg_mean"]
     by_view = np.subtract(*stats.bootstrap_ci(rot)[::-1])
@@ -147,16 +153,16 @@ def test_intervals_resample_items_not_views() -> None:
     assert med_lo <= s["metrics"]["rot_err_deg_median"] <= med_hi
     # one view per item (isolated suites): the same interval as resampling views
     single = [_row(i, rot_err_deg=float(r)) for i, r in enumerate(rot[:60])]
-    got = S.summarise(POSE, "x", single)["ci95"]["rot_err_deg_mean"]
+    got = _summarise(POSE, single)["ci95"]["rot_err_deg_mean"]
     assert got == pytest.approx(list(stats.bootstrap_ci(rot[:60])))
 
 
 def test_views_told_their_class_are_not_scored_on_it() -> None:
     rows = [_row(0, class_given=True), _row(1, class_given=True, correct=False)]
-    m = S.summarise(POSE, "x", rows)["metrics"]
+    m = _summarise(POSE, rows)["metrics"]
     assert m["class_given"] is True and "class_acc" not in m
     mixed = [*rows, _row(2, correct=False), _failed(3)]
-    assert S.summarise(POSE, "x", mixed)["metrics"]["class_acc"] == 0.0
+    assert _summarise(POSE, mixed)["metrics"]["class_acc"] == 0.0
 
 
 def test_a_pick_episode_that_chose_nothing_did_not_find_the_target() -> None:
@@ -170,7 +176,7 @@ def test_a_pick_episode_that_chose_nothing_did_not_find_the_target() -> None:
         {"item": 2, "view": 0, "category": "mug", "true_class": 0, "failure": None,
          "success": False, "reason": "no_estimate", "ms": 1.0, "ms_decision": 2.0},
     ]  # fmt: skip
-    s = S.summarise(pick, "x", rows)
+    s = _summarise(pick, rows)
     m = s["metrics"]
     assert m["pick_success"] == pytest.approx(1 / 3)
     assert m["target_found_rate"] == pytest.approx(1 / 3)
@@ -206,10 +212,10 @@ def test_a_sampling_backend_is_scored_on_its_best_sample_and_that_samples_rank()
     rows = [_row(0, sample_best_err_deg=1.0, sample_best_rank=1, sample_spread_deg=20.0),
             _row(1, sample_best_err_deg=3.0, sample_best_rank=5, sample_spread_deg=30.0),
             _failed(2)]  # fmt: skip
-    m = S.summarise(POSE, "x", rows)["metrics"]
+    m = _summarise(POSE, rows)["metrics"]
     assert m["sample_best_err_deg_mean"] == 2.0 and m["sample_best_rank_mean"] == 3.0
     assert m["sample_spread_deg_mean"] == 25.0
-    assert "sample_best_rank_mean" not in S.summarise(POSE, "x", [_row(0)])["metrics"]
+    assert "sample_best_rank_mean" not in _summarise(POSE, [_row(0)])["metrics"]
 
 
 def test_the_gross_errors_of_a_sampling_backend_are_scored_apart() -> None:
@@ -226,7 +232,7 @@ def test_the_gross_errors_of_a_sampling_backend_are_scored_apart() -> None:
              sample_spread_deg=9.0),
         _failed(3),
     ]  # fmt: skip
-    m = S.summarise(POSE, "x", rows)["metrics"]
+    m = _summarise(POSE, rows)["metrics"]
     assert m["sample_best_rank_gross_mean"] == 10.0  # views 1 and 2
     assert m["sample_near_true_gross_rate"] == 0.5  # view 1's best sample is 4 deg off
     assert m["half_turn_gross_rate"] == 0.5  # 176 deg is, 40 deg is not

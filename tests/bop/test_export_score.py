@@ -16,7 +16,7 @@ import pytest
 from beo_bench.bench import compare
 from beo_bench.bench.bopscore import NO_ESTIMATE, method_name, score_results
 from beo_bench.bench.export import export_bop, open_items, training_suite
-from beo_bench.bench.runner import read_rows
+from beo_bench.bench.rundir import read_rows
 from beo_bench.bench.suites import get_suite
 from beo_bench.bench.tally import recall_values
 from beo_bench.bop.files import (
@@ -680,10 +680,10 @@ def test_a_rotation_printed_to_4_decimals_is_scored(three, tmp_path, capsys) -> 
 def test_score_refuses_a_run_directory(three, tmp_path, capsys) -> None:
     """--out at a `run` directory (the same marker) was silently replaced; now refused with
     one line naming --out, and nothing in it touched."""
-    from beo_bench.bench.runner import _run_dir
+    from beo_bench.bench.rundir import open_run_dir
 
     _, root, _ = three
-    out = _run_dir(tmp_path / "icp-run")  # a run's directory: marked, with its files
+    out = open_run_dir(tmp_path / "icp-run")  # a run's directory: marked, with its files
     (out / "run.json").write_text(
         json.dumps({"suite": {"name": "pose-3dof"}, "backend": "icp", "backend_kwargs": {}})
     )
@@ -721,12 +721,12 @@ def test_score_refuses_another_methods_score_and_rewrites_its_own(three, tmp_pat
 
 
 def test_a_second_score_into_a_locked_directory_is_refused(three, tmp_path, capsys) -> None:
-    from beo_bench.bench.runner import _run_dir, lock_run_dir
+    from beo_bench.bench.rundir import lock_run_dir, open_run_dir
 
     _, root, _ = three
     csv = tmp_path / "mine_x.csv"
     write_results(csv, oracle_estimates(root))
-    out = _run_dir(tmp_path / "run")
+    out = open_run_dir(tmp_path / "run")
     with lock_run_dir(out):  # another score (or run) holds it
         capsys.readouterr()
         assert _score(csv, out) == 1
