@@ -277,7 +277,7 @@ def _dataset(args: argparse.Namespace) -> Any:
 
 
 def cmd_objects(args: argparse.Namespace) -> int:
-    from beo_bench import reports
+    from beo_bench import inspection
 
     if args.objects is not None and args.root is not None:
         raise UsageError("give the dataset once: --objects ROOT (--root is its older spelling)")
@@ -285,10 +285,10 @@ def cmd_objects(args: argparse.Namespace) -> int:
     dataset = _dataset(args)
     if dataset is not None:
         print(f"dataset {dataset.root}: {dataset.layout} layout, digest {dataset.digest}")
-    objects, counts = reports.select_objects(
+    objects, counts = inspection.select_objects(
         args.split, _categories(args), args.per_category, dataset=dataset, root=args.root
     )
-    report = reports.summarise_objects(
+    report = inspection.summarise_objects(
         objects,
         args.split,
         resolution=args.resolution,
@@ -312,21 +312,21 @@ def _print_skipped(dataset: Any) -> None:
 
 
 def cmd_cache(args: argparse.Namespace) -> int:
-    from beo_bench import reports
+    from beo_bench import inspection
     from beo_bench.objects import cache
 
     # a cache that is a file is an error, not an empty cache (info needs no write access)
     cache.check_root(writable=args.action == "clear", min_free=0)
     if args.action == "clear":
         freed = cache.clear(args.kind)
-        print(f"cleared {reports.format_bytes(freed)} from {cache.cache_root()}")
+        print(f"cleared {inspection.format_bytes(freed)} from {cache.cache_root()}")
         return 0
-    print(reports.cache_report().text())
+    print(inspection.cache_report().text())
     return 0
 
 
 def cmd_view(args: argparse.Namespace) -> int:
-    from beo_bench.view import view_scene
+    from beo_bench.sceneview import view_scene
 
     dataset = _dataset(args)
     r = view_scene(
@@ -343,9 +343,9 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 
 def cmd_pick_check(args: argparse.Namespace) -> int:
-    from beo_bench import reports
+    from beo_bench import inspection
 
-    report = reports.pick_check(args.episodes, args.seed, args.split)
+    report = inspection.pick_check(args.episodes, args.seed, args.split)
     print()
     print(report.text())
     return 0
@@ -625,7 +625,7 @@ def cmd_all(args: argparse.Namespace) -> int:
     from beo_bench.bench.leaderboard import check_out
     from beo_bench.bench.runs import parse_backend_spec
     from beo_bench.bench.suites import UnknownSuiteError, expand_suites, list_suites
-    from beo_bench.reports import every_backend, leaderboard_text
+    from beo_bench.inspection import every_backend, leaderboard_text
 
     dataset = _dataset(args)
     _split_needs_dataset(args, dataset)

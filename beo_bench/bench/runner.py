@@ -697,7 +697,7 @@ def _report(ctx: RunContext, out: Path, views: int, prepared: Prepared | None) -
     """The run's report, with the backend the driver prepared (if it did). The results
     and summary are written by now: a report that cannot be made is one warning, and the
     run stands."""
-    from beo_bench.bench.report import ReportWarning, write_report
+    from beo_bench.bench.worstviews import ReportWarning, write_report
 
     rows = _scan(out / RESULTS_NAME, False, False).rows  # what was skipped was reported
     try:

@@ -50,7 +50,7 @@ RESULTS_NAME = "results.jsonl"
 RECORD_NAME = "run.json"
 SUMMARY_NAME = "summary.json"
 REPORT_NAME = "report.html"
-"""The run's offline report of its worst views (:mod:`beo_bench.bench.report`)."""
+"""The run's offline report of its worst views (:mod:`beo_bench.bench.worstviews`)."""
 REPORT_VIEWS = 8
 """The worst views a run's report shows unless ``--report-views`` says otherwise."""
 MARKER_NAME = ".beo-bench-run"
