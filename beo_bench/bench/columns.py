@@ -55,6 +55,10 @@ class MetricSpec:
         text = self.fmt.format(value * self.scale)
         return text if text.startswith("-") else "+" + text
 
+    def format_interval(self, diff: float, lo: float, hi: float) -> str:
+        """A paired difference with its 95% interval: ``+1.2 [-0.3, +2.8]``."""
+        return f"{self.format_diff(diff)} [{self.format_diff(lo)}, {self.format_diff(hi)}]"
+
 
 METRICS: tuple[MetricSpec, ...] = (
     MetricSpec("rot_err_deg_mean", "rot. error mean (deg)", "rot mean", 1, "{:.1f}", False,
@@ -213,6 +217,11 @@ def markdown_table(
     lines = [_md_row(head), "|" + "".join(f"{m}|" for m in marks[: len(head)])]
     lines += [_md_row(r) for r in rows]
     return "\n".join(lines)
+
+
+def verdict_cell(verdict: str) -> str:
+    """A paired verdict as a table shows it: a difference found in bold."""
+    return verdict if verdict == "no difference" else f"**{verdict}**"
 
 
 def _md_row(cells: Sequence[object]) -> str:

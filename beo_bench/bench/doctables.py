@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from beo_bench.bench.columns import spec
+from beo_bench.bench.columns import markdown_table, spec
 from beo_bench.bench.compare import sensor_tag_of
 from beo_bench.bench.leaderboard import (
     DISSERTATION_MODELNET10,
@@ -170,9 +170,8 @@ def _diff(p: dict[str, Any], unit: str) -> str:
 
 
 def _table(head: list[str], rows: list[list[str]]) -> str:
-    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
-    return "\n".join(out) + "\n"
+    """A doc table: every column left-aligned, a line break after it."""
+    return markdown_table(head, rows, "l") + "\n"
 
 
 METHODS = ("beo", "hbeo", "hbeo-mdn-likelihood", "hbeo-mdn-posterior", "icp", "icp-plain")
@@ -1421,18 +1420,15 @@ def interval_widths(boards: Boards) -> str:
         + [f"paired, {q:.0%} of items differ" for q in INTERVAL_DISCORDANT]
         + [f"smallest difference found, {INTERVAL_DISCORDANT[-1]:.0%} differ"]
     )
-    lines = [
-        "| " + " | ".join(head) + " |",
-        "|" + "---:|" * len(head),
-    ]
+    lines = []
     for n in INTERVAL_ITEMS:
         cells = [f"{n}"]
         cells += [f"{100 * rate_half_width(r, n):.1f}" for r in INTERVAL_RATES]
         cells += [f"{100 * paired_half_width(q, n):.1f}" for q in INTERVAL_DISCORDANT]
         found = detectable_difference(INTERVAL_DISCORDANT[-1], n)
         cells.append(f"{100 * found:.1f}" if np.isfinite(found) else "-")
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+        lines.append(cells)
+    return markdown_table(head, lines, "r") + "\n"
 
 
 RobustnessCell = tuple[str, str | None, str, str]

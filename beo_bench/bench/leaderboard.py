@@ -69,6 +69,7 @@ from beo_bench.bench.columns import (
     board_columns,
     markdown_table,
     spec,
+    verdict_cell,
 )
 from beo_bench.bench.kinds.pick import AUDIT_FIELDS
 from beo_bench.bench.runs import RunError, backend_label, options_label
@@ -908,11 +909,7 @@ def _verdict_cells(res: dict[str, Any], keys: list[str] | tuple[str, ...]) -> li
         if r is None:
             cells += ["-", "-"]
             continue
-        m = r.spec
-        cells += [
-            f"{m.format_diff(r.diff)} [{m.format_diff(r.lo)}, {m.format_diff(r.hi)}]",
-            f"**{r.verdict}**" if r.verdict != "no difference" else r.verdict,
-        ]
+        cells += [r.spec.format_interval(r.diff, r.lo, r.hi), verdict_cell(r.verdict)]
     return cells
 
 
@@ -1170,21 +1167,9 @@ def primary_table(results: list[PrimaryResult]) -> str:
         if r is None:
             body.append([*which, spec(pc.metric).label, "-", "-", "-", "-", NOT_RUN, "-"])
             continue
-        m = r.spec
-        diff = f"{m.format_diff(r.diff)} [{m.format_diff(r.lo)}, {m.format_diff(r.hi)}]"
-        verdict = x.verdict if x.verdict == "no difference" else f"**{x.verdict}**"
-        body.append(
-            [
-                *which,
-                m.label,
-                r.n_items,
-                diff,
-                f"{x.p:.3g}",
-                f"{x.p_holm:.3g}",
-                verdict,
-                x.ordering or "-",
-            ]
-        )
+        diff = r.spec.format_interval(r.diff, r.lo, r.hi)
+        p = [f"{x.p:.3g}", f"{x.p_holm:.3g}", verdict_cell(x.verdict)]
+        body.append([*which, r.spec.label, r.n_items, diff, *p, x.ordering or "-"])
     head = [
         "why",
         "track",
@@ -1481,36 +1466,14 @@ def pick_comparison_table(comparisons: list[MethodComparison]) -> str:
     if not comparisons:
         return ""
     m = spec(PICK_METRIC)
-    body = []
-    for c in comparisons:
-        lo, hi = (m.format_diff(x) for x in c.ci95)
-        verdict = f"**{c.verdict}**" if c.verdict != "no difference" else c.verdict
-        body.append(
-            [
-                c.b,
-                c.a,
-                c.episodes,
-                m.format(c.a_value),
-                m.format(c.b_value),
-                f"{m.format_diff(c.diff)} [{lo}, {hi}]",
-                c.b_only,
-                c.a_only,
-                _p_text(c.p_value),
-                verdict,
-            ]
-        )
-    head = [
-        "method (B)",
-        "against (A)",
-        "episodes",
-        "A",
-        "B",
-        "B - A [95%]",
-        "B only",
-        "A only",
-        "p",
-        f"verdict, {UNCORRECTED}",
-    ]
+    body = [
+        [c.b, c.a, c.episodes, m.format(c.a_value), m.format(c.b_value),
+         m.format_interval(c.diff, *c.ci95), c.b_only, c.a_only, _p_text(c.p_value),
+         verdict_cell(c.verdict)]
+        for c in comparisons
+    ]  # fmt: skip
+    head = ["method (B)", "against (A)", "episodes", "A", "B", "B - A [95%]", "B only",
+            "A only", "p", f"verdict, {UNCORRECTED}"]  # fmt: skip
     return f"{PICK_METHOD_NOTE}\n\n" + markdown_table(head, body, "llrrrrrrrl")
 
 
