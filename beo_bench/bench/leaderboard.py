@@ -1869,21 +1869,33 @@ def _track_part(
         twin = firsts.get((base, track, sensor)) if base != suite else None
         extra = [vt, gap] + ([degradation_table(base, twin.rows, suite, sec.rows)] if twin else [])
         page.md += [t + "\n" for t in extra if t]
-        pick = is_pick_suite(suite)  # its per-category table counts episodes
-        page.md += [pick_category_table(sec.rows) if pick else category_table(suite, sec.rows), ""]
-        t51 = table_5_1(sec.rows) if suite in TABLE_5_1_SUITES else ""
-        page.md += [t51, ""] if t51 else []
-        for extra_table in (
-            field_table(sec.rows),
-            nocs_class_tables(sec.rows),
-            modelnet10_table(suite, sec.rows),
-            confused_pairs_table(sec.rows),
-            confusion_counts(suite, sec.rows),
-        ):
+        page.md += [_per_category(suite, sec.rows), ""]  # there, empty or not
+        for _, draw in SECTION_TABLES:
+            extra_table = draw(suite, sec.rows)
             page.md += [extra_table, ""] if extra_table else []
         plots = _plots(out, _prefix(suite, track, sensor), _heading(suite, track, sensor), sec.rows)
         page.plots += plots
         page.md += [*[f"![{p}]({p})" for p in plots], ""]
+
+
+def _per_category(suite: str, rows: list[Row]) -> str:
+    """A section's per-category table (a pick suite's counts episodes)."""
+    return pick_category_table(rows) if is_pick_suite(suite) else category_table(suite, rows)
+
+
+SectionTable = Callable[[str, list[Row]], str]
+"""A table a track's first section shows after its per-category table, drawn from the suite
+and the section's rows; ``""`` where it does not apply (the table is then left out)."""
+SECTION_TABLES: tuple[tuple[str, SectionTable], ...] = (
+    ("Tables 5.1/5.2", lambda suite, rows: table_5_1(rows) if suite in TABLE_5_1_SUITES else ""),
+    ("the field's figures", lambda _, rows: field_table(rows)),
+    ("NOCS per class", lambda _, rows: nocs_class_tables(rows)),
+    ("Tables 3.1/4.1", modelnet10_table),
+    ("confusions", lambda _, rows: confused_pairs_table(rows)),
+    ("confusion matrices", confusion_counts),
+)
+"""The first section's further tables, in page order: a table added here is on every page
+it applies to."""
 
 
 MARKER_NAME = ".beo-bench-leaderboards"
