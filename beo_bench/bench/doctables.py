@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from beo_bench.bench.columns import markdown_table, spec
+from beo_bench.bench.columns import markdown_table, spec, verdict_cell
 from beo_bench.bench.compare import sensor_tag_of
 from beo_bench.bench.leaderboard import (
     DISSERTATION_MODELNET10,
@@ -160,13 +160,12 @@ def num(v: float, digits: int = 3) -> str:
     return f"{v:.{digits}f}"
 
 
-def _diff(p: dict[str, Any], unit: str) -> str:
+def _diff(p: dict[str, Any], unit: str, digits: int = 1) -> str:
     """A paired difference with its interval and verdict; ``unit`` `` pts`` for a rate
     (shown in percentage points), else the value's own unit (`` deg``, or ``""``)."""
     scale = 100.0 if unit == " pts" else 1.0
-    lo, hi = p["ci95"]
-    verdict = f"**{p['verdict']}**" if p["verdict"] != "no difference" else p["verdict"]
-    return f"{scale * p['diff']:+.1f}{unit} [{scale * lo:+.1f}, {scale * hi:+.1f}] {verdict}"
+    d, lo, hi = (f"{scale * x:+.{digits}f}" for x in (p["diff"], *p["ci95"]))
+    return f"{d}{unit} [{lo}, {hi}] {verdict_cell(p['verdict'])}"
 
 
 def _table(head: list[str], rows: list[list[str]]) -> str:
@@ -571,7 +570,7 @@ def pick_pairs(b: Boards) -> str:
         p = b.primary("pick", pc)
         if p is None:
             continue
-        verdict = p["verdict"] if p["verdict"] == "no difference" else f"**{p['verdict']}**"
+        verdict = verdict_cell(p["verdict"])
         rows.append([f"`{pc.method}`", f"`{pc.baseline}`", str(p["items"]),
                      f"{_shift(p)} pts", f"{verdict} (Holm)"])  # fmt: skip
     for method, base in PICK_CONTROLS:
@@ -1056,7 +1055,7 @@ def modelnet10(b: Boards) -> str:
             except MissingFigureError:  # the suite or one of the two runs is not there yet
                 cells.append("-")
                 continue
-            cells.append(_diff3(p) if unit == "" else _diff(p, unit))
+            cells.append(_diff(p, unit, 3 if unit == "" else 1))  # an IoU: 3 decimals
         rows.append([f"`hbeo` - `beo`{label}, paired", *cells])
     return _table(head, rows)
 
@@ -1080,13 +1079,6 @@ def modelnet10_viewpoints(b: Boards) -> str:
     if missing or not rows:
         raise PendingSuiteError(f"{', '.join(missing)} not in leaderboards/")
     return _table(["backend", *(f"`{s}`" for s in suites)], rows)
-
-
-def _diff3(p: dict[str, Any]) -> str:
-    """A paired difference of a value shown with three decimals (IoU), like :func:`_diff`."""
-    lo, hi = p["ci95"]
-    verdict = f"**{p['verdict']}**" if p["verdict"] != "no difference" else p["verdict"]
-    return f"{p['diff']:+.3f} [{lo:+.3f}, {hi:+.3f}] {verdict}"
 
 
 def modelnet10_headroom(b: Boards) -> str:
