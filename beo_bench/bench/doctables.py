@@ -23,6 +23,7 @@ import numpy as np
 from beo_bench.bench.columns import markdown_table, spec, verdict_cell
 from beo_bench.bench.compare import sensor_tag_of
 from beo_bench.bench.leaderboard import (
+    BOUNDS,
     DISSERTATION_MODELNET10,
     DISSERTATION_PROTOCOL,
     ERROR_BINS,
@@ -657,7 +658,7 @@ def _found_target(b: Boards) -> dict[str, list[dict[str, Any]]]:
     for r in b.rows("pick"):
         if sensor_tag_of(r) is not None or r["provenance"].get("backend_kwargs"):
             continue
-        if r["backend"] in ("oracle", "random") or r.get("privileged"):
+        if r["backend"] in BOUNDS or r.get("privileged"):
             continue
         eps = found_target_episodes(r)
         if eps:
@@ -1476,7 +1477,7 @@ def robustness_table(cells: tuple[RobustnessCell, ...]) -> Callable[[Boards], st
         # one lookup per column: two columns may share a suite and metric on two tracks
         pairs = [_sensor_pairs(b, s, t, m) for s, t, m, _ in cells]
         rows = []
-        for name in (*METHODS, "oracle", "random"):
+        for name in (*METHODS, *BOUNDS):
             row = [f"`{name}`"]
             for found, (suite, _, metric, _) in zip(pairs, cells, strict=True):
                 if not found:
@@ -1517,7 +1518,7 @@ def bop_figures(b: Boards) -> str:
     head = ["backend", *(f"BOP AR `{t}`" for t in BOP_SENSORS), "AR_VSD / AR_MSSD / AR_MSPD "
             "`ideal`", "10deg5cm, 3D IoU50 `ideal`"]  # fmt: skip
     rows = []
-    for name in (*METHODS, "oracle", "random"):
+    for name in (*METHODS, *BOUNDS):
         keys = [(name, t, "class-free") for t in BOP_SENSORS]
         if any(k not in rows_by or "ar_bop" not in rows_by[k]["metrics"] for k in keys):
             raise PendingSuiteError(
