@@ -11,12 +11,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from beo_bench import reports
+from beo_bench import inspection
 from beo_bench.bench import campaign
 from beo_bench.bench.runner import default_workers
 from beo_bench.envs import pickcheck
 from beo_bench.errors import BeoBenchError
-from beo_bench.view import view_scene
+from beo_bench.sceneview import view_scene
 
 DEMO_SIZES = {
     "known-pose": 36,
@@ -73,9 +73,9 @@ def run_demo(
     out = Path(out)
     workers = workers or default_workers()
     say(f"beo-bench demo: the object library ({DEMO_SPLIT} split)\n")
-    objects, counts = reports.select_objects(DEMO_SPLIT, per_category=per_category)
+    objects, counts = inspection.select_objects(DEMO_SPLIT, per_category=per_category)
     say(
-        reports.summarise_objects(
+        inspection.summarise_objects(
             objects, DEMO_SPLIT, workers=workers, sheet=out / "objects.png", split_counts=counts
         ).text()
     )
@@ -94,16 +94,16 @@ def run_demo(
     say(view_scene(chosen.seed, out, split=DEMO_SPLIT).text())
 
     say(f"\nbeo-bench demo: the ground-truth grasp ceiling on {DEMO_PICK_EPISODES} episodes\n")
-    say(reports.pick_check(DEMO_PICK_EPISODES, 0, DEMO_SPLIT).text())
+    say(inspection.pick_check(DEMO_PICK_EPISODES, 0, DEMO_SPLIT).text())
 
     demo_suites(out, workers, say)
-    say(reports.cache_report().text())
+    say(inspection.cache_report().text())
 
 
 def demo_suites(out: Path, workers: int | None, say: Callable[[str], None] = print) -> list[Path]:
     """Every suite, shortened (:data:`DEMO_SIZES`), with every registered backend; then the
     leaderboard. Re-running resumes the finished runs (nothing is recomputed)."""
-    backends = reports.every_backend()
+    backends = inspection.every_backend()
     say(f"\nbeo-bench demo: short suites with {', '.join(backends)}\n")
     c = campaign.Campaign(
         dict(DEMO_SIZES),
@@ -113,5 +113,5 @@ def demo_suites(out: Path, workers: int | None, say: Callable[[str], None] = pri
         workers=workers,
     )
     written = campaign.run_campaign(c)
-    say(reports.leaderboard_text(written, c.leaderboards))
+    say(inspection.leaderboard_text(written, c.leaderboards))
     return written

@@ -10,11 +10,11 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
-from beo_bench import demo, reports
+from beo_bench import demo, inspection
 from beo_bench.cli import main
 from beo_bench.envs.pickcheck import ground_truth_pick_check
 from beo_bench.errors import BeoBenchError
-from beo_bench.view import grasp_outline, view_scene
+from beo_bench.sceneview import grasp_outline, view_scene
 
 
 @pytest.fixture(scope="module")
@@ -76,8 +76,8 @@ def test_grasp_outline_projects_the_gripper_into_the_image(chosen) -> None:
 
 
 def test_objects_report_on_a_small_set(tmp_path) -> None:
-    objects, counts = reports.select_objects("test", ["box", "mug"], per_category=1)
-    r = reports.summarise_objects(
+    objects, counts = inspection.select_objects("test", ["box", "mug"], per_category=1)
+    r = inspection.summarise_objects(
         objects, "test", resolution=8, workers=1, sheet=tmp_path / "sheet.png"
     )
     assert counts is None and len(r.stats) == 2 and r.sheet == tmp_path / "sheet.png"
@@ -89,7 +89,7 @@ def test_objects_report_on_a_small_set(tmp_path) -> None:
 
 
 def test_pick_check_report_names_its_seeds() -> None:
-    r = reports.pick_check(episodes=2, seed=3, split="test", progress=False)
+    r = inspection.pick_check(episodes=2, seed=3, split="test", progress=False)
     assert r.episodes == 2 and len(r.result.episodes) == 2
     assert "split test, seeds 3..4" in r.text() and "| **all** | 2 |" in r.text()
 
@@ -101,7 +101,7 @@ def test_cache_report_lists_kinds_and_models(tmp_path, monkeypatch) -> None:
     (tmp_path / "voxels").mkdir()
     (tmp_path / "voxels" / "a.npz").write_bytes(b"x" * 2048)
     (tmp_path / "models" / "beo" / "broken").mkdir(parents=True)
-    r = reports.cache_report()
+    r = inspection.cache_report()
     voxels = next(k for k in r.kinds if k.kind == "voxels")
     assert (voxels.entries, voxels.bytes) == (1, 2048) and r.root == tmp_path
     assert r.models[0][0] == "beo/broken" and r.models[0][1].startswith("unusable: ")
@@ -121,8 +121,8 @@ def test_run_demo_calls_the_pieces_in_order(chosen, tmp_path, monkeypatch, capsy
         seen["suites"] = (out, workers)
         return []
 
-    real_pick_check = reports.pick_check
-    monkeypatch.setattr(reports, "pick_check", small_pick_check)
+    real_pick_check = inspection.pick_check
+    monkeypatch.setattr(inspection, "pick_check", small_pick_check)
     monkeypatch.setattr(demo, "demo_suites", suites)
     monkeypatch.setattr(demo, "picked_seed", lambda split: chosen)
     lines: list[str] = []

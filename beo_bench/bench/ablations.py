@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from beo_bench.bench import compare
-from beo_bench.bench.columns import VERDICT_KEYS
+from beo_bench.bench.columns import VERDICT_KEYS, markdown_table, verdict_cell
 from beo_bench.bench.columns import spec as spec_of
 from beo_bench.bench.runs import backend_label
 from beo_bench.errors import UsageError
@@ -243,26 +243,33 @@ def ablation_table(results: Sequence[AblationResult]) -> str:
     """Markdown: a row per ablation and metric, method - baseline [95%] and the verdict."""
     if not results:
         return ""
-    lines = [
+    body = [
+        [
+            x.ablation.method,
+            x.ablation.baseline,
+            x.ablation.what + (f" ({x.category} only)" if x.category else ""),
+            x.result.n_items,
+            x.result.spec.label,
+            x.result.spec.format_interval(x.result.diff, x.result.lo, x.result.hi),
+            verdict_cell(x.result.verdict),
+        ]
+        for x in results
+    ]
+    head = [
+        "method",
+        "baseline",
+        "what it isolates",
+        "items",
+        "metric",
+        "method - baseline [95%]",
+        "verdict, uncorrected",
+    ]
+    return (
         "Ablations (exploratory: a backend against a variant of itself, paired on the items "
         "both scored; 95% bootstrap intervals that resample items; *better* / *worse* when "
         "the interval excludes 0, uncorrected for the page's many comparisons: its primary "
-        "comparisons are the corrected ones):",
-        "",
-        "| method | baseline | what it isolates | items | metric | method - baseline [95%] "
-        "| verdict, uncorrected |",
-        "|---|---|---|---:|---|---:|---|",
-    ]
-    for x in results:
-        r, spec = x.result, x.result.spec
-        diff = f"{spec.format_diff(r.diff)} [{spec.format_diff(r.lo)}, {spec.format_diff(r.hi)}]"
-        verdict = f"**{r.verdict}**" if r.verdict != "no difference" else r.verdict
-        what = x.ablation.what + (f" ({x.category} only)" if x.category else "")
-        lines.append(
-            f"| {x.ablation.method} | {x.ablation.baseline} | {what} | {r.n_items} "
-            f"| {spec.label} | {diff} | {verdict} |"
-        )
-    return "\n".join(lines)
+        "comparisons are the corrected ones):\n\n" + markdown_table(head, body, "lllrlrl")
+    )
 
 
 def ablation_json(x: AblationResult) -> dict[str, Any]:
@@ -336,22 +343,28 @@ def seed_table(spreads: Sequence[SeedSpread]) -> str:
     published rows' gap against the larger of their two spreads."""
     if not spreads:
         return ""
+    body = []
+    for x in spreads:
+        spec = spec_of(x.key)
+        others = ", ".join(f"{k}: {spec.format(v)}" for k, v in x.seeds)
+        body.append(
+            [
+                x.label,
+                spec.label,
+                spec.format(x.published),
+                others,
+                spec.format_diff(x.spread).lstrip("+"),
+            ]
+        )
+    head = ["backend", "metric", "published (seed 0)", "other seeds", "spread (max - min)"]
     lines = [
         "Training-seed spread: each learned row's figure with the published model (seed 0) "
         "and with the same recipe trained from other seeds (`seed<k>-<network>` models), on "
         "the same items. A gap between two learned rows no larger than their seed spread is "
         "not a difference between the methods, whatever its paired interval says:",
         "",
-        "| backend | metric | published (seed 0) | other seeds | spread (max - min) |",
-        "|---|---|---:|---:|---:|",
+        markdown_table(head, body, "llr"),
     ]
-    for x in spreads:
-        spec = spec_of(x.key)
-        others = ", ".join(f"{k}: {spec.format(v)}" for k, v in x.seeds)
-        lines.append(
-            f"| {x.label} | {spec.label} | {spec.format(x.published)} | {others} "
-            f"| {spec.format_diff(x.spread).lstrip('+')} |"
-        )
     gaps = []
     for i, a in enumerate(spreads):
         for b in spreads[i + 1 :]:

@@ -12,6 +12,7 @@ out-of-distribution degradation) is chosen here too, by key, checked against
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,6 +54,10 @@ class MetricSpec:
             return "-"
         text = self.fmt.format(value * self.scale)
         return text if text.startswith("-") else "+" + text
+
+    def format_interval(self, diff: float, lo: float, hi: float) -> str:
+        """A paired difference with its 95% interval: ``+1.2 [-0.3, +2.8]``."""
+        return f"{self.format_diff(diff)} [{self.format_diff(lo)}, {self.format_diff(hi)}]"
 
 
 METRICS: tuple[MetricSpec, ...] = (
@@ -198,3 +203,26 @@ def board_columns() -> tuple[MetricSpec, ...]:
 def brief_columns() -> tuple[MetricSpec, ...]:
     """The plain-text table's columns."""
     return tuple(m for m in METRICS if m.brief)
+
+
+def markdown_table(
+    head: Sequence[object], rows: Iterable[Sequence[object]], align: str = "lr"
+) -> str:
+    """The one renderer of every generated Markdown table (the leaderboard's pages, the doc
+    tables, the ablations): a header, its alignment row and a line per row, cells as given
+    (``str()``). ``align``: a letter per column, ``l`` left or ``r`` right, the last letter
+    repeated over the remaining columns (default: the first left, the others right, numbers
+    after a name)."""
+    marks = [("---:" if a == "r" else "---") for a in align.ljust(len(head), align[-1])]
+    lines = [_md_row(head), "|" + "".join(f"{m}|" for m in marks[: len(head)])]
+    lines += [_md_row(r) for r in rows]
+    return "\n".join(lines)
+
+
+def verdict_cell(verdict: str) -> str:
+    """A paired verdict as a table shows it: a difference found in bold."""
+    return verdict if verdict == "no difference" else f"**{verdict}**"
+
+
+def _md_row(cells: Sequence[object]) -> str:
+    return "| " + " | ".join(str(c) for c in cells) + " |"

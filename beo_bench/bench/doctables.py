@@ -20,8 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from beo_bench.bench.columns import spec
+from beo_bench.bench.columns import markdown_table, spec, verdict_cell
 from beo_bench.bench.leaderboard import (
+    BOUNDS,
     DISSERTATION_MODELNET10,
     DISSERTATION_PROTOCOL,
     ERROR_BINS,
@@ -160,19 +161,17 @@ def num(v: float, digits: int = 3) -> str:
     return f"{v:.{digits}f}"
 
 
-def _diff(p: dict[str, Any], unit: str) -> str:
+def _diff(p: dict[str, Any], unit: str, digits: int = 1) -> str:
     """A paired difference with its interval and verdict; ``unit`` `` pts`` for a rate
     (shown in percentage points), else the value's own unit (`` deg``, or ``""``)."""
     scale = 100.0 if unit == " pts" else 1.0
-    lo, hi = p["ci95"]
-    verdict = f"**{p['verdict']}**" if p["verdict"] != "no difference" else p["verdict"]
-    return f"{scale * p['diff']:+.1f}{unit} [{scale * lo:+.1f}, {scale * hi:+.1f}] {verdict}"
+    d, lo, hi = (f"{scale * x:+.{digits}f}" for x in (p["diff"], *p["ci95"]))
+    return f"{d}{unit} [{lo}, {hi}] {verdict_cell(p['verdict'])}"
 
 
 def _table(head: list[str], rows: list[list[str]]) -> str:
-    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
-    return "\n".join(out) + "\n"
+    """A doc table: every column left-aligned, a line break after it."""
+    return markdown_table(head, rows, "l") + "\n"
 
 
 METHODS = ("beo", "hbeo", "hbeo-mdn-likelihood", "hbeo-mdn-posterior", "icp", "icp-plain")
@@ -572,7 +571,7 @@ def pick_pairs(b: Boards) -> str:
         p = b.primary("pick", pc)
         if p is None:
             continue
-        verdict = p["verdict"] if p["verdict"] == "no difference" else f"**{p['verdict']}**"
+        verdict = verdict_cell(p["verdict"])
         rows.append([f"`{pc.method}`", f"`{pc.baseline}`", str(p["items"]),
                      f"{_shift(p)} pts", f"{verdict} (Holm)"])  # fmt: skip
     for method, base in PICK_CONTROLS:
@@ -659,7 +658,7 @@ def _found_target(b: Boards) -> dict[str, list[dict[str, Any]]]:
     for r in b.rows("pick"):
         if sensor_tag_of(r) is not None or r["provenance"].get("backend_kwargs"):
             continue
-        if r["backend"] in ("oracle", "random") or r.get("privileged"):
+        if r["backend"] in BOUNDS or r.get("privileged"):
             continue
         eps = found_target_episodes(r)
         if eps:
@@ -1057,7 +1056,7 @@ def modelnet10(b: Boards) -> str:
             except MissingFigureError:  # the suite or one of the two runs is not there yet
                 cells.append("-")
                 continue
-            cells.append(_diff3(p) if unit == "" else _diff(p, unit))
+            cells.append(_diff(p, unit, 3 if unit == "" else 1))  # an IoU: 3 decimals
         rows.append([f"`hbeo` - `beo`{label}, paired", *cells])
     return _table(head, rows)
 
@@ -1081,13 +1080,6 @@ def modelnet10_viewpoints(b: Boards) -> str:
     if missing or not rows:
         raise PendingSuiteError(f"{', '.join(missing)} not in leaderboards/")
     return _table(["backend", *(f"`{s}`" for s in suites)], rows)
-
-
-def _diff3(p: dict[str, Any]) -> str:
-    """A paired difference of a value shown with three decimals (IoU), like :func:`_diff`."""
-    lo, hi = p["ci95"]
-    verdict = f"**{p['verdict']}**" if p["verdict"] != "no difference" else p["verdict"]
-    return f"{p['diff']:+.3f} [{lo:+.3f}, {hi:+.3f}] {verdict}"
 
 
 def modelnet10_headroom(b: Boards) -> str:
@@ -1421,18 +1413,15 @@ def interval_widths(boards: Boards) -> str:
         + [f"paired, {q:.0%} of items differ" for q in INTERVAL_DISCORDANT]
         + [f"smallest difference found, {INTERVAL_DISCORDANT[-1]:.0%} differ"]
     )
-    lines = [
-        "| " + " | ".join(head) + " |",
-        "|" + "---:|" * len(head),
-    ]
+    lines = []
     for n in INTERVAL_ITEMS:
         cells = [f"{n}"]
         cells += [f"{100 * rate_half_width(r, n):.1f}" for r in INTERVAL_RATES]
         cells += [f"{100 * paired_half_width(q, n):.1f}" for q in INTERVAL_DISCORDANT]
         found = detectable_difference(INTERVAL_DISCORDANT[-1], n)
         cells.append(f"{100 * found:.1f}" if np.isfinite(found) else "-")
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+        lines.append(cells)
+    return markdown_table(head, lines, "r") + "\n"
 
 
 RobustnessCell = tuple[str, str | None, str, str]
@@ -1488,7 +1477,7 @@ def robustness_table(cells: tuple[RobustnessCell, ...]) -> Callable[[Boards], st
         # one lookup per column: two columns may share a suite and metric on two tracks
         pairs = [_sensor_pairs(b, s, t, m) for s, t, m, _ in cells]
         rows = []
-        for name in (*METHODS, "oracle", "random"):
+        for name in (*METHODS, *BOUNDS):
             row = [f"`{name}`"]
             for found, (suite, _, metric, _) in zip(pairs, cells, strict=True):
                 if not found:
@@ -1529,7 +1518,7 @@ def bop_figures(b: Boards) -> str:
     head = ["backend", *(f"BOP AR `{t}`" for t in BOP_SENSORS), "AR_VSD / AR_MSSD / AR_MSPD "
             "`ideal`", "10deg5cm, 3D IoU50 `ideal`"]  # fmt: skip
     rows = []
-    for name in (*METHODS, "oracle", "random"):
+    for name in (*METHODS, *BOUNDS):
         keys = [(name, t, "class-free") for t in BOP_SENSORS]
         if any(k not in rows_by or "ar_bop" not in rows_by[k]["metrics"] for k in keys):
             raise PendingSuiteError(

@@ -48,7 +48,7 @@ from __future__ import annotations
 import json
 import math
 import warnings
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -67,7 +67,9 @@ from beo_bench.bench.columns import (
     VERDICT_KEYS,
     MetricSpec,
     board_columns,
+    markdown_table,
     spec,
+    verdict_cell,
 )
 from beo_bench.bench.kinds.pick import AUDIT_FIELDS
 from beo_bench.bench.runs import RunError, backend_label, options_label
@@ -240,6 +242,14 @@ def suite_seed(name: str) -> int | None:
 
 
 # -- cells ---------------------------------------------------------------------------------------
+def _value(s: dict[str, Any], m: MetricSpec) -> str:
+    """A run's value of ``m`` as a table shows it; *given* for the class accuracy of a run
+    told the class."""
+    if m.key == "class_acc" and s["metrics"].get("class_given"):
+        return "given"
+    return m.format(s["metrics"].get(m.key))
+
+
 def _cell(s: dict[str, Any], m: MetricSpec) -> str:
     if m.key == "class_acc" and s["metrics"].get("class_given"):
         return "given"
@@ -270,39 +280,39 @@ def _name(r: Row, views: int | None = None) -> str:
     return " ".join([label(s), *(f"*({m})*" for m in marks)])
 
 
+def _as_rows(rows: list[Row] | list[dict[str, Any]]) -> list[Row]:
+    return [r if isinstance(r, Row) else Row(r) for r in rows]
+
+
 def suite_table(rows: list[Row] | list[dict[str, Any]]) -> str:
     """The Markdown table of one section: a row per backend, the columns any of them has,
     and its model digest last."""
-    rows = [r if isinstance(r, Row) else Row(r) for r in rows]
+    rows = _as_rows(rows)
     summaries = [r.summary for r in rows]
     has = {k for s in summaries for k in s["metrics"]}
     if any(s["metrics"].get("class_given") for s in summaries):
         has.add("class_acc")
     cols = [m for m in board_columns() if m.key in has]
     views = max((s["n"] for s in summaries), default=0)
-    lines = [
-        "| backend | n | failures | " + " | ".join(m.label for m in cols) + " | model |",
-        "|---|---:|---:|" + "---:|" * len(cols) + "---|",
+    body = [
+        [_name(r, views), r.summary["n"], r.summary["failures"]]
+        + [_cell(r.summary, m) for m in cols]
+        + [f"`{model_digest(r.summary)}`"]
+        for r in _ordered(rows)
     ]
-    for r in _ordered(rows):
-        s = r.summary
-        cells = [_cell(s, m) for m in cols] + [f"`{model_digest(s)}`"]
-        lines.append(
-            f"| {_name(r, views)} | {s['n']} | {s['failures']} | " + " | ".join(cells) + " |"
-        )
-    return "\n".join(lines)
+    head = ["backend", "n", "failures", *(m.label for m in cols), "model"]
+    return markdown_table(head, body, "l" + "r" * (len(cols) + 2) + "l")
 
 
 def category_table(suite: str, rows: list[Row] | list[dict[str, Any]]) -> str:
     """Per metric of ``BOARD_PER_CATEGORY``: categories as rows, backends as columns."""
-    ordered = _ordered([r if isinstance(r, Row) else Row(r) for r in rows])
-    summaries = [r.summary for r in ordered]
+    summaries = [r.summary for r in _ordered(_as_rows(rows))]
     tables = []
     for key in BOARD_PER_CATEGORY.get(suite, BOARD_PER_CATEGORY_DEFAULT):
         if any(key in d for s in summaries for d in s.get("per_category", {}).values()):
-            tables.append(_category_table(summaries, spec(key)))
+            tables.append(_metric_category_table(summaries, spec(key)))
     if not tables:
-        tables.append(_category_table(summaries, spec("iou_mean")))
+        tables.append(_metric_category_table(summaries, spec("iou_mean")))
     return "\n\n".join(tables)
 
 
@@ -311,43 +321,37 @@ def field_table(rows: list[Row] | list[dict[str, Any]]) -> str:
     (AR_VSD, AR_MSSD, AR_MSPD and their mean) and the NOCS report (pose accuracies, 3D box
     IoU as NOCS's reference code computes it), a row per backend; "" when no run has them
     (runs made before they were scored)."""
-    ordered = _ordered([r if isinstance(r, Row) else Row(r) for r in rows])
-    have = [r for r in ordered if "ar_bop" in r.summary["metrics"]]
+    have = [r for r in _ordered(_as_rows(rows)) if "ar_bop" in r.summary["metrics"]]
     if not have:
         return ""
     cols = [spec(k) for k in FIELD_KEYS]
-    lines = [
-        "The field's figures (docs/bop.md): BOP 2019's average recalls and the NOCS report:",
-        "",
-        "| backend | " + " | ".join(m.label for m in cols) + " |",
-        "|---|" + "---:|" * len(cols),
-    ]
-    for r in have:
-        cells = [m.format(r.summary["metrics"].get(m.key)) for m in cols]
-        lines.append(f"| {_name(r)} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+    body = [[_name(r)] + [m.format(r.summary["metrics"].get(m.key)) for m in cols] for r in have]
+    return (
+        "The field's figures (docs/bop.md): BOP 2019's average recalls and the NOCS report:\n\n"
+        + markdown_table(["backend", *(m.label for m in cols)], body)
+    )
+
+
+def _folded(summary: str, table: str) -> str:
+    """A table folded under its one-line summary (``<details>``)."""
+    return "\n".join([f"<details><summary>{summary}</summary>", "", table, "", "</details>"])
 
 
 def nocs_class_tables(rows: list[Row] | list[dict[str, Any]]) -> str:
     """Per method (bounds left out), the NOCS report per class: the pose accuracies and
     the 3D box IoU hits, folded (``<details>``); "" without such runs."""
-    ordered = _ordered([r if isinstance(r, Row) else Row(r) for r in rows])
     cols = [spec(k) for k in NOCS_PER_CATEGORY]
     out = []
-    for r in ordered:
+    for r in _ordered(_as_rows(rows)):
         per = r.summary.get("per_category", {})
         if is_bound(r.summary) or not any("iou3d_50" in d for d in per.values()):
             continue
-        lines = [
-            f"<details><summary>NOCS report per class: {_name(r)}</summary>",
-            "",
-            "| category | n | " + " | ".join(m.label for m in cols) + " |",
-            "|---|---:|" + "---:|" * len(cols),
+        body = [
+            [c, per[c].get("n", 0)] + [m.format(per[c].get(m.key)) for m in cols]
+            for c in sorted(per)
         ]
-        for c in sorted(per):
-            cells = [m.format(per[c].get(m.key)) for m in cols]
-            lines.append(f"| {c} | {per[c].get('n', 0)} | " + " | ".join(cells) + " |")
-        out.append("\n".join([*lines, "", "</details>"]))
+        table = markdown_table(["category", "n", *(m.label for m in cols)], body)
+        out.append(_folded(f"NOCS report per class: {_name(r)}", table))
     return "\n\n".join(out)
 
 
@@ -364,13 +368,7 @@ def table_5_1(rows: list[Row]) -> str:
     if not cats:
         return ""
     mean, gross = spec("rot_err_deg_mean"), spec("gross_err_rate")
-    lines = [
-        "In the form of the dissertation's Tables 5.1 (mean rotation error, deg) and 5.2 "
-        "(> 15 deg), per category:",
-        "",
-        "| backend | " + " | ".join(cats) + " |",
-        "|---|" + "---:|" * len(cats),
-    ]
+    body = []
     for r in ordered:
         pc = r.summary.get("per_category", {})
         cells = [
@@ -378,8 +376,11 @@ def table_5_1(rows: list[Row]) -> str:
             f"{gross.format(pc.get(c, {}).get(gross.key))}"
             for c in cats
         ]
-        lines.append(f"| {label(r.summary)} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+        body.append([label(r.summary), *cells])
+    return (
+        "In the form of the dissertation's Tables 5.1 (mean rotation error, deg) and 5.2 "
+        "(> 15 deg), per category:\n\n" + markdown_table(["backend", *cats], body)
+    )
 
 
 def modelnet10_table(suite: str, rows: list[Row]) -> str:
@@ -396,22 +397,20 @@ def modelnet10_table(suite: str, rows: list[Row]) -> str:
         return ""
     acc = spec("class_acc")
     cats = list(MODELNET10)
-    lines = [
-        "Class accuracy in the form of the dissertation's Tables 3.1 and 4.1, per ModelNet10 "
-        "class:",
-        "",
-        "| method | " + " | ".join(c.replace("_", " ") for c in cats) + " | all |",
-        "|---|" + "---:|" * (len(cats) + 1),
+    body = [
+        [label(r.summary)]
+        + [acc.format(r.summary.get("per_category", {}).get(c, {}).get(acc.key)) for c in cats]
+        + [acc.format(r.summary["metrics"].get(acc.key))]
+        for r in ordered
     ]
-    for r in ordered:
-        pc = r.summary.get("per_category", {})
-        cells = [acc.format(pc.get(c, {}).get(acc.key)) for c in cats]
-        cells.append(acc.format(r.summary["metrics"].get(acc.key)))
-        lines.append(f"| {label(r.summary)} | " + " | ".join(cells) + " |")
     name, total, theirs = theirs_row
     cells = [acc.format(theirs[c]) if c in theirs else "" for c in cats]
-    lines.append(f"| dissertation: {name} | " + " | ".join([*cells, acc.format(total)]) + " |")
-    return "\n".join(lines)
+    body.append([f"dissertation: {name}", *cells, acc.format(total)])
+    head = ["method", *(c.replace("_", " ") for c in cats), "all"]
+    return (
+        "Class accuracy in the form of the dissertation's Tables 3.1 and 4.1, per ModelNet10 "
+        "class:\n\n" + markdown_table(head, body)
+    )
 
 
 def confused_pairs(s: dict[str, Any], top: int = 3) -> list[tuple[str, str, int, int]]:
@@ -436,23 +435,18 @@ def confused_pairs_table(rows: list[Row]) -> str:
     """Each backend's most frequent confusions (true -> predicted, views of the true class),
     as chapter 4 accounts for HBEO's gain over BEO; empty when no row has a confusion
     matrix."""
-    lines = []
+    body = []
     for r in _ordered(rows):
-        if is_bound(r.summary):
-            continue
-        pairs = confused_pairs(r.summary)
+        pairs = [] if is_bound(r.summary) else confused_pairs(r.summary)
         if pairs:
-            text = "; ".join(f"{a} -> {b} {k}/{n}" for a, b, k, n in pairs)
-            lines.append(f"| {label(r.summary)} | {text} |")
-    if not lines:
+            body.append(
+                [label(r.summary), "; ".join(f"{a} -> {b} {k}/{n}" for a, b, k, n in pairs)]
+            )
+    if not body:
         return ""
-    head = [
-        "Most frequent confusions (true -> predicted: views of the true class):",
-        "",
-        "| backend | confusions |",
-        "|---|---|",
-    ]
-    return "\n".join(head + lines)
+    return "Most frequent confusions (true -> predicted: views of the true class):\n\n" + (
+        markdown_table(["backend", "confusions"], body, "l")
+    )
 
 
 def confusion_counts(suite: str, rows: list[Row]) -> str:
@@ -468,37 +462,39 @@ def confusion_counts(suite: str, rows: list[Row]) -> str:
         if is_bound(r.summary) or not conf or not cats:
             continue
         M = np.asarray(conf, dtype=int)
-        short = [c.replace("_", " ")[:5] for c in cats]
-        lines = [
-            f"<details><summary>Confusion matrix of {label(r.summary)} (counts)</summary>",
-            "",
-            "| true / predicted | " + " | ".join(short) + " |",
-            "|---|" + "---:|" * len(cats),
+        # the diagonal (views read right) in bold, the confusions plain
+        body = [
+            [c.replace("_", " ")] + [f"**{k}**" if j == i else str(k) for j, k in enumerate(row)]
+            for i, (c, row) in enumerate(zip(cats, M, strict=True))
         ]
-        for i, (c, row) in enumerate(zip(cats, M, strict=True)):
-            # the diagonal (views read right) in bold, the confusions plain
-            cells = [f"**{k}**" if j == i else str(k) for j, k in enumerate(row)]
-            lines.append(f"| {c.replace('_', ' ')} | " + " | ".join(cells) + " |")
-        blocks.append("\n".join([*lines, "", "</details>"]))
+        head = ["true / predicted", *(c.replace("_", " ")[:5] for c in cats)]
+        summary = f"Confusion matrix of {label(r.summary)} (counts)"
+        blocks.append(_folded(summary, markdown_table(head, body)))
     return "\n\n".join(blocks)
 
 
-def _category_table(rows: list[dict[str, Any]], m: MetricSpec) -> str:
+def _category_table(
+    rows: list[dict[str, Any]],
+    title: str,
+    cell: Callable[[dict[str, Any]], str],
+    counts: bool = True,
+) -> str:
+    """Categories as rows, the runs as columns: ``cell`` of each run's figures for the
+    category (``{}`` where it has none); ``counts``: the category's views after its name."""
     cats = sorted({c for s in rows for c in s.get("per_category", {})})
-    lines = [
-        f"{m.label} per category:",
-        "",
-        "| category | n | " + " | ".join(label(s) for s in rows) + " |",
-        "|---|---:|" + "---:|" * len(rows),
-    ]
+    body = []
     for c in cats:
-        n = max(s.get("per_category", {}).get(c, {}).get("n", 0) for s in rows)
-        cells = [m.format(s.get("per_category", {}).get(c, {}).get(m.key)) for s in rows]
-        lines.append(f"| {c} | {n} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+        per = [s.get("per_category", {}).get(c, {}) for s in rows]
+        n = [max(d.get("n", 0) for d in per)] if counts else []
+        body.append([c, *n, *(cell(d) for d in per)])
+    head = ["category", *(["n"] if counts else []), *(label(s) for s in rows)]
+    return f"{title}\n\n" + markdown_table(head, body)
 
 
-# -- plots ---------------------------------------------------------------------------------------
+def _metric_category_table(rows: list[dict[str, Any]], m: MetricSpec) -> str:
+    return _category_table(rows, f"{m.label} per category:", lambda d: m.format(d.get(m.key)))
+
+
 def _savefig(fig: Any, path: Path) -> None:
     import io
 
@@ -883,38 +879,38 @@ def verdict_table(verdicts: list[Verdict]) -> str:
     pairs: dict[tuple[str, str], dict[str, compare.PairedResult]] = {}
     for v in verdicts:
         pairs.setdefault((v.method, v.baseline), {})[v.result.key] = v.result
-    head = "".join(
-        f" {spec(k).label}: method - baseline [95%] | verdict, {UNCORRECTED} |" for k in keys
-    )
-    lines = [
+    body = [[method, base, *_verdict_cells(res, keys)] for (method, base), res in pairs.items()]
+    return (
         "Paired verdicts (exploratory: each method against each baseline on the items both "
         "scored; 95% bootstrap intervals that resample items; *better* / *worse* when the "
-        f"interval excludes 0, {UNCORRECTED_NOTE}):",
-        "",
-        "| method | baseline | items |" + head,
-        "|---|---|---:|" + "---:|---|" * len(keys),
+        f"interval excludes 0, {UNCORRECTED_NOTE}):\n\n"
+        + markdown_table(
+            ["method", "baseline", *_verdict_head("method - baseline", keys)],
+            body,
+            "llr" + "rl" * len(keys),
+        )
+    )
+
+
+def _verdict_head(diff: str, keys: list[str]) -> list[str]:
+    """The headers of a paired table's items and its (difference, verdict) columns."""
+    return [
+        "items",
+        *(x for k in keys for x in (f"{spec(k).label}: {diff} [95%]", f"verdict, {UNCORRECTED}")),
     ]
-    for (method, base), res in pairs.items():
-        n, cells = _verdict_cells(res, keys)
-        lines.append(f"| {method} | {base} | {n} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
 
 
-def _verdict_cells(res: dict[str, Any], keys: list[str] | tuple[str, ...]) -> tuple[int, list[str]]:
+def _verdict_cells(res: dict[str, Any], keys: list[str] | tuple[str, ...]) -> list[object]:
     """The items and the (difference [95%], verdict) cells of one paired row, "-" for a
     metric the pair lacks."""
-    cells: list[str] = []
+    cells: list[object] = [max(r.n_items for r in res.values())]
     for k in keys:
         r = res.get(k)
         if r is None:
             cells += ["-", "-"]
             continue
-        m = r.spec
-        cells += [
-            f"{m.format_diff(r.diff)} [{m.format_diff(r.lo)}, {m.format_diff(r.hi)}]",
-            f"**{r.verdict}**" if r.verdict != "no difference" else r.verdict,
-        ]
-    return max(r.n_items for r in res.values()), cells
+        cells += [r.spec.format_interval(r.diff, r.lo, r.hi), verdict_cell(r.verdict)]
+    return cells
 
 
 def _verdict_json(v: Verdict) -> dict[str, Any]:
@@ -1164,28 +1160,31 @@ def primary_table(results: list[PrimaryResult]) -> str:
     page declares none."""
     if not results:
         return ""
-    lines = [
-        PRIMARY_NOTE.format(n=results[0].family, alpha=PRIMARY_ALPHA),
-        "",
-        "| why | track | method | baseline | metric | items | method - baseline [95%] | p "
-        "| p (Holm) | verdict (Holm) | the dissertation's ordering |",
-        "|---|---|---|---|---|---:|---:|---:|---:|---|---|",
-    ]
+    body: list[list[object]] = []
     for x in results:
         pc, r = x.primary, x.result
-        head = f"| {pc.source} | {pc.track or '-'} | {pc.method} | {pc.baseline} |"
+        which = [pc.source, pc.track or "-", pc.method, pc.baseline]
         if r is None:
-            lines.append(f"{head} {spec(pc.metric).label} | - | - | - | - | {NOT_RUN} | - |")
+            body.append([*which, spec(pc.metric).label, "-", "-", "-", "-", NOT_RUN, "-"])
             continue
-        m = r.spec
-        diff = f"{m.format_diff(r.diff)} [{m.format_diff(r.lo)}, {m.format_diff(r.hi)}]"
-        verdict = x.verdict if x.verdict == "no difference" else f"**{x.verdict}**"
-        order = x.ordering or "-"
-        lines.append(
-            f"{head} {m.label} | {r.n_items} | {diff} | {x.p:.3g} | {x.p_holm:.3g} | {verdict} "
-            f"| {order} |"
-        )
-    return "\n".join(lines)
+        diff = r.spec.format_interval(r.diff, r.lo, r.hi)
+        p = [f"{x.p:.3g}", f"{x.p_holm:.3g}", verdict_cell(x.verdict)]
+        body.append([*which, r.spec.label, r.n_items, diff, *p, x.ordering or "-"])
+    head = [
+        "why",
+        "track",
+        "method",
+        "baseline",
+        "metric",
+        "items",
+        "method - baseline [95%]",
+        "p",
+        "p (Holm)",
+        "verdict (Holm)",
+        "the dissertation's ordering",
+    ]
+    note = PRIMARY_NOTE.format(n=results[0].family, alpha=PRIMARY_ALPHA)
+    return f"{note}\n\n" + markdown_table(head, body, "lllllrrrrll")
 
 
 def _primary_json(x: PrimaryResult) -> dict[str, Any]:
@@ -1213,28 +1212,18 @@ def degradation_table(base: str, base_rows: list[Any], suite: str, rows: list[An
     """Each backend on ``base`` (in-distribution) and on ``suite`` (its ``-ood`` twin),
     metric by metric: ``in -> out``."""
     base_s = [r.summary if isinstance(r, Row) else r for r in base_rows]
-    ood = [r if isinstance(r, Row) else Row(r) for r in rows]
+    ood = _as_rows(rows)
     by_label = {label(s): s for s in base_s}
     both = [r for r in ood if label(r.summary) in by_label]
     cols = [spec(k) for k in DEGRADATION_KEYS]
-    lines = [
-        f"In distribution (`{base}`) -> out of distribution (`{suite}`):",
-        "",
-        "| backend | " + " | ".join(m.label for m in cols) + " |",
-        "|---|" + "---:|" * len(cols),
+    body = [
+        [_name(r)]
+        + [" -> ".join(_value(x, m) for x in (by_label[label(r.summary)], r.summary)) for m in cols]
+        for r in both
     ]
-    for r in both:
-        cells = []
-        for m in cols:
-            pair = []
-            for row in (by_label[label(r.summary)], r.summary):
-                if m.key == "class_acc" and row["metrics"].get("class_given"):
-                    pair.append("given")
-                else:
-                    pair.append(m.format(row["metrics"].get(m.key)))
-            cells.append(" -> ".join(pair))
-        lines.append(f"| {_name(r)} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+    return f"In distribution (`{base}`) -> out of distribution (`{suite}`):\n\n" + (
+        markdown_table(["backend", *(m.label for m in cols)], body)
+    )
 
 
 def gap_table(rows: list[dict[str, Any]]) -> str:
@@ -1254,21 +1243,30 @@ def gap_table(rows: list[dict[str, Any]]) -> str:
     oracle = plain.get("oracle")
     parts = ("class", "pose", "shape")
     fmt = replace(spec(key), fmt="{:.0f}%")  # whole percent: the table is read for its gaps
-    lines = [
-        "Where the gap to the oracle comes from (`swap`: the backend's estimate with one "
-        "component replaced by the truth; shape swaps plan on the true voxels):",
-        "",
-        "| backend | pick success | true class | true pose (and size) | true shape | oracle "
-        "(voxels) | oracle |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+    body = [
+        [
+            base,
+            fmt.format(plain.get(base)),
+            *(fmt.format(got.get(p)) for p in parts),
+            fmt.format(plain.get("oracle (mesh=false)")),
+            fmt.format(oracle),
+        ]
+        for base, got in sorted(swaps.items())
     ]
-    for base, got in sorted(swaps.items()):
-        cells = [fmt.format(plain.get(base))]
-        cells += [fmt.format(got.get(p)) for p in parts]
-        cells += [fmt.format(plain.get("oracle (mesh=false)"))]
-        cells += [fmt.format(oracle)]
-        lines.append(f"| {base} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+    head = [
+        "backend",
+        "pick success",
+        "true class",
+        "true pose (and size)",
+        "true shape",
+        "oracle (voxels)",
+        "oracle",
+    ]
+    return (
+        "Where the gap to the oracle comes from (`swap`: the backend's estimate with one "
+        "component replaced by the truth; shape swaps plan on the true voxels):\n\n"
+        + markdown_table(head, body)
+    )
 
 
 # -- pick: its episodes, method against method, counts per category ----------------------------
@@ -1468,22 +1466,15 @@ def pick_comparison_table(comparisons: list[MethodComparison]) -> str:
     if not comparisons:
         return ""
     m = spec(PICK_METRIC)
-    lines = [
-        PICK_METHOD_NOTE,
-        "",
-        "| method (B) | against (A) | episodes | A | B | B - A [95%] | B only | A only | p | "
-        "verdict, uncorrected |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---|",
-    ]
-    for c in comparisons:
-        lo, hi = (m.format_diff(x) for x in c.ci95)
-        verdict = f"**{c.verdict}**" if c.verdict != "no difference" else c.verdict
-        lines.append(
-            f"| {c.b} | {c.a} | {c.episodes} | {m.format(c.a_value)} | {m.format(c.b_value)} "
-            f"| {m.format_diff(c.diff)} [{lo}, {hi}] | {c.b_only} | {c.a_only} | "
-            f"{_p_text(c.p_value)} | {verdict} |"
-        )
-    return "\n".join(lines)
+    body = [
+        [c.b, c.a, c.episodes, m.format(c.a_value), m.format(c.b_value),
+         m.format_interval(c.diff, *c.ci95), c.b_only, c.a_only, _p_text(c.p_value),
+         verdict_cell(c.verdict)]
+        for c in comparisons
+    ]  # fmt: skip
+    head = ["method (B)", "against (A)", "episodes", "A", "B", "B - A [95%]", "B only",
+            "A only", "p", f"verdict, {UNCORRECTED}"]  # fmt: skip
+    return f"{PICK_METHOD_NOTE}\n\n" + markdown_table(head, body, "llrrrrrrrl")
 
 
 def pick_comparison_json(c: MethodComparison) -> dict[str, Any]:
@@ -1516,27 +1507,18 @@ def pick_category_table(rows: list[Row]) -> str:
     """Pick success per category with its counts (successes / episodes, then the rate):
     categories as rows, backends as columns; "" without per-category figures."""
     summaries = [r.summary for r in _ordered(rows)]
-    cats = sorted({c for s in summaries for c in s.get("per_category", {})})
-    if not cats:
+    if not any(s.get("per_category") for s in summaries):
         return ""
-    lines = [
-        "pick success per category (successes / episodes):",
-        "",
-        "| category | " + " | ".join(label(s) for s in summaries) + " |",
-        "|---|" + "---:|" * len(summaries),
-    ]
-    for c in cats:
-        cells = []
-        for s in summaries:
-            d = s.get("per_category", {}).get(c, {})
-            rate, n = d.get(PICK_METRIC), int(d.get("n", 0))
-            if rate is None or not n:
-                cells.append("-")
-                continue
-            k = round(rate * n)  # a mean over n episodes of 0 or 1: exactly k / n
-            cells.append(f"{k}/{n} ({100 * k / n:.0f}%)")
-        lines.append(f"| {c} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+
+    def cell(d: dict[str, Any]) -> str:
+        rate, n = d.get(PICK_METRIC), int(d.get("n", 0))
+        if rate is None or not n:
+            return "-"
+        k = round(rate * n)  # a mean over n episodes of 0 or 1: exactly k / n
+        return f"{k}/{n} ({100 * k / n:.0f}%)"
+
+    title = "pick success per category (successes / episodes):"
+    return _category_table(summaries, title, cell, counts=False)
 
 
 _EPISODES_MARK = "\x00episodes of row {}"
@@ -1605,12 +1587,6 @@ def _sensor_json(p: SensorPair) -> dict[str, Any]:
     return {**out, "sensor": p.sensor, "baseline_sensor": p.baseline_sensor}
 
 
-def _robustness_cell(s: dict[str, Any], key: str) -> str:
-    if key == "class_acc" and s["metrics"].get("class_given"):
-        return "given"
-    return spec(key).format(s["metrics"].get(key))
-
-
 ROBUSTNESS_NOTE = (
     "Each backend under each depth sensor (docs/sensors.md) it was run with, from each "
     "sensor's first section: item i is the same scene under every sensor, so the runs pair "
@@ -1673,10 +1649,7 @@ def robustness(suite: str, parts: dict[str | None, dict[str | None, list[Section
             if any(k in r.summary["metrics"] for b in backends for r in runs[b].values())
         ]
         head = " -> ".join(f"`{x}`" for x in sensors)
-        lines = [
-            "| backend | " + " | ".join(f"{spec(k).label}: {head}" for k in keys) + " |",
-            "|---|" + "---:|" * len(keys),
-        ]
+        body: list[list[str]] = []
         track_pairs: list[SensorPair] = []
         shorter = False
         for b in backends:
@@ -1696,7 +1669,7 @@ def robustness(suite: str, parts: dict[str | None, dict[str | None, list[Section
                     (
                         spec(k).format(common[(x, k)])
                         if (x, k) in common
-                        else _robustness_cell(got[x].summary, k)
+                        else _value(got[x].summary, spec(k))
                     )
                     if x in got
                     else "-"
@@ -1705,8 +1678,9 @@ def robustness(suite: str, parts: dict[str | None, dict[str | None, list[Section
                 for k in keys
             ]
             first = next(r for r in got.values())
-            lines.append(f"| {_name(first)} | " + " | ".join(cells) + " |")
+            body.append([_name(first), *cells])
             track_pairs += mine
+        lines = [markdown_table(["backend", *(f"{spec(k).label}: {head}" for k in keys)], body)]
         if shorter:
             lines += ["", SHORTER_NOTE]
         pairs += track_pairs
@@ -1778,21 +1752,17 @@ def sensor_verdict_table(pairs: list[SensorPair]) -> str:
     rows: dict[tuple[str, str, str], dict[str, compare.PairedResult]] = {}
     for p in pairs:
         rows.setdefault((p.backend, p.sensor, p.baseline_sensor), {})[p.result.key] = p.result
-    head = "".join(
-        f" {spec(k).label}: sensor - baseline [95%] | verdict, {UNCORRECTED} |" for k in keys
-    )
-    lines = [
+    body = [
+        [backend, f"`{sensor}`", f"`{base}`", *_verdict_cells(res, keys)]
+        for (backend, sensor, base), res in rows.items()
+    ]
+    head = ["backend", "sensor", "baseline", *_verdict_head("sensor - baseline", keys)]
+    return (
         "Paired (exploratory: each sensor's run against the same backend's under the first "
         "sensor, on the items both scored; 95% bootstrap intervals that resample items; "
-        f"*better* / *worse* when the interval excludes 0, {UNCORRECTED_NOTE}):",
-        "",
-        "| backend | sensor | baseline | items |" + head,
-        "|---|---|---|---:|" + "---:|---|" * len(keys),
-    ]
-    for (backend, sensor, base), res in rows.items():
-        n, cells = _verdict_cells(res, keys)
-        lines.append(f"| {backend} | `{sensor}` | `{base}` | {n} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+        f"*better* / *worse* when the interval excludes 0, {UNCORRECTED_NOTE}):\n\n"
+        + markdown_table(head, body, "lllr" + "rl" * len(keys))
+    )
 
 
 # -- the pages -----------------------------------------------------------------------------------
@@ -1900,21 +1870,33 @@ def _track_part(
         twin = firsts.get((base, track, sensor)) if base != suite else None
         extra = [vt, gap] + ([degradation_table(base, twin.rows, suite, sec.rows)] if twin else [])
         page.md += [t + "\n" for t in extra if t]
-        pick = is_pick_suite(suite)  # its per-category table counts episodes
-        page.md += [pick_category_table(sec.rows) if pick else category_table(suite, sec.rows), ""]
-        t51 = table_5_1(sec.rows) if suite in TABLE_5_1_SUITES else ""
-        page.md += [t51, ""] if t51 else []
-        for extra_table in (
-            field_table(sec.rows),
-            nocs_class_tables(sec.rows),
-            modelnet10_table(suite, sec.rows),
-            confused_pairs_table(sec.rows),
-            confusion_counts(suite, sec.rows),
-        ):
+        page.md += [_per_category(suite, sec.rows), ""]  # there, empty or not
+        for _, draw in SECTION_TABLES:
+            extra_table = draw(suite, sec.rows)
             page.md += [extra_table, ""] if extra_table else []
         plots = _plots(out, _prefix(suite, track, sensor), _heading(suite, track, sensor), sec.rows)
         page.plots += plots
         page.md += [*[f"![{p}]({p})" for p in plots], ""]
+
+
+def _per_category(suite: str, rows: list[Row]) -> str:
+    """A section's per-category table (a pick suite's counts episodes)."""
+    return pick_category_table(rows) if is_pick_suite(suite) else category_table(suite, rows)
+
+
+SectionTable = Callable[[str, list[Row]], str]
+"""A table a track's first section shows after its per-category table, drawn from the suite
+and the section's rows; ``""`` where it does not apply (the table is then left out)."""
+SECTION_TABLES: tuple[tuple[str, SectionTable], ...] = (
+    ("Tables 5.1/5.2", lambda suite, rows: table_5_1(rows) if suite in TABLE_5_1_SUITES else ""),
+    ("the field's figures", lambda _, rows: field_table(rows)),
+    ("NOCS per class", lambda _, rows: nocs_class_tables(rows)),
+    ("Tables 3.1/4.1", modelnet10_table),
+    ("confusions", lambda _, rows: confused_pairs_table(rows)),
+    ("confusion matrices", confusion_counts),
+)
+"""The first section's further tables, in page order: a table added here is on every page
+it applies to."""
 
 
 MARKER_NAME = ".beo-bench-leaderboards"

@@ -26,7 +26,7 @@ def log_run(ctx: RunContext, path: Path | str, items: int = 20) -> Path:
     from beo_bench.bench.evaluate import Evaluator
     from beo_bench.bench.scoring import estimate_mesh
     from beo_bench.objects import instance_from_key
-    from beo_bench.view import rerun_mesh
+    from beo_bench.sceneview import rerun_mesh
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

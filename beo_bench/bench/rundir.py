@@ -61,7 +61,7 @@ RESULTS_NAME = "results.jsonl"
 RECORD_NAME = "run.json"
 SUMMARY_NAME = "summary.json"
 REPORT_NAME = "report.html"
-"""The run's offline report of its worst views (:mod:`beo_bench.bench.report`)."""
+"""The run's offline report of its worst views (:mod:`beo_bench.bench.worstviews`)."""
 MARKER_NAME = ".beo-bench-run"
 MARKER_TEXT = (
     "This directory is a run directory of beo-bench (`beo-bench run --out`, `beo-bench all`).\n"

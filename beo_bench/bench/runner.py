@@ -239,7 +239,7 @@ def _report(ctx: RunContext, out: Path, views: int, prepared: Prepared | None) -
     """The run's report, with the backend the driver prepared (if it did). The results
     and summary are written by now: a report that cannot be made is one warning, and the
     run stands."""
-    from beo_bench.bench.report import ReportWarning, write_report
+    from beo_bench.bench.worstviews import ReportWarning, write_report
 
     rows = json_rows(scan_run(out / RESULTS_NAME, False, False).rows)  # skips were reported
     try:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from beo_bench import reports
+from beo_bench import inspection
 from beo_bench.objects import cache
 
 
@@ -27,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
     cache.check_root(writable=args.action == "clear", min_free=0)
     if args.action == "clear":
         freed = cache.clear(args.kind)
-        print(f"cleared {reports.format_bytes(freed)} from {cache.cache_root()}")
+        print(f"cleared {inspection.format_bytes(freed)} from {cache.cache_root()}")
         return 0
-    print(reports.cache_report().text())
+    print(inspection.cache_report().text())
     return 0

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from beo_bench import reports
+from beo_bench import inspection
 from beo_bench.argparsing import resolution_int
 from beo_bench.cli.common import categories_of, dataset_of, print_skipped
 from beo_bench.cli.options import (
@@ -48,10 +48,10 @@ def run(args: argparse.Namespace) -> int:
     dataset = dataset_of(args)
     if dataset is not None:
         print(f"dataset {dataset.root}: {dataset.layout} layout, digest {dataset.digest}")
-    objects, counts = reports.select_objects(
+    objects, counts = inspection.select_objects(
         args.split, categories_of(args), args.per_category, dataset=dataset, root=args.root
     )
-    report = reports.summarise_objects(
+    report = inspection.summarise_objects(
         objects,
         args.split,
         resolution=args.resolution,

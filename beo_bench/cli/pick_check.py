@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from beo_bench import reports
+from beo_bench import inspection
 from beo_bench.cli.options import episodes_parent, seed_parent, split_parent
 
 
@@ -22,7 +22,7 @@ def add(sub: Any, help: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    report = reports.pick_check(args.episodes, args.seed, args.split)
+    report = inspection.pick_check(args.episodes, args.seed, args.split)
     print()
     print(report.text())
     return 0

@@ -41,7 +41,7 @@ from beo_bench.cli.options import (
     workers_parent,
 )
 from beo_bench.errors import UsageError
-from beo_bench.reports import every_backend, leaderboard_text
+from beo_bench.inspection import every_backend, leaderboard_text
 
 
 def backend_spec(text: str) -> str:

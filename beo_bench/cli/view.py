@@ -16,7 +16,7 @@ from beo_bench.cli.options import (
     split_parent,
 )
 from beo_bench.scenes.camera import MAX_IMAGE_SIDE
-from beo_bench.view import view_scene
+from beo_bench.sceneview import view_scene
 
 image_side = bounded_int(1, MAX_IMAGE_SIDE, why=" pixels (the off-screen GL buffer's limit)")
 

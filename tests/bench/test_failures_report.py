@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from beo_bench.bench.failures import group_failures, summarise_failures
-from beo_bench.bench.report import silhouette
+from beo_bench.bench.worstviews import silhouette
 from beo_bench.cli import main
 from tests.plugins import install_plugin
 
@@ -238,8 +238,8 @@ def test_the_pick_report_shows_the_grasp_audits_disagreements_first() -> None:
     the pick report (either way round), then failures by reason, then successes; the card
     says both checks and the shake."""
     from beo_bench.bench.kinds.pick import rank_rows
-    from beo_bench.bench.report import row_errors
     from beo_bench.bench.suites import get_suite
+    from beo_bench.bench.worstviews import row_errors
 
     rows = [
         {"item": 0, "success": True, "reason": "success", "lifted_chosen": True,

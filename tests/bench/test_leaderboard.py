@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from beo_bench.bench.columns import METRICS, board_columns
+from beo_bench.bench.columns import METRICS, board_columns, markdown_table
 from beo_bench.bench.leaderboard import Row, regenerate, suite_table
 from tests.bench.synthetic_runs import pose_row, write_run
 
@@ -868,3 +868,13 @@ def test_a_second_regeneration_into_the_same_directory_is_refused(tmp_path) -> N
             regenerate(tmp_path / "no-runs", out)
     assert sorted(p.name for p in out.iterdir()) == before
     regenerate(tmp_path / "no-runs", out)  # the lock is free again
+
+
+def test_markdown_table_aligns_each_column_and_repeats_the_last_letter() -> None:
+    """Every generated table is drawn by this one renderer: its alignment row is what keeps
+    the committed pages byte-identical (names left, numbers right)."""
+    assert markdown_table(["a", "b", "c"], [[1, "x", 2.5]], "lrl") == (
+        "| a | b | c |\n|---|---:|---|\n| 1 | x | 2.5 |"
+    )
+    assert markdown_table(["a", "b", "c"], []).splitlines()[1] == "|---|---:|---:|"
+    assert markdown_table(["a", "b"], [], "r").splitlines()[1] == "|---:|---:|"

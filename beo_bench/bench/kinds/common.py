@@ -127,7 +127,7 @@ def estimate_primary(suite: Suite) -> str:
     return "gross_err_rate" if suite.protocol.scores_pose else "class_acc"
 
 
-# -- the run's report (beo_bench.bench.report): its worst rows, and each one's view again ---
+# -- the run's report (beo_bench.bench.worstviews): its worst rows, and each one's view again ---
 @dataclass(frozen=True)
 class Ranking:
     """A run's rows ordered worst first by the suite's primary error."""

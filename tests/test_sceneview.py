@@ -6,7 +6,7 @@ import matplotlib.image as mpimg
 import numpy as np
 
 from beo_bench.cli import main
-from beo_bench.view import colour_segmentation
+from beo_bench.sceneview import colour_segmentation
 
 
 def test_view_writes_png_and_rrd(tmp_path, capsys) -> None:

@@ -3,7 +3,7 @@ functions with typed parameters that return result dataclasses.
 
 The command handlers and ``beo-bench demo`` call these same functions and print the
 results' ``text()``; a notebook or script can call them too and read the fields instead.
-(``beo-bench view`` is :func:`beo_bench.view.view_scene`.)
+(``beo-bench view`` is :func:`beo_bench.sceneview.view_scene`.)
 """
 
 from __future__ import annotations
