@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from beo_bench.backend import in_tree
 from beo_bench.bench.columns import spec
 from beo_bench.bench.compare import sensor_tag_of
 from beo_bench.bench.leaderboard import (
@@ -175,7 +176,7 @@ def _table(head: list[str], rows: list[list[str]]) -> str:
     return "\n".join(out) + "\n"
 
 
-METHODS = ("beo", "hbeo", "hbeo-mdn-likelihood", "hbeo-mdn-posterior", "icp", "icp-plain")
+METHODS = (*in_tree("method"), *sorted(in_tree("baseline")))
 
 
 # -- the tables ------------------------------------------------------------------------------
