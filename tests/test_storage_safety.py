@@ -425,7 +425,7 @@ def test_learned_backends_report_their_model_digest(fresh_cache: Path) -> None:
     swap = get_backend("swap", base="beo", truth="class", model="sub", resolution=8)
     swap.prepare(run_context("swap", CATS, base="beo", truth="class", model="sub", resolution=8))
     assert swap.model_digest() == model_digest(beo_path("sub"))
-    hbeo = HBEOBackend("hbeo", model="net")
+    hbeo = HBEOBackend(model="net")
     hbeo.prepare(run_context("hbeo", CATS, model="net"))
     assert hbeo.model_digest() == model_digest(hbeo_path("net"))
     assert get_backend("swap", base="oracle").model_digest() is None

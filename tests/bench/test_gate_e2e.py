@@ -28,7 +28,7 @@ from tests.plugins import install_plugin
 PLUGIN = textwrap.dedent(
     """
     import numpy as np
-    from beo_bench.backend import Backend, BackendSpec, Capabilities
+    from beo_bench.backend import Backend, Capabilities
     from beo_bench.types import Estimate
 
     class _FromTruth(Backend):
@@ -43,10 +43,12 @@ PLUGIN = textwrap.dedent(
 
     class Steady(_FromTruth):
         name = "gate-steady"
+        capabilities = Capabilities(privileged=True)  # handed each view's truth
 
     class Worse(_FromTruth):
         # the regression: every class one off, the rest unchanged
         name = "gate-worse"
+        capabilities = Capabilities(privileged=True)
         class_offset = 1
 
     class Broken(Backend):
@@ -54,12 +56,6 @@ PLUGIN = textwrap.dedent(
 
         def predict(self, view):
             raise RuntimeError("broken on purpose")
-
-    # the first two are handed each view's truth: a render per item, nothing more
-    PRIVILEGED = Capabilities(privileged=True)
-    STEADY = BackendSpec("gate-steady", lambda options: Steady(), capabilities=PRIVILEGED)
-    WORSE = BackendSpec("gate-worse", lambda options: Worse(), capabilities=PRIVILEGED)
-    BROKEN = BackendSpec("gate-broken", lambda options: Broken())
     """
 )
 ITEMS = 8
@@ -77,7 +73,7 @@ def repo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     site = tmp_path / "site"
     site.mkdir()
     (site / "beo_gate_plugins.py").write_text(PLUGIN)
-    names = {"gate-steady": "STEADY", "gate-worse": "WORSE", "gate-broken": "BROKEN"}
+    names = {"gate-steady": "Steady", "gate-worse": "Worse", "gate-broken": "Broken"}
     install_plugin(
         site, "beo-gate-plugins", {n: f"beo_gate_plugins:{c}" for n, c in names.items()},
         monkeypatch,
@@ -213,7 +209,7 @@ def planted(repo: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path
     site = tmp_path / "planted-site"
     site.mkdir()
     shutil.copy(PLANTED, site / "planted_bug.py")
-    install_plugin(site, "beo-planted", {"planted": "planted_bug:SPEC"}, monkeypatch)
+    install_plugin(site, "beo-planted", {"planted": "planted_bug:PlantedBackend"}, monkeypatch)
     yield site / "planted_bug.py"
     B.unregister_backend("planted")
     sys.modules.pop("planted_bug", None)
@@ -304,10 +300,12 @@ def test_a_backend_registered_in_process_digests_its_module(tmp_path) -> None:
     from beo_bench import backend as B
     from beo_bench.perception.bounds import OracleOptions, RandomBackend, RandomOptions
 
+    class DigestLocal(RandomBackend):
+        name = "digest-local"
+
     assert B.code_digest("oracle", OracleOptions()) is None
-    spec = B.BackendSpec("digest-local", build=RandomBackend, options=RandomOptions,
-                         module=__name__)  # fmt: skip
-    B.register(spec)
+    B.register(DigestLocal)
+    spec = B.get_spec("digest-local")
     try:
         one, two = (B.code_digest("digest-local", RandomOptions(seed=s)) for s in (0, 1))
         assert one is not None and two is not None and one != two
@@ -355,10 +353,10 @@ def test_an_editable_plugins_digest_covers_its_package(tmp_path, monkeypatch) ->
     site.mkdir()
     shutil.copy(PLANTED, pkg / "bug.py")
     (pkg / "__init__.py").write_text(
-        "from dataclasses import replace\nfrom planted_pkg.bug import SPEC as _SPEC\n"
-        "SPEC = replace(_SPEC, name='planted-pkg')\n"
+        "from planted_pkg.bug import PlantedBackend\n"
+        "class PkgBackend(PlantedBackend):\n    name = 'planted-pkg'\n"
     )
-    install_plugin(site, "beo-planted-pkg", {"planted-pkg": "planted_pkg:SPEC"}, monkeypatch)
+    install_plugin(site, "beo-planted-pkg", {"planted-pkg": "planted_pkg:PkgBackend"}, monkeypatch)
     info = site / "beo_planted_pkg-0.1.dist-info"
     pth = "__editable__.beo_planted_pkg.pth"
     (site / pth).write_text(f"{src}\n")
