@@ -34,7 +34,7 @@ def test_icp_plain_is_icp_with_the_plain_defaults(plain) -> None:
     opts = backend_options("icp-plain")
     assert opts is not None
     for key, value in PLAIN_DEFAULTS.items():
-        assert opts[key] == value and getattr(plain, key) == value
+        assert opts[key] == value and getattr(plain.options, key) == value
     # every other option is icp's, with icp's default
     icp_opts = backend_options("icp")
     assert icp_opts is not None and set(opts) == set(icp_opts)
