@@ -123,4 +123,3 @@ def _axes(p: np.ndarray, up: np.ndarray | None) -> np.ndarray:
     if np.linalg.det(R) < 0:
         R[:, 0] = -R[:, 0]
     return R
-
