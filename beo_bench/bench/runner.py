@@ -483,7 +483,7 @@ FORCE_RERUN_FLAG = "--force-rerun"
 
 def _code_changed(old: dict[str, Any], digest: str | None, out: Path, force: bool) -> bool:
     """Whether the results in ``out`` were scored by other code or options of the backend
-    than it has now (``code_digest`` in the run record; :func:`beo_bench.backend.code_digest`)
+    than it has now (``code_digest`` in the run record; :func:`beo_bench.codedigest.code_digest`)
     and are to be discarded (``force``); refused otherwise, naming the flag. A record
     without a digest was written before digests were recorded: for a plugin it cannot be
     checked, so it counts as changed."""
@@ -776,7 +776,7 @@ def _open_run(
     is work left and record a new run: (the run record, the items done, the items to do,
     what preparing learnt). ``force_rerun``: results scored by other code of the backend
     are discarded rather than refused."""
-    from beo_bench.backend import code_digest
+    from beo_bench.codedigest import code_digest
     from beo_bench.objects import LIBRARY_VERSION
 
     results, record_path = out / RESULTS_NAME, out / RECORD_NAME

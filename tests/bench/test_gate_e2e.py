@@ -21,6 +21,7 @@ from xml.etree import ElementTree as ET
 
 import pytest
 
+from beo_bench import codedigest
 from beo_bench.bench.suites import SMOKE_SIZES, Kind
 from beo_bench.cli import main
 from tests.plugins import install_plugin
@@ -303,17 +304,17 @@ def test_a_backend_registered_in_process_digests_its_module(tmp_path) -> None:
     class DigestLocal(RandomBackend):
         name = "digest-local"
 
-    assert B.code_digest("oracle", OracleOptions()) is None
+    assert codedigest.code_digest("oracle", OracleOptions()) is None
     B.register(DigestLocal)
     spec = B.get_spec("digest-local")
     try:
-        one, two = (B.code_digest("digest-local", RandomOptions(seed=s)) for s in (0, 1))
+        one, two = (codedigest.code_digest("digest-local", RandomOptions(seed=s)) for s in (0, 1))
         assert one is not None and two is not None and one != two
-        mine = B._code_files("digest-local", spec)
+        mine = codedigest._code_files("digest-local", spec)
         assert list(mine.values()) == [Path(__file__)]
         h = hashlib.sha256(f"module {__name__}".encode() + b"\0")
         h.update(hashlib.sha256(Path(__file__).read_bytes()).digest())
-        h.update(b"options\0" + B._options_text(RandomOptions(seed=0)).encode())
+        h.update(b"options\0" + codedigest._options_text(RandomOptions(seed=0)).encode())
         assert one == h.hexdigest()
     finally:
         B.unregister_backend("digest-local")
@@ -330,15 +331,15 @@ def test_a_plugins_digest_covers_its_distributions_files_and_options(repo, plant
     (site / "planted_data.json").write_text("{}")
     listed = ["planted_bug.py", "planted_data.json", f"{info.name}/METADATA", f"{info.name}/RECORD"]
     (info / "RECORD").write_text("".join(f"{f},,\n" for f in listed))
-    first = B.code_digest("planted", spec.parse({}))
-    assert f"dist beo-planted:{info.name}/METADATA" in B._code_files("planted", spec)
+    first = codedigest.code_digest("planted", spec.parse({}))
+    assert f"dist beo-planted:{info.name}/METADATA" in codedigest._code_files("planted", spec)
     (site / "planted_data.json").write_text('{"changed": true}')
-    assert B.code_digest("planted", spec.parse({})) != first
+    assert codedigest.code_digest("planted", spec.parse({})) != first
     (site / "planted_data.json").write_text("{}")
     (info / "INSTALLER").write_text("pip\n")
     (info / "RECORD").write_text("".join(f"{f},,\n" for f in [*listed, f"{info.name}/INSTALLER"]))
-    assert B.code_digest("planted", spec.parse({})) == first
-    assert B.code_digest("planted", spec.parse({"shift_cm": 1})) != first
+    assert codedigest.code_digest("planted", spec.parse({})) == first
+    assert codedigest.code_digest("planted", spec.parse({"shift_cm": 1})) != first
 
 
 def test_an_editable_plugins_digest_covers_its_package(tmp_path, monkeypatch) -> None:
@@ -365,11 +366,11 @@ def test_an_editable_plugins_digest_covers_its_package(tmp_path, monkeypatch) ->
     try:
         assert "planted-pkg" in B.load_plugins()
         spec = B.get_spec("planted-pkg")
-        files = B._code_files("planted-pkg", spec)
+        files = codedigest._code_files("planted-pkg", spec)
         assert {f"dist beo-planted-pkg:{pth}", "package planted_pkg:bug.py"} <= set(files)
-        first = B.code_digest("planted-pkg", spec.parse({}))
+        first = codedigest.code_digest("planted-pkg", spec.parse({}))
         (pkg / "bug.py").write_text((pkg / "bug.py").read_text() + "\n# edited in place\n")
-        assert B.code_digest("planted-pkg", spec.parse({})) != first
+        assert codedigest.code_digest("planted-pkg", spec.parse({})) != first
     finally:
         B.unregister_backend("planted-pkg")
         for name in ("planted_pkg", "planted_pkg.bug"):

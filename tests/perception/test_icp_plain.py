@@ -46,7 +46,7 @@ def test_icp_plain_is_icp_with_the_plain_defaults(plain) -> None:
     # its options are checked like any backend's
     with pytest.raises(UsageError, match=r"no option 'startz'.*starts \(an integer, default 1\)"):
         get_backend("icp-plain", startz=2)
-    assert get_backend("icp-plain", trim=0.8, **FAST).trim == 0.8
+    assert get_backend("icp-plain", trim=0.8, **FAST).options.trim == 0.8
 
 
 def test_icp_plain_conforms(plain) -> None:
