@@ -64,7 +64,7 @@ def test_posterior_weights_are_the_likelihood_times_the_silhouette_prior(views) 
     lik = MDNLikelihoodBackend()
     for view in views:
         s = post.rotation_samples(view, prior=True)
-        assert s.silhouette_error is not None and len(s.R) == post.samples
+        assert s.silhouette_error is not None and len(s.R) == post.options.samples
         want = expected_weights(s.log_likelihood, s.silhouette_error)
         density = expected_weights(s.log_likelihood, None)
         # the prior moves some weight by more than 5% of it (by 10-50% on these views)
