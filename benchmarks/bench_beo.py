@@ -121,7 +121,7 @@ def diagnose(suite: str) -> None:
             "true cube": Hypotheses.of(R, t_true, e_true),
             "true centre": Hypotheses.of(R, t_true, e0),
             "estimated cube": backend.fit_box(
-                obs, full, Hypotheses.of(R, t0, e0), backend.size_rounds
+                obs, full, Hypotheses.of(R, t0, e0), backend.options.size_rounds
             ),
         }
         for name, hyp in cubes.items():
@@ -133,10 +133,10 @@ def diagnose(suite: str) -> None:
         true = errs <= errs.min() + 1e-6
         hyp = Hypotheses.of(Rs, t0, e0)
         coarse_err = backend.coarse_errors(
-            obs, coarse, backend.fit_box(obs, coarse, hyp, backend.coarse_box_rounds)
+            obs, coarse, backend.fit_box(obs, coarse, hyp, backend.options.coarse_box_rounds)
         ).numpy()
         fine = -backend.fine_scores(
-            obs, model, full, backend.fit_box(obs, full, hyp, backend.size_rounds), classes
+            obs, model, full, backend.fit_box(obs, full, hyp, backend.options.size_rounds), classes
         ).numpy()
         first["coarse EDT error"].append(bool(coarse_err[true].min() <= coarse_err.min()))
         first["fine density"].append(bool(fine[true].min() <= fine.min()))

@@ -67,7 +67,9 @@ def _install_planted(site: Path) -> None:
     info = site / "beo_planted-0.1.dist-info"
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: beo-planted\nVersion: 0.1\n")
-    (info / "entry_points.txt").write_text("[beo_bench.backends]\nplanted = planted_bug:SPEC\n")
+    (info / "entry_points.txt").write_text(
+        "[beo_bench.backends]\nplanted = planted_bug:PlantedBackend\n"
+    )
 
 
 def _key(spec: str) -> str:

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from harness import report
 
-from beo_bench.backend import Backend, BackendSpec, Capabilities, list_backends, register
+from beo_bench.backend import Backend, Capabilities, list_backends, register
 from beo_bench.bench.evaluate import Evaluator
 from beo_bench.bench.rundir import read_rows
 from beo_bench.bench.runner import RunConfig, WorkerPool, run
@@ -115,10 +115,13 @@ class _Crash(Backend):
     workers because they import this module: ``WorkerPool(imports=[__name__])``)."""
 
     name = CRASH
+    capabilities = Capabilities(privileged=True)
+    role = "diagnostic"
 
-    def __init__(self) -> None:
+    def __init__(self, options: object = None) -> None:
         from beo_bench.backend import get_backend
 
+        super().__init__(options)
         self.inner = get_backend("oracle")
 
     def predict(self, view: View) -> Estimate:
@@ -127,14 +130,7 @@ class _Crash(Backend):
         return self.inner.predict(view)
 
 
-register(
-    BackendSpec(
-        CRASH,
-        build=lambda options: _Crash(),
-        capabilities=Capabilities(privileged=True, diagnostic=True),
-        module=__name__,
-    )
-)
+register(_Crash)
 
 
 def crash_recovery(items: int = 44) -> None:

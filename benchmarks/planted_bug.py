@@ -15,20 +15,17 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from beo_bench.backend import Backend, BackendSpec, Capabilities, get_spec
+from beo_bench.backend import Backend, Capabilities, PrepareContext, get_spec
 from beo_bench.options import option
 from beo_bench.types import Estimate, View
 
-if TYPE_CHECKING:
-    from beo_bench.bench.runs import RunContext
-
 NAME = "planted"
-"""The entry point's name (``beo_bench.backends``: ``planted = planted_bug:SPEC``)."""
+"""The entry point's name (``beo_bench.backends``: ``planted = planted_bug:PlantedBackend``)."""
 
 
 @dataclass(frozen=True)
@@ -43,26 +40,30 @@ class PlantedOptions:
     )
 
 
-def planted_capabilities(options: PlantedOptions) -> Capabilities:
-    """The base backend's (class hint, privileged, model): the plugin only changes its
-    answers."""
-    base = get_spec(options.base)
-    return base.capabilities_of(base.parse({}))
-
-
 class PlantedBackend(Backend):
     """A base backend with the planted bug (module docstring)."""
 
     name = NAME
+    description = "a base backend with a planted bug: every estimate turned and moved"
+    Options = PlantedOptions
+    options: PlantedOptions
 
-    def __init__(self, options: PlantedOptions) -> None:
-        self.options = options
+    @classmethod
+    def capabilities_for(cls, options: PlantedOptions) -> Capabilities:
+        """The base backend's (class hint, privileged, model): the plugin only changes its
+        answers."""
+        base = get_spec(options.base)
+        return base.capabilities_of(base.parse({}))
+
+    def __init__(self, options: PlantedOptions | None = None, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
+        options = self.options
         self.base = get_spec(options.base).make(get_spec(options.base).parse({}))
         # the object's up axis is its canonical +z: R_est @ Rz turns it about that axis
         self.turn = Rotation.from_euler("z", options.yaw_deg, degrees=True).as_matrix()
         self.shift = np.array([options.shift_cm / 100.0, 0.0, 0.0])
 
-    def prepare(self, ctx: RunContext) -> None:
+    def prepare(self, ctx: PrepareContext) -> None:
         self.base.prepare(ctx)
 
     def model_digest(self) -> str | None:
@@ -84,17 +85,3 @@ class PlantedBackend(Backend):
             translation=np.asarray(est.translation) + self.shift,
             pose_samples=None if samples is None else np.asarray(samples) @ self.turn,
         )
-
-
-def _build(options: Any) -> PlantedBackend:
-    return PlantedBackend(options)
-
-
-SPEC = BackendSpec(
-    name=NAME,
-    build=_build,
-    options=PlantedOptions,
-    capabilities=planted_capabilities,
-    description="a base backend with a planted bug: every estimate turned and moved",
-)
-"""What the entry point advertises."""

@@ -1,16 +1,27 @@
 """Perception backends: the contract, the registry and the conformance check.
 
-A backend is registered as a :class:`BackendSpec`: its factory, its typed options
-(a frozen dataclass, :mod:`beo_bench.options`) and its :class:`Capabilities` (class hint,
-privileged, diagnostic, the model it loads), which the runner reads without building the
-backend. The backend itself is a :class:`Backend`: ``name``, ``predict(view)``, and
-``prepare(ctx)`` / ``model_digest()`` with defaults. In-tree backends register with
-:func:`register`; third-party packages declare an entry point in the group
-``beo_bench.backends`` whose object is the spec (``name = "pkg.module:SPEC"``);
-:func:`load_plugins` loads them (the CLI and the runner call it explicitly, so importing
-``beo_bench`` never imports foreign code). A plugin that fails to load is named in one
-:class:`PluginWarning` and skipped, so one broken package does not take the others down;
-asking for it by name then raises :class:`PluginError`.
+A backend is a :class:`Backend` subclass, and the class is all there is to write: its
+``name``, ``predict(view) -> Estimate`` and, when it has them, its options dataclass
+(``Options``, :mod:`beo_bench.options`), its :class:`Capabilities` (class hint, privileged,
+the model it loads), its :data:`Role` and a ``description``. ``prepare(ctx)`` and
+``model_digest()`` have defaults. The registry's record of it, a :class:`BackendSpec`, is
+derived from the class; the runner reads the options and capabilities from it without
+building the backend.
+
+Where a backend is declared, once:
+
+- in-tree: one line of :data:`IN_TREE` (its class, role and description), so that listings
+  and reports know every in-tree backend without importing its module (torch);
+- a plugin: its class, which an entry point in the group ``beo_bench.backends`` names
+  (``name = "pkg.module:MyBackend"``); :func:`load_plugins` loads them (the CLI and the
+  runner call it explicitly, so importing ``beo_bench`` never imports foreign code). A
+  plugin that fails to load is named in one :class:`PluginWarning` and skipped, so one
+  broken package does not take the others down; asking for it by name then raises
+  :class:`PluginError`;
+- in-process (a test, a notebook): :func:`register` of the class.
+
+The contract imports nothing of the runner: ``prepare`` is handed a :class:`PrepareContext`,
+what a backend may read of its run, which the runner's ``RunContext`` satisfies.
 """
 
 from __future__ import annotations
@@ -20,12 +31,11 @@ import importlib
 import multiprocessing
 import warnings
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from enum import Enum
 from importlib.metadata import EntryPoint, entry_points
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar, Literal, Protocol, get_args
 
 import numpy as np
 
@@ -34,68 +44,91 @@ from beo_bench.options import describe_options, parse_options
 from beo_bench.types import Estimate, View
 
 if TYPE_CHECKING:
-    from beo_bench.bench.runs import RunContext
+    from beo_bench.objects.datasets import Dataset
 
 
 ENTRY_POINT_GROUP = "beo_bench.backends"
 
+Role = Literal["upper bound", "lower bound", "baseline", "method", "diagnostic"]
+"""What a backend is to the reports: a bound (``oracle``, the upper; ``random``, the lower),
+a baseline every method is paired against (``icp-plain``, ``icp``), a method (the default,
+and every plugin's unless it says otherwise), or a diagnostic tool wrapping another backend
+(``swap``: not one of "every backend", never paired)."""
+ROLES: tuple[Role, ...] = get_args(Role)
+
 
 @dataclass(frozen=True)
-class InTreeBackend:
-    """Where an in-tree backend is registered and the line listings show for it: known
-    without importing its module, so ``beo-bench --help`` lists every backend without
-    loading torch (about 1.7 s). It is the one record of their ``description`` and
-    ``diagnostic`` flag; a plugin's spec has its own."""
+class InTree:
+    """An in-tree backend's declaration: its class (``module:Class``, imported when the
+    backend is first asked for), its role and the line listings show for it. Known without
+    importing the module, so ``beo-bench --help`` lists every backend without loading torch
+    (about 1.7 s), and reports know the bounds and baselines."""
 
-    module: str
+    target: str
+    role: Role
     description: str
-    diagnostic: bool = False
+
+    @property
+    def module(self) -> str:
+        return self.target.partition(":")[0]
 
 
-IN_TREE: dict[str, InTreeBackend] = {
-    "oracle": InTreeBackend(
-        "beo_bench.perception.bounds",
+IN_TREE: dict[str, InTree] = {
+    "oracle": InTree(
+        "beo_bench.perception.bounds:OracleBackend",
+        "upper bound",
         "the ground truth (class, pose, size, shape, mesh): the upper bound",
     ),
-    "random": InTreeBackend(
-        "beo_bench.perception.bounds",
+    "random": InTree(
+        "beo_bench.perception.bounds:RandomBackend",
+        "lower bound",
         "chance: a random class and rotation, the class-mean shape: the lower bound",
     ),
-    "icp": InTreeBackend(
-        "beo_bench.perception.icp",
+    # the baselines in the order every method is paired against them
+    "icp-plain": InTree(
+        "beo_bench.perception.icp:PlainICPBackend",
+        "baseline",
+        "the dissertation's ICP baseline: icp with its plain defaults",
+    ),
+    "icp": InTree(
+        "beo_bench.perception.icp:ICPBackend",
+        "baseline",
         "multi-start trimmed ICP of the observed points to the class-mean surface",
     ),
-    "icp-plain": InTreeBackend(
-        "beo_bench.perception.icp", "the dissertation's ICP baseline: icp with its plain defaults"
-    ),
-    "beo": InTreeBackend(
-        "beo_bench.perception.beo",
+    "beo": InTree(
+        "beo_bench.perception.beo:BEOBackend",
+        "method",
         "Bayesian Eigenobjects (chapter 3): class, pose and shape by search",
     ),
-    "hbeo": InTreeBackend(
-        "beo_bench.perception.hbeo",
+    "hbeo": InTree(
+        "beo_bench.perception.hbeo:HBEOBackend",
+        "method",
         "Hybrid Bayesian Eigenobjects (chapter 4): one network pass per view",
     ),
-    "hbeo-mdn-likelihood": InTreeBackend(
-        "beo_bench.perception.hbeo",
+    "hbeo-mdn-likelihood": InTree(
+        "beo_bench.perception.hbeo:MDNLikelihoodBackend",
+        "method",
         "HBEO-MDN (chapter 5): the rotation sample of highest mixture density",
     ),
-    "hbeo-mdn-posterior": InTreeBackend(
-        "beo_bench.perception.hbeo",
+    "hbeo-mdn-posterior": InTree(
+        "beo_bench.perception.hbeo:MDNPosteriorBackend",
+        "method",
         "HBEO-MDN (chapter 5): rotation samples scored with the silhouette prior",
     ),
-    "swap": InTreeBackend(
-        "beo_bench.perception.swap",
+    "swap": InTree(
+        "beo_bench.perception.swap:SwapBackend",
+        "diagnostic",
         "diagnostic: a base backend with some of its estimate replaced by the truth",
-        # not one of "every backend": `beo-bench all` and the demo skip it
-        diagnostic=True,
     ),
 }
-"""The in-tree backends by name (a test checks that importing the modules registers exactly
-these, with these descriptions)."""
+"""The in-tree backends by name, in the order reports list them (a test checks that each
+class is there, under its own name)."""
 
-_IN_TREE = tuple(dict.fromkeys(b.module for b in IN_TREE.values()))
-"""Modules whose import registers the in-tree backends."""
+
+def in_tree(*roles: Role) -> tuple[str, ...]:
+    """The in-tree backends of ``roles``, in :data:`IN_TREE`'s order (what reports derive
+    their bounds, baselines and methods from)."""
+    return tuple(n for n, b in IN_TREE.items() if b.role in roles)
 
 
 class ClassHint(Enum):
@@ -112,15 +145,13 @@ class ClassHint(Enum):
 
 @dataclass(frozen=True)
 class Capabilities:
-    """What the runner must know about a backend before it builds one: read from its
-    :class:`BackendSpec` (for its parsed options), never from a built instance."""
+    """What the runner must know about a backend before it builds one: read from its class
+    (for its parsed options, :meth:`Backend.capabilities_for`), never from an instance."""
 
     class_hint: ClassHint = ClassHint.NONE
     privileged: bool = False
     """It is handed the view's ground truth (in-tree bounds; a plugin only with
     ``--allow-privileged``); its rows are listed with the bounds, never ranked."""
-    diagnostic: bool = False
-    """A tool wrapping another backend (``swap``): not one of "every backend"."""
     model: str | None = None
     """The kind of trained model it loads (``beo``, ``hbeo``, ``hbeo-mdn``; None: none),
     whose content digest every run records."""
@@ -138,18 +169,102 @@ class Capabilities:
         return self.class_hint is ClassHint.REQUIRED
 
 
+# -- what prepare may read of its run ---------------------------------------------------------
+class ProtocolInfo(Protocol):
+    """What a backend may read of its suite's protocol."""
+
+    @property
+    def world_frame(self) -> str:
+        """What ``View.cam_to_world`` says: ``random``, ``random-yaw`` or ``robot`` (the
+        camera and the table plane in the robot's frame: a table suite)."""
+        ...
+
+
+class SuiteInfo(Protocol):
+    """What a backend may read of its run's suite."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def protocol(self) -> ProtocolInfo: ...
+
+
+class PrepareContext(Protocol):
+    """What :meth:`Backend.prepare` is handed: its run's class list, dataset and suite, and
+    whether it may show progress bars. The runner's ``RunContext`` is one; a plugin types
+    its ``prepare`` with this and imports nothing of the runner."""
+
+    @property
+    def categories(self) -> tuple[str, ...]:
+        """The class list the views carry (``View.categories``)."""
+        ...
+
+    @property
+    def dataset(self) -> Dataset | None:
+        """The user's dataset the objects come from (None: the procedural library)."""
+        ...
+
+    @property
+    def suite(self) -> SuiteInfo: ...
+
+    @property
+    def progress(self) -> bool:
+        """Whether ``prepare`` may show progress bars (the driver's; workers get False)."""
+        ...
+
+
+@dataclass(frozen=True)
+class NoOptions:
+    """The options of a backend that takes none."""
+
+
 class Backend(ABC):
-    """The backend contract: ``name``, ``predict(view) -> Estimate``, and two members with
-    defaults: ``prepare(ctx)``, called once in every process that will predict (the driver
-    first, which may build what is slow and cache it on disk with progress bars; workers then
-    load it), with the run's :class:`~beo_bench.bench.runs.RunContext` (its class list,
-    dataset, suite); and ``model_digest()``, the content digest of the trained model the last
-    ``prepare`` loaded (None: no learned model). What the runner needs before building it
-    (class hint, privileged, ...) is the spec's :class:`Capabilities`."""
+    """The backend contract, written as one class.
 
-    name: str = ""
+    - ``name``: what ``--backend`` calls it;
+    - ``predict(view) -> Estimate``;
+    - ``Options``: its options dataclass (:mod:`beo_bench.options`; default: none), parsed
+      from ``--opt`` values once; the instance keeps them as ``self.options``;
+    - ``capabilities``: what the runner must know before building it (:class:`Capabilities`;
+      :meth:`capabilities_for` when they depend on the options);
+    - ``role`` and ``description``: a plugin's (an in-tree backend's are its
+      :data:`IN_TREE` line);
+    - ``prepare(ctx)``, called once in every process that will predict (the driver first,
+      which may build what is slow and cache it on disk with progress bars; workers then
+      load it), with a :class:`PrepareContext`; and ``model_digest()``, the content digest
+      of the trained model the last ``prepare`` loaded (None: no learned model). Both have
+      defaults.
 
-    def prepare(self, ctx: RunContext) -> None:  # noqa: B027 (a default: nothing to prepare)
+    ``MyBackend()`` builds one with its default options, ``MyBackend(options)`` with parsed
+    ones, ``MyBackend(key=value)`` parses those (as ``--opt`` does)."""
+
+    name: ClassVar[str] = ""
+    Options: ClassVar[type] = NoOptions
+    capabilities: ClassVar[Capabilities] = Capabilities()
+    role: ClassVar[Role] = "method"
+    description: ClassVar[str] = ""
+
+    options: Any
+    """The parsed options (an instance of ``Options``)."""
+
+    def __init__(self, options: Any = None, **kwargs: Any) -> None:
+        if options is not None and kwargs:
+            raise TypeError(f"{type(self).__name__}: give options or keyword options, not both")
+        self.options = options if options is not None else type(self).parse(kwargs)
+
+    @classmethod
+    def parse(cls, raw: Mapping[str, Any]) -> Any:
+        """``raw`` (``--opt`` values) as this backend's options; a :class:`UsageError`
+        listing the valid options for an unknown key or a bad value."""
+        return parse_options(cls.Options, dict(raw), cls.name)
+
+    @classmethod
+    def capabilities_for(cls, options: Any) -> Capabilities:
+        """The capabilities with parsed ``options`` (default: :attr:`capabilities`)."""
+        return cls.capabilities
+
+    def prepare(self, ctx: PrepareContext) -> None:  # noqa: B027 (a default: nothing to prepare)
         """Build or load what is slow for ``ctx`` (default: nothing)."""
 
     def model_digest(self) -> str | None:
@@ -161,65 +276,58 @@ class Backend(ABC):
 
 
 @dataclass(frozen=True)
-class NoOptions:
-    """The options of a backend that takes none."""
-
-
-@dataclass(frozen=True)
 class BackendSpec:
-    """A registered backend: how to build one from its typed options, the options'
-    dataclass (:mod:`beo_bench.options`), and its capabilities (a value, or a function of
-    the parsed options when they change them: ``hbeo``'s ``per_category``).
-
-    ``build(options)`` returns a :class:`Backend`. Plugins register one through the
-    ``beo_bench.backends`` entry-point group (its object is the spec)."""
+    """The registry's record of a backend, derived from its class (and, in-tree, its
+    :data:`IN_TREE` line): what the runner reads before building it."""
 
     name: str
-    build: Callable[[Any], Backend]
-    options: type = NoOptions
-    capabilities: Capabilities | Callable[[Any], Capabilities] = Capabilities()
+    cls: type[Backend]
+    role: Role = "method"
     description: str = ""
     origin: str = "in-tree"
-    module: str = ""
-    """Where the spec is defined (a spawned worker imports it to find the backend again);
-    default: the module of ``build``."""
-    parser: Callable[[Mapping[str, Any]], Any] | None = None
-    """Parses the options instead of :func:`~beo_bench.options.parse_options` (``swap``,
-    whose options include its base backend's)."""
 
-    def __post_init__(self) -> None:
-        # an in-tree backend's line is IN_TREE's (listed without importing its module)
-        if not self.description and self.name in IN_TREE:
-            object.__setattr__(self, "description", IN_TREE[self.name].description)
-        if not self.module:
-            object.__setattr__(self, "module", getattr(self.build, "__module__", "") or "")
+    @classmethod
+    def of(cls, backend: object, origin: str) -> BackendSpec:
+        """The spec of ``backend``, a :class:`Backend` subclass, from its class attributes."""
+        if not (isinstance(backend, type) and issubclass(backend, Backend)):
+            raise BackendError(
+                f"{backend!r} is not a beo_bench.backend.Backend subclass (docs/backends.md, "
+                '"Writing a backend")'
+            )
+        if not backend.name:
+            raise BackendError(f"backend class {backend.__qualname__} has no name")
+        if backend.role not in ROLES:
+            raise BackendError(
+                f"backend {backend.name!r}: role {backend.role!r} is not one of {ROLES}"
+            )
+        return cls(backend.name, backend, backend.role, backend.description, origin)
+
+    @property
+    def options(self) -> type:
+        """Its options dataclass."""
+        return self.cls.Options
+
+    @property
+    def module(self) -> str:
+        """Where its class is defined (a spawned worker imports it to find it again)."""
+        return self.cls.__module__
 
     def parse(self, raw: Mapping[str, Any] | None = None) -> Any:
-        """``raw`` (``--opt`` values) as this backend's options; a :class:`UsageError`
-        listing the valid options for an unknown key or a bad value."""
-        if self.parser is not None:
-            return self.parser(dict(raw or {}))
-        return parse_options(self.options, dict(raw or {}), self.name)
+        """``raw`` (``--opt`` values) as this backend's options (:meth:`Backend.parse`)."""
+        return self.cls.parse(dict(raw or {}))
 
     def capabilities_of(self, options: Any) -> Capabilities:
-        caps = self.capabilities
-        return caps(options) if callable(caps) else caps
+        return self.cls.capabilities_for(options)
 
     def make(self, options: Any) -> Backend:
         """A new backend built with parsed ``options``; a ``ValueError`` of its own checks
         is a :class:`UsageError`."""
         try:
-            backend = self.build(options)
+            return self.cls(options)
         except BeoBenchError:
             raise
         except ValueError as e:  # the backend's own check of an option value
             raise UsageError(f"backend {self.name!r}: {e} ({self.options_hint()})") from e
-        if not isinstance(backend, Backend):
-            raise BackendError(
-                f"backend {self.name!r} built a {type(backend).__name__}, not a "
-                'beo_bench.backend.Backend (subclass it: docs/backends.md, "Writing a backend")'
-            )
-        return backend
 
     def options_hint(self) -> str:
         return describe_options(self.options)
@@ -227,7 +335,7 @@ class BackendSpec:
 
 _REGISTRY: dict[str, BackendSpec] = {}
 _BROKEN: dict[tuple[str, str], str] = {}  # (entry-point name, value) -> why it was skipped
-_ENTRY: dict[str, EntryPoint] = {}  # a plugin's name -> its entry point (code_digest reads it)
+_ENTRY: dict[str, EntryPoint] = {}  # a plugin's name -> its entry point (its code digest)
 _loaded_in_tree = False
 
 
@@ -236,10 +344,11 @@ class PluginWarning(UserWarning):
     backend, or takes a name already registered); the other backends still load."""
 
 
-def register(spec: BackendSpec) -> BackendSpec:
-    """Register ``spec`` under its name; a taken name raises :class:`BackendError`."""
-    _add(spec)
-    return spec
+def register(cls: type[Backend]) -> type[Backend]:
+    """Register backend class ``cls`` under its ``name`` (a test's, a notebook's; usable as
+    a class decorator); a taken name raises :class:`BackendError`."""
+    _add(BackendSpec.of(cls, "in-process"))
+    return cls
 
 
 def unregister_backend(name: str) -> None:
@@ -248,16 +357,20 @@ def unregister_backend(name: str) -> None:
     _ENTRY.pop(name, None)
 
 
+def _target(cls: type) -> str:
+    return f"{cls.__module__}:{cls.__qualname__}"
+
+
 def _add(spec: BackendSpec) -> None:
     name = spec.name
     old = _REGISTRY.get(name)
-    if old is not None and old.build is not spec.build:
+    if old is not None and old.cls is not spec.cls:
         raise BackendError(
             f"a backend named {name!r} is already registered (from {old.origin}); "
             "choose another name"
         )
     listed = IN_TREE.get(name)
-    if listed is not None and spec.module != listed.module:
+    if listed is not None and _target(spec.cls) != listed.target:
         # an in-tree name is taken whether or not its module has been imported yet
         raise BackendError(
             f"a backend named {name!r} is already registered (in-tree, {listed.module}); "
@@ -270,15 +383,21 @@ def _ensure_in_tree() -> None:
     global _loaded_in_tree
     if not _loaded_in_tree:
         _loaded_in_tree = True
-        for mod in _IN_TREE:
-            importlib.import_module(mod)
+        for name, b in IN_TREE.items():
+            module, _, qualname = b.target.partition(":")
+            cls = getattr(importlib.import_module(module), qualname)
+            if cls.name != name:
+                raise BackendError(
+                    f"IN_TREE[{name!r}] names {b.target}, whose name is {cls.name!r}"
+                )
+            _add(BackendSpec(name, cls, b.role, b.description))
 
 
 def load_plugins() -> list[str]:
     """Register every backend advertised in the ``beo_bench.backends`` entry-point group;
-    returns the names registered. An entry point's object is a :class:`BackendSpec` (whose
-    name must be the entry point's). A plugin that fails to import, whose object is not a
-    spec, or whose name is taken is skipped with one
+    returns the names registered. An entry point's object is a :class:`Backend` subclass
+    (whose name must be the entry point's). A plugin that fails to import, whose object is
+    not a backend class, or whose name is taken is skipped with one
     :class:`PluginWarning` naming it (the runner calls this in every worker: a broken
     package must not stop the others); :func:`get_backend` of its name says why. The
     in-tree backends are not imported here: their names are known (:data:`IN_TREE`)."""
@@ -297,111 +416,26 @@ def load_plugins() -> list[str]:
     return names
 
 
-# -- a plugin's code digest -------------------------------------------------------------------
-_INSTALL_RECORDS = frozenset({"RECORD", "INSTALLER", "REQUESTED", "direct_url.json"})
-"""A distribution's files that say how it was installed, not what it runs (``pip`` writes
-them; ``direct_url.json`` holds the path it was installed from): left out of its digest."""
-
-
-def code_digest(name: str, options: Any) -> str | None:
-    """The SHA-256 of the code backend ``name`` runs and of its parsed ``options``, which
-    every run records (``run.json``, ``code_digest``) so that ``run --resume`` and ``all``
-    notice a plugin that changed since its results were scored (issue 47). Its code is:
-
-    - a plugin's: every file of the distribution that provides its entry point
-      (``importlib.metadata``, its ``RECORD``; byte-code and the install records left out),
-      and every file of the top-level package (or module) its entry point imports, found
-      where Python imports it from: that covers an editable install, whose ``RECORD`` lists
-      only a ``.pth`` file, and a distribution with no ``RECORD``;
-    - a backend registered in-process, without a distribution (a notebook, a test, a
-      script's ``register``): the source file of the module that registered it; None when it
-      has none (defined at an interactive prompt), and nothing can be checked;
-    - an in-tree backend's: None. Its code is the package's, which the run's provenance
-      names (version and git commit), and its trained model has its own digest
-      (``model_digest``).
-
-    Files are hashed by their content and their path inside the distribution or package,
-    so the same code installed elsewhere has the same digest."""
-    import hashlib
-
-    spec = get_spec(name)
-    if name in IN_TREE and spec.module == IN_TREE[name].module:
-        return None
-    files = _code_files(name, spec)
-    if not files:
-        return None
-    h = hashlib.sha256()
-    for label, path in sorted(files.items()):
-        h.update(label.encode() + b"\0")
-        try:
-            h.update(hashlib.sha256(path.read_bytes()).digest())
-        except OSError as e:  # a listed file that is gone or unreadable changes the digest
-            h.update(f"unreadable: {type(e).__name__}".encode())
-    text = _options_text(options)
-    h.update(b"options\0" + text.encode())
-    return h.hexdigest()
-
-
-def _options_text(options: Any) -> str:
-    """Parsed options as canonical JSON (a dataclass's fields; anything else by repr)."""
-    import json
-
-    is_instance = dataclasses.is_dataclass(options) and not isinstance(options, type)
-    value = dataclasses.asdict(options) if is_instance else options
-    return json.dumps(value, sort_keys=True, default=repr)
-
-
-def _code_files(name: str, spec: BackendSpec) -> dict[str, Path]:
-    """The files whose content is backend ``name``'s code (:func:`code_digest`), by a label
-    that does not depend on where they are installed."""
-    import importlib.util
-    import sys
-
-    out: dict[str, Path] = {}
-    ep = _ENTRY.get(name)
-    if ep is None:  # registered in-process: the module that registered it
-        where = getattr(sys.modules.get(spec.module), "__file__", None)
-        return {f"module {spec.module}": Path(where)} if where else {}
-    dist = getattr(ep, "dist", None)
-    dist_name = str(getattr(dist, "name", ""))
-    for f in (dist.files if dist is not None else None) or []:
-        parts = Path(str(f)).parts
-        if "__pycache__" in parts or f.name.endswith(".pyc"):
-            continue
-        if len(parts) > 1 and parts[0].endswith(".dist-info") and f.name in _INSTALL_RECORDS:
-            continue
-        out[f"dist {dist_name}:{Path(str(f)).as_posix()}"] = Path(str(f.locate()))
-    top = ep.module.split(".")[0]
-    try:
-        found = importlib.util.find_spec(top)
-    except (ImportError, ValueError):
-        found = None
-    if found is not None:
-        roots = list(found.submodule_search_locations or [])
-        if roots:
-            for root in map(Path, roots):
-                for p in sorted(root.rglob("*")):
-                    if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc":
-                        out[f"package {top}:{p.relative_to(root).as_posix()}"] = p
-        elif found.origin and Path(found.origin).is_file():
-            out[f"module {top}"] = Path(found.origin)
-    return out
+def entry_point(name: str) -> EntryPoint | None:
+    """The entry point plugin ``name`` was loaded from (None: not a loaded plugin)."""
+    return _ENTRY.get(name)
 
 
 def _plugin_spec(ep: EntryPoint, obj: object) -> BackendSpec:
-    """The :class:`BackendSpec` an entry point advertises (renamed to nothing: the names
-    must agree)."""
-    if not isinstance(obj, BackendSpec):
+    """The :class:`BackendSpec` of the backend class an entry point names (renamed to
+    nothing: the names must agree)."""
+    if not (isinstance(obj, type) and issubclass(obj, Backend)):
+        what = type(obj).__name__ if not isinstance(obj, type) else f"class {obj.__name__}"
         raise PluginError(
-            f"{ep.value} is a {type(obj).__name__}, not a BackendSpec: a plugin's entry point "
-            'names its backend\'s spec (docs/backends.md, "Writing a backend")'
+            f"{ep.value} is a {what}, not a beo_bench.backend.Backend subclass: a plugin's "
+            'entry point names its backend class (docs/backends.md, "Writing a backend")'
         )
     if obj.name != ep.name:
         raise PluginError(
-            f"{ep.value} is the spec of backend {obj.name!r}, but its entry point is named "
+            f"{ep.value} is the class of backend {obj.name!r}, but its entry point is named "
             f"{ep.name!r}: give both the same name"
         )
-    return replace(obj, origin=_plugin_origin(ep))
+    return BackendSpec.of(obj, _plugin_origin(ep))
 
 
 def _skip_plugin(ep: EntryPoint, e: Exception) -> None:
@@ -433,23 +467,19 @@ def buildable_in_fresh_process(name: str, imports: tuple[str, ...] = ()) -> bool
     spec = _REGISTRY.get(name)
     if spec is None:
         return True
-    if "<locals>" in getattr(spec.build, "__qualname__", ""):
+    if "<locals>" in spec.cls.__qualname__:
         return False
-    return spec.origin.startswith("plugin") or spec.module in (*_IN_TREE, *imports)
+    return spec.origin != "in-process" or spec.module in imports
 
 
 def list_backends(diagnostic: bool = True) -> list[str]:
     """Names of the registered backends, sorted; without the diagnostic tools that wrap
-    another backend (``Capabilities.diagnostic``, e.g. ``swap``) when ``diagnostic`` is
-    False. The in-tree backends come from :data:`IN_TREE` without importing their modules
-    (plugins are in the registry once :func:`load_plugins` ran)."""
-    names = {n for n, b in IN_TREE.items() if diagnostic or not b.diagnostic}
-    names |= {
-        name
-        for name, spec in _REGISTRY.items()
-        if name not in IN_TREE and (diagnostic or not _static_caps(spec).diagnostic)
-    }
-    return sorted(names)
+    another backend (role ``diagnostic``, e.g. ``swap``) when ``diagnostic`` is False. The
+    in-tree backends come from :data:`IN_TREE` without importing their modules (plugins
+    are in the registry once :func:`load_plugins` ran)."""
+    roles = {n: b.role for n, b in IN_TREE.items()}
+    roles |= {n: s.role for n, s in _REGISTRY.items() if n not in IN_TREE}
+    return sorted(n for n, role in roles.items() if diagnostic or role != "diagnostic")
 
 
 def _static_caps(spec: BackendSpec) -> Capabilities:
@@ -501,8 +531,7 @@ def _unknown_backend(name: str) -> BackendError:
 
 def backend_options(name: str) -> dict[str, Any]:
     """The options of backend ``name`` with their defaults."""
-    spec = get_spec(name)
-    return {f.name: f.default for f in dataclasses.fields(spec.options)}
+    return {f.name: f.default for f in dataclasses.fields(get_spec(name).options)}
 
 
 class PrivilegeError(UsageError):
@@ -615,8 +644,6 @@ def check_backend(
 
 
 def _without_truth(view: View) -> View:
-    from dataclasses import replace
-
     return replace(view, ground_truth=None)
 
 

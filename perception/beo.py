@@ -66,7 +66,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import torch
 
-from beo_bench.backend import Backend, BackendSpec, Capabilities, ClassHint, register
+from beo_bench.backend import Backend, Capabilities, ClassHint, PrepareContext
 from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
 from beo_bench.names import check_name
 from beo_bench.options import option
@@ -82,7 +82,6 @@ from beo_bench.perception.digest import state_digest
 from beo_bench.types import Estimate, PosePrior, RestPrior, View
 
 if TYPE_CHECKING:
-    from beo_bench.bench.runs import RunContext
     from beo_bench.objects.datasets import Dataset
 
 PRIOR_MARGIN_DEG = 5.0
@@ -195,34 +194,19 @@ class BEOBackend(Backend):
     ``class-given`` track) to fix the class."""
 
     name = "beo"
+    Options = BEOOptions
+    capabilities = Capabilities(class_hint=ClassHint.OPTIONAL, model="beo")
+    options: BEOOptions
 
     def __init__(self, options: BEOOptions | None = None, **kwargs: Any) -> None:
-        self.options = options if options is not None else BEOOptions(**kwargs)
-        o = self.options
-        self.model_name = o.model
-        self.resolution = o.resolution
-        self.pose_prior = o.pose_prior
-        self.twins = o.twins
-        self.lasso = o.lasso
-        self.coarse_factor = o.coarse_factor
-        self.yaw_step_deg = o.yaw_step_deg
-        self.fine_deg = o.fine_deg
-        self.so3_samples = o.so3_samples
-        self.refine_rounds = o.refine_rounds
-        self.top_k = o.top_k
-        self.size_rounds = o.size_rounds
-        self.coarse_box_rounds = o.coarse_box_rounds
-        self.fine = o.fine
-        self.coarse_components = o.coarse_components
-        self.instances = o.instances
-        self.chunk = o.chunk
+        super().__init__(options, **kwargs)
         self._dataset: Dataset | None = None
         self._models: dict[tuple[str, ...], tuple[BEOModel, Subspace, Subspace]] = {}
         self._digest: str | None = None
         self._digests: dict[tuple[int, bool], str] = {}
 
     # -- model ----------------------------------------------------------------------------
-    def prepare(self, ctx: RunContext) -> None:
+    def prepare(self, ctx: PrepareContext) -> None:
         """Load the model for the run's classes and dataset (the published default, or one
         ``beo-bench train beo`` made; a default model of the library's for other settings
         trains on first use, with progress bars where ``ctx.progress``)."""
@@ -233,7 +217,7 @@ class BEOBackend(Backend):
         m = self._model(cats, progress=ctx.progress)[0]
         # on a table the rest prior is part of the model the run uses (a refit moves its
         # scores): the digest covers both
-        rest = self.pose_prior and ctx.suite.protocol.world_frame == "robot"
+        rest = self.options.pose_prior and ctx.suite.protocol.world_frame == "robot"
         key = (id(m), rest)
         if key not in self._digests:  # the weights as loaded (published or cached)
             state: dict[str, Any] = {"model": m.arrays()} if rest else m.arrays()
@@ -255,27 +239,29 @@ class BEOBackend(Backend):
         if cats not in self._models:
             self._refuse_training(cats)
             m = load_model(
-                self.model_name,
+                self.options.model,
                 cats,
-                self.resolution,
+                self.options.resolution,
                 progress,
                 # the published default, or one trained with `beo-bench train`: not here
                 train_default=not self._training_options(),
-                per_category=self.instances,
+                per_category=self.options.instances,
                 dataset=self._dataset,
             )
             self._models[cats] = (
                 m,
                 Subspace.from_model(m),
-                Subspace.from_model(m, self.coarse_factor, self.coarse_components),
+                Subspace.from_model(m, self.options.coarse_factor, self.options.coarse_components),
             )
         return self._models[cats]
 
     def _training_options(self) -> dict[str, int]:
         """The options that select a default model other than the published one (32^3, every
         training instance): ``resolution`` and ``instances``, where given."""
-        given = {"resolution": self.resolution} if self.resolution != 32 else {}
-        return given | ({"instances": self.instances} if self.instances is not None else {})
+        given = {"resolution": self.options.resolution} if self.options.resolution != 32 else {}
+        return given | (
+            {"instances": self.options.instances} if self.options.instances is not None else {}
+        )
 
     def _refuse_training(self, cats: tuple[str, ...]) -> None:
         """With :meth:`_training_options` and no default model trained for them (on the
@@ -287,21 +273,23 @@ class BEOBackend(Backend):
         from beo_bench.perception.beo_model import model_dir
 
         given: dict[str, object] = dict(self._training_options())
-        if not given or self.model_name is not None or self._dataset is not None:
+        if not given or self.options.model is not None or self._dataset is not None:
             return
-        if (model_dir(None, cats, self.resolution, self.instances) / "config.json").exists():
+        if (
+            model_dir(None, cats, self.options.resolution, self.options.instances) / "config.json"
+        ).exists():
             return
         how = train_command(
             "beo",
             () if cats == pickable_categories() else cats,
             resolution=given.get("resolution"),
-            per_category=self.instances,
+            per_category=self.options.instances,
         )
         raise TrainingInRunError.of(self.name, given, how)
 
     # -- batched evaluation ---------------------------------------------------------------
     def _chunks(self, n: int) -> list[slice]:
-        return [slice(s, min(s + self.chunk, n)) for s in range(0, n, self.chunk)]
+        return [slice(s, min(s + self.options.chunk, n)) for s in range(0, n, self.options.chunk)]
 
     def coarse_errors(self, obs: Observation, sub: Subspace, hyp: Hypotheses) -> torch.Tensor:
         """(B,) eq. 3.21 errors (voxels of the coarse grid) of the hypotheses."""
@@ -310,7 +298,7 @@ class BEOBackend(Backend):
         for s in self._chunks(len(hyp)):
             h = hyp.take(torch.arange(len(hyp))[s])
             filled, empty = voxelise(obs, h.R, h.t, h.e, D)
-            recon = sub.decode(project(sub, filled, empty, self.lasso)) > 0.5
+            recon = sub.decode(project(sub, filled, empty, self.options.lasso)) > 0.5
             shape = (-1, D, D, D)
             diff = distance_transform(filled.reshape(shape)) - distance_transform(
                 recon.reshape(shape)
@@ -328,7 +316,7 @@ class BEOBackend(Backend):
         for s in self._chunks(len(hyp)):
             h = hyp.take(torch.arange(len(hyp))[s])
             filled, empty = voxelise(obs, h.R, h.t, h.e, sub.D)
-            x = project(sub, filled, empty, self.lasso)
+            x = project(sub, filled, empty, self.options.lasso)
             codes.append(x)
             grids.append(sub.decode(x))
         return Completion(torch.cat(codes), torch.cat(grids))
@@ -354,7 +342,7 @@ class BEOBackend(Backend):
     ) -> torch.Tensor:
         """(B,) the fine step's score of each hypothesis (higher is better): the joint
         pose-class log density plus log P(R) under ``prior`` (eq. 3.22; None: uniform)."""
-        if self.fine == "edt":
+        if self.options.fine == "edt":
             return -self.coarse_errors(obs, sub, hyp)
         return self.class_scores(obs, model, sub, hyp, classes, prior).amax(dim=1)
 
@@ -438,7 +426,7 @@ class BEOBackend(Backend):
                     break
             if ok:
                 chosen.append(i)
-            if len(chosen) == self.top_k:
+            if len(chosen) == self.options.top_k:
                 break
         if not chosen:
             chosen = [int(order[0])]
@@ -457,32 +445,34 @@ class BEOBackend(Backend):
         model, full, coarse = self._model(cats)
         t0, e0 = self.start_box(obs)
         if up is not None:
-            n = max(1, round(360.0 / self.yaw_step_deg))
+            n = max(1, round(360.0 / self.options.yaw_step_deg))
             R0 = yaw_starts(up, n)
             spacing = 2 * math.pi / n
             prior = None  # constant over the yaw about a known up
         elif prior is not None:
             # the candidates of the prior's reference frame (cached), turned into the view's
             # (the rig's prior is in the camera's already; a rest prior's up is the world's)
-            R0, spacing = prior_rotations(prior.canonical(), self.so3_samples, self.yaw_step_deg)
+            R0, spacing = prior_rotations(
+                prior.canonical(), self.options.so3_samples, self.options.yaw_step_deg
+            )
             R0 = prior.frame() @ R0  # a new array: the cached set stays read-only
         else:
-            R0 = super_fibonacci(self.so3_samples)
-            spacing = so3_spacing(self.so3_samples)
+            R0 = super_fibonacci(self.options.so3_samples)
+            spacing = so3_spacing(self.options.so3_samples)
         hyp = Hypotheses.of(R0, t0, e0)
-        hyp = self.fit_box(obs, coarse, hyp, self.coarse_box_rounds)
+        hyp = self.fit_box(obs, coarse, hyp, self.options.coarse_box_rounds)
         errors = self.coarse_errors(obs, coarse, hyp)
         keep = self._top(errors, hyp.R, 1.5 * spacing)
-        seeds = self.fit_box(obs, full, hyp.take(keep), self.size_rounds)
+        seeds = self.fit_box(obs, full, hyp.take(keep), self.options.size_rounds)
         score = self.fine_scores(obs, model, full, seeds, classes, prior)
         n_fine = len(seeds)
-        if self.twins and len(classes) == 1:
+        if self.options.twins and len(classes) == 1:
             seeds, score = self._better_twins(obs, model, full, seeds, score, classes, prior)
             n_fine += len(seeds)
         if up is not None:
             # yaw steps of 3^j * fine_deg within half a coarse step, then fine_deg: a
             # ternary hill climb that reaches fine_deg resolution in a few rounds
-            steps = [self.fine_deg]
+            steps = [self.options.fine_deg]
             while steps[-1] * 3 <= 0.5 * math.degrees(spacing):
                 steps.append(steps[-1] * 3)
             axis = torch.tensor([0.0, 0.0, 1.0])
@@ -493,7 +483,7 @@ class BEOBackend(Backend):
             axes = torch.cat([torch.eye(3), -torch.eye(3)])
             step = 0.5 * spacing
             moves = []
-            for _ in range(max(1, self.refine_rounds)):
+            for _ in range(max(1, self.options.refine_rounds)):
                 moves.append(axes * step)
                 step /= 2
             local = False
@@ -549,8 +539,8 @@ class BEOBackend(Backend):
         and sofas), while given the class they made them better (44 -> 33, 23 -> 21)."""
         flip = torch.diag(torch.tensor([-1.0, -1.0, 1.0]))
         turned = Hypotheses(seeds.R @ flip, seeds.t, seeds.e)
-        twins = self.fit_box(obs, sub, turned, self.size_rounds)
-        if self.fine == "edt":
+        twins = self.fit_box(obs, sub, turned, self.options.size_rounds)
+        if self.options.fine == "edt":
             twin_score = self.fine_scores(obs, model, sub, twins, classes, prior)
             better = twin_score > score
         else:
@@ -601,7 +591,7 @@ class BEOBackend(Backend):
             protocol = "known-pose"
         else:
             up = view.unit_up()
-            prior = self.prior_of(view) if self.pose_prior else None
+            prior = self.prior_of(view) if self.options.pose_prior else None
             best, info = self.search(obs, cats, classes, up, prior)
             best = self.fit_box(obs, full, best, 1)
             comp = self.complete(obs, full, best)
@@ -715,13 +705,3 @@ def _recentre(grid: torch.Tensor, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         grid[None, None].float(), g, mode="bilinear", padding_mode="zeros", align_corners=False
     )
     return out[0, 0].numpy()
-
-
-register(
-    BackendSpec(
-        name="beo",
-        build=BEOBackend,
-        options=BEOOptions,
-        capabilities=Capabilities(class_hint=ClassHint.OPTIONAL, model="beo"),
-    )
-)

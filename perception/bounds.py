@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from beo_bench.backend import Backend, BackendSpec, Capabilities, register
+from beo_bench.backend import Backend, Capabilities, PrepareContext
 from beo_bench.errors import ViewError
 from beo_bench.objects import instance_from_key
 from beo_bench.options import option
@@ -19,7 +19,6 @@ from beo_bench.perception.means import ClassMeans, class_means
 from beo_bench.types import Estimate, View
 
 if TYPE_CHECKING:
-    from beo_bench.bench.runs import RunContext
     from beo_bench.objects.datasets import Dataset
 
 
@@ -78,14 +77,15 @@ class OracleBackend(Backend):
     backend (the ceiling of a D^3 shape)."""
 
     name = "oracle"
+    Options = OracleOptions
+    capabilities = Capabilities(privileged=True)
+    options: OracleOptions
 
     def __init__(self, options: OracleOptions | None = None, **kwargs: Any) -> None:
-        self.options = options if options is not None else OracleOptions(**kwargs)
-        self.resolution = self.options.resolution
-        self.mesh = self.options.mesh
-        self._means = MeansCache(self.resolution, self.options.mean_instances)
+        super().__init__(options, **kwargs)
+        self._means = MeansCache(self.options.resolution, self.options.mean_instances)
 
-    def prepare(self, ctx: RunContext) -> None:
+    def prepare(self, ctx: PrepareContext) -> None:
         """Remember the run's dataset, where the views' instance keys are looked up (and
         with ``shape=class-mean`` compute its classes' means once)."""
         self._means.use(ctx.dataset)
@@ -106,8 +106,8 @@ class OracleBackend(Backend):
             mesh = None
         else:
             inst = instance_from_key(gt.key, self._means.dataset)
-            shape = inst.voxels(self.resolution).astype(np.float32)
-            mesh = inst.mesh if self.mesh else None
+            shape = inst.voxels(o.resolution).astype(np.float32)
+            mesh = inst.mesh if o.mesh else None
         if o.damaged:
             R, t = damage(R, t, view, o)
         return Estimate(p, R, t, size, shape, mesh=mesh)
@@ -181,15 +181,14 @@ class RandomBackend(Backend):
     ``seed``)."""
 
     name = "random"
+    Options = RandomOptions
+    options: RandomOptions
 
     def __init__(self, options: RandomOptions | None = None, **kwargs: Any) -> None:
-        self.options = options if options is not None else RandomOptions(**kwargs)
-        self.seed = self.options.seed
-        self.resolution = self.options.resolution
-        self.mean_instances = self.options.mean_instances
-        self._means = MeansCache(self.resolution, self.mean_instances)
+        super().__init__(options, **kwargs)
+        self._means = MeansCache(self.options.resolution, self.options.mean_instances)
 
-    def prepare(self, ctx: RunContext) -> None:
+    def prepare(self, ctx: PrepareContext) -> None:
         """Compute (or load) the class means of the run's classes and dataset once (with a
         progress bar where ``ctx.progress``)."""
         self._means.use(ctx.dataset)
@@ -201,7 +200,7 @@ class RandomBackend(Backend):
             raise ViewError("the mask has no pixel with valid depth: nothing to estimate from")
         cats = view.categories
         means = self._means.get(tuple(cats))
-        rng = view_rng(self.seed, view)
+        rng = view_rng(self.options.seed, view)
         c = int(rng.integers(len(cats)))
         R = Rotation.random(random_state=rng).as_matrix()
         # the class it drew gets twice the others' probability: argmax is that uniformly
@@ -210,20 +209,3 @@ class RandomBackend(Backend):
         p = np.full(len(cats), 1.0 / (len(cats) + 1))
         p[c] *= 2.0
         return Estimate(p, R, pts.mean(axis=0), means.size[c].copy(), means.shape[c].copy())
-
-
-register(
-    BackendSpec(
-        name="oracle",
-        build=OracleBackend,
-        options=OracleOptions,
-        capabilities=Capabilities(privileged=True),
-    )
-)
-register(
-    BackendSpec(
-        name="random",
-        build=RandomBackend,
-        options=RandomOptions,
-    )
-)

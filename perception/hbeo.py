@@ -22,11 +22,10 @@ normalised scores (density, or density x prior).
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import zlib
 from dataclasses import dataclass, fields, replace
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import cv2
 import numpy as np
@@ -35,7 +34,7 @@ import torch.nn.functional as F
 from scipy.spatial.transform import Rotation
 from scipy.special import logsumexp
 
-from beo_bench.backend import Backend, BackendSpec, Capabilities, ClassHint, register
+from beo_bench.backend import Backend, Capabilities, ClassHint, PrepareContext
 from beo_bench.errors import UsageError, ViewError
 from beo_bench.geometry import orthonormalise
 from beo_bench.metrics import rotation_error
@@ -50,16 +49,9 @@ from beo_bench.perception.hbeo_train import HBEOModel, load_hbeo
 from beo_bench.types import Estimate, GroundTruth, View
 
 if TYPE_CHECKING:
-    from beo_bench.bench.runs import RunContext
     from beo_bench.objects.datasets import Dataset
 
 Mode = Literal["hbeo", "likelihood", "posterior"]
-NAMES: dict[Mode, str] = {
-    "hbeo": "hbeo",
-    "likelihood": "hbeo-mdn-likelihood",
-    "posterior": "hbeo-mdn-posterior",
-}
-"""The registered backend name of each mode."""
 DEVICES = ("cpu", "cuda", "auto")
 PRIOR_EPS = 1e-6
 """eps of the silhouette prior 1 / (e^4 + eps) (eq. 5.8)."""
@@ -214,60 +206,57 @@ PRIOR_OPTIONS = (
 """The options of chapter 5's ablation, which only ``hbeo-mdn-posterior`` takes."""
 
 
-def hbeo_capabilities(mode: Mode, options: HBEOOptions) -> Capabilities:
-    """What the runner must know of an HBEO backend of ``mode`` with ``options``: with
-    ``per_category`` the class hint chooses the network (no hint, no estimate: the
-    class-given track only), otherwise it never reads the hint; an ablation option that
-    hands it the truth makes it a privileged diagnostic, listed with the bounds."""
-    truth = options.diagnostic_truth()
-    return Capabilities(
-        class_hint=ClassHint.REQUIRED if options.per_category else ClassHint.NONE,
-        model="hbeo" if mode == "hbeo" else "hbeo-mdn",
-        privileged=truth,
-        diagnostic=truth,
-        grasp=options.grasp,
-    )
-
-
 class HBEOBackend(Backend):
-    """HBEO / HBEO-MDN (module docstring; options: :class:`HBEOOptions`). ``threads``: one
-    image at a time is fastest on one thread: on 2 cores, two torch threads spinning beside
-    numpy's BLAS threads made a prediction 2.4x slower (8.0 vs 3.3 ms,
-    ``benchmarks/bench_hbeo.py``)."""
+    """HBEO (module docstring; options: :class:`HBEOOptions`); its subclasses are the
+    HBEO-MDN modes. ``threads``: one image at a time is fastest on one thread: on 2 cores,
+    two torch threads spinning beside numpy's BLAS threads made a prediction 2.4x slower
+    (8.0 vs 3.3 ms, ``benchmarks/bench_hbeo.py``)."""
 
-    def __init__(
-        self, mode: Mode = "hbeo", options: HBEOOptions | None = None, **kwargs: Any
-    ) -> None:
+    name = "hbeo"
+    mode: ClassVar[Mode] = "hbeo"
+    Options = HBEOOptions
+    options: HBEOOptions
+
+    @classmethod
+    def capabilities_for(cls, options: HBEOOptions) -> Capabilities:
+        """With ``per_category`` the class hint chooses the network (no hint, no estimate:
+        the class-given track only), otherwise it never reads the hint; an ablation option
+        that hands it the truth makes it privileged, listed with the bounds."""
+        return Capabilities(
+            class_hint=ClassHint.REQUIRED if options.per_category else ClassHint.NONE,
+            model=cls.kind(),
+            privileged=options.diagnostic_truth(),
+            grasp=options.grasp,
+        )
+
+    @classmethod
+    def kind(cls) -> Literal["hbeo", "hbeo-mdn"]:
+        """The kind of trained model it loads."""
+        return "hbeo" if cls.mode == "hbeo" else "hbeo-mdn"
+
+    def __init__(self, options: HBEOOptions | None = None, **kwargs: Any) -> None:
         from beo_bench.perception.hbeo_train import resolve_device
 
-        self.options = options if options is not None else HBEOOptions(**kwargs)
+        super().__init__(options, **kwargs)
         o = self.options
-        if mode != "posterior" and o.prior_options():
+        if self.mode != "posterior" and o.prior_options():
             raise UsageError(
-                f"{NAMES[mode]} has no silhouette prior: "
+                f"{self.name} has no silhouette prior: "
                 f"{', '.join(sorted(o.prior_options()))} are hbeo-mdn-posterior's options"
             )
-        if mode == "hbeo" and o.grasp != "best":
+        if self.mode == "hbeo" and o.grasp != "best":
             raise UsageError(
                 "hbeo has no pose samples to plan over: grasp=robust is an hbeo-mdn option"
             )
-        self.mode = mode
         self.device = resolve_device(o.device)
-        self.name = NAMES[mode]
-        self.kind: Literal["hbeo", "hbeo-mdn"] = "hbeo" if mode == "hbeo" else "hbeo-mdn"
-        self.model_name = o.model
-        self.size = o.size
-        self.per_category = o.per_category
-        self.samples = o.samples
-        self.seed = o.seed
+        # the quick recipe's sizes (None: the default model's)
         self.small: dict[str, int | None] = {
             "instances": o.instances,
             "images": o.images,
             "epochs": o.epochs,
         }
-        self.threads = o.threads
-        if self.threads is not None:
-            torch.set_num_threads(max(1, self.threads))
+        if o.threads is not None:
+            torch.set_num_threads(max(1, o.threads))
         self._dataset: Dataset | None = None
         # class list -> (model, decoder A, b, the model's index of each class in the list)
         self._models: dict[
@@ -284,11 +273,9 @@ class HBEOBackend(Backend):
             plain: dict[str, Any] = {
                 f.name: f.default for f in fields(o) if f.name in PRIOR_OPTIONS
             }
-            self._shape_net = HBEOBackend(
-                "hbeo", replace(o, model=companion_model(o.model), **plain)
-            )
+            self._shape_net = HBEOBackend(replace(o, model=companion_model(o.model), **plain))
 
-    def prepare(self, ctx: RunContext) -> None:
+    def prepare(self, ctx: PrepareContext) -> None:
         """Load the model for the run's classes and dataset (the published default, or one
         ``beo-bench train`` made; progress bars where ``ctx.progress``); with
         ``per_category``, each class's network (never trained here)."""
@@ -296,7 +283,7 @@ class HBEOBackend(Backend):
             self._dataset = ctx.dataset
             self._models.clear()
         categories = tuple(ctx.categories)
-        groups = [(c,) for c in categories] if self.per_category else [categories]
+        groups = [(c,) for c in categories] if self.options.per_category else [categories]
         digests = []
         for cats in groups:
             m = self._model(cats, progress=ctx.progress)[0]
@@ -324,14 +311,14 @@ class HBEOBackend(Backend):
         if cats not in self._models:
             self._refuse_training(cats)
             m = load_hbeo(
-                self.model_name,
-                self.kind,
+                self.options.model,
+                self.kind(),
                 cats,
                 progress,
                 # the quick options select a trained model: never one trained here
                 train_default=all(v is None for v in self.small.values()),
-                size=self.size,
-                recipe="per-category" if self.per_category else "default",
+                size=self.options.size,
+                recipe="per-category" if self.options.per_category else "default",
                 dataset=self._dataset,
                 **self.small,
             )
@@ -363,23 +350,25 @@ class HBEOBackend(Backend):
         )
 
         given: dict[str, object] = {k: v for k, v in self.small.items() if v is not None}
-        if not given or self.model_name is not None or self.per_category:
+        if not given or self.options.model is not None or self.options.per_category:
             return  # a named model, or per-category networks: load_hbeo never trains them
         if self._dataset is not None:
             return
         small = self.small
-        base = default_config(self.kind, cats, small["instances"], small["images"], small["epochs"])
-        cfg = with_overrides(base, size=self.size)
+        base = default_config(
+            self.kind(), cats, small["instances"], small["images"], small["epochs"]
+        )
+        cfg = with_overrides(base, size=self.options.size)
         if (model_path(default_name(cfg)) / "weights.pt").exists():
             return
-        big = self.size != "small"
+        big = self.options.size != "small"
         how = train_command(
-            self.kind,
+            self.kind(),
             () if cats == pickable_categories() else cats,
             per_category=given.get("instances"),
             images=given.get("images"),
             epochs=given.get("epochs"),
-            size=self.size if big else None,
+            size=self.options.size if big else None,
             device="cuda" if big else None,
         )
         raise TrainingInRunError.of(self.name, given, how)
@@ -387,7 +376,7 @@ class HBEOBackend(Backend):
     def _classes(self, view: View) -> tuple[str, ...]:
         """The class list of the network that answers ``view``: the view's, or with
         ``per_category`` its hinted class alone."""
-        if not self.per_category:
+        if not self.options.per_category:
             return tuple(view.categories)
         if view.class_hint is None:
             raise UsageError(
@@ -406,7 +395,7 @@ class HBEOBackend(Backend):
             if self.device.type != "cpu":  # the rest is numpy on the CPU
                 out = Output(**{f.name: getattr(out, f.name).cpu() for f in fields(Output)})
             probs = torch.softmax(out.logits.double(), dim=1)[0].numpy()[idx]
-        if self.per_category:  # a one-class network: the class is the hint
+        if self.options.per_category:  # a one-class network: the class is the hint
             probs = np.eye(len(view.categories))[int(view.class_hint)]  # type: ignore[arg-type]
         D = model.beo.D
         shape = out.coefficients[0].numpy() @ A + b  # eq. 4.2: W o' + mu
@@ -447,7 +436,7 @@ class HBEOBackend(Backend):
             R, samples = s.R[best], s.R
             weights = np.exp(score - score[best])
             weights /= weights.sum()
-            info["samples"] = self.samples
+            info["samples"] = self.options.samples
             if s.silhouette_error is not None:
                 info["silhouette_error"] = float(s.silhouette_error[best])
         return Estimate(
@@ -468,8 +457,8 @@ class HBEOBackend(Backend):
         if f.mixture is None:
             raise ValueError(f"{self.name}: rotation samples need an hbeo-mdn model")
         mix = f.mixture
-        seed = zlib.crc32(f.crop.image.tobytes()) ^ self.seed
-        w = mix.sample(self.samples, np.random.default_rng(seed))[0]  # (N, 3)
+        seed = zlib.crc32(f.crop.image.tobytes()) ^ self.options.seed
+        w = mix.sample(self.options.samples, np.random.default_rng(seed))[0]  # (N, 3)
         # eq. 5.7's density of each sample, in float64 numpy: N is small, and multi-threaded
         # float32 reductions could break ties differently from call to call
         lw, mu, var = (x[0].double().numpy() for x in (mix.log_weights, mix.means, mix.variances))
@@ -717,14 +706,23 @@ def sdf_errors(
     return e
 
 
-for _mode, _name in NAMES.items():
-    register(
-        BackendSpec(
-            name=_name,
-            build=functools.partial(HBEOBackend, _mode),
-            options=HBEOOptions,
-            capabilities=functools.partial(hbeo_capabilities, _mode),
-            module=__name__,
-        )
-    )
-del _mode, _name
+class MDNLikelihoodBackend(HBEOBackend):
+    """HBEO-MDN keeping the rotation sample of highest mixture density (eq. 5.7)."""
+
+    name = "hbeo-mdn-likelihood"
+    mode = "likelihood"
+
+
+class MDNPosteriorBackend(HBEOBackend):
+    """HBEO-MDN scoring its rotation samples with the silhouette prior (eq. 5.5-5.8)."""
+
+    name = "hbeo-mdn-posterior"
+    mode = "posterior"
+
+
+BY_MODE: dict[Mode, type[HBEOBackend]] = {
+    "hbeo": HBEOBackend,
+    "likelihood": MDNLikelihoodBackend,
+    "posterior": MDNPosteriorBackend,
+}
+"""The backend class of each mode."""

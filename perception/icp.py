@@ -68,7 +68,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from beo_bench.backend import Backend, BackendSpec, Capabilities, ClassHint, register
+from beo_bench.backend import Backend, Capabilities, ClassHint, PrepareContext
 from beo_bench.errors import ViewError
 from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
 from beo_bench.options import option
@@ -76,7 +76,6 @@ from beo_bench.perception.means import ClassMeans, class_means, rest_prior
 from beo_bench.types import Estimate, Mat3, Points, RestPrior, View
 
 if TYPE_CHECKING:
-    from beo_bench.bench.runs import RunContext
     from beo_bench.objects.datasets import Dataset
 
 _EZ = np.array([0.0, 0.0, 1.0])
@@ -444,24 +443,12 @@ class ICPBackend(Backend):
     """
 
     name = "icp"
+    Options = ICPOptions
+    capabilities = Capabilities(class_hint=ClassHint.OPTIONAL)
+    options: ICPOptions
 
     def __init__(self, options: ICPOptions | None = None, **kwargs: Any) -> None:
-        self.options = options if options is not None else ICPOptions(**kwargs)
-        o = self.options
-        self.resolution = o.resolution
-        self.mean_instances = o.mean_instances
-        self.starts = o.starts
-        self.iterations = o.iterations
-        self.trim = o.trim
-        self.point_to_plane = o.point_to_plane
-        self.max_points = o.max_points
-        self.coarse_points = o.coarse_points
-        self.refine_starts = o.refine_starts
-        self.scale_range = o.scale_range
-        self.temperature_mm = o.temperature_mm
-        self.model_points = o.model_points
-        self.free_space = o.free_space
-        self.pose_prior = o.pose_prior
+        super().__init__(options, **kwargs)
         self._digest: str | None = None
         self._dataset: Dataset | None = None
         self._means: dict[tuple[str, ...], ClassMeans] = {}
@@ -471,11 +458,11 @@ class ICPBackend(Backend):
     def _class_means(self, cats: tuple[str, ...], progress: bool = False) -> ClassMeans:
         if cats not in self._means:
             self._means[cats] = class_means(
-                cats, self.resolution, self.mean_instances, progress, self._dataset
+                cats, self.options.resolution, self.options.mean_instances, progress, self._dataset
             )
         return self._means[cats]
 
-    def prepare(self, ctx: RunContext) -> None:
+    def prepare(self, ctx: PrepareContext) -> None:
         """Compute (or load) the class means of the run's classes and dataset once (with a
         progress bar where ``ctx.progress``)."""
         if ctx.dataset != self._dataset:  # another dataset's means and surfaces are not these
@@ -485,7 +472,7 @@ class ICPBackend(Backend):
         self._class_means(tuple(ctx.categories), progress=ctx.progress)
         # on a table the starts come from the published rest prior: its digest is what the
         # run's model is (a refit moves the scores); elsewhere ICP learns nothing but means
-        table = self.pose_prior and ctx.suite.protocol.world_frame == "robot"
+        table = self.options.pose_prior and ctx.suite.protocol.world_frame == "robot"
         self._digest = rest_prior()[1] if table else None
 
     def model_digest(self) -> str | None:
@@ -497,20 +484,22 @@ class ICPBackend(Backend):
         key = (tuple(cats), c)
         if key not in self._surfaces:
             means = self._class_means(tuple(cats))
-            self._surfaces[key] = mean_surface(means.shape[c], means.size[c], self.model_points)
+            self._surfaces[key] = mean_surface(
+                means.shape[c], means.size[c], self.options.model_points
+            )
         return self._surfaces[key]
 
     # -- alignment ----------------------------------------------------------------------
     def _start_rotations(self, up: np.ndarray | None, rest: RestPrior | None) -> np.ndarray:
         if up is not None:
-            return yaw_starts(up, self.starts)
+            return yaw_starts(up, self.options.starts)
         if rest is not None:
-            if self.starts == 1:  # the prior's mode: upright, yaw 0
+            if self.options.starts == 1:  # the prior's mode: upright, yaw 0
                 return yaw_starts(np.asarray(rest.up), 1)
-            return rest.frame() @ _rest_starts(rest.canonical(), self.starts)
-        if self.starts == 1:
+            return rest.frame() @ _rest_starts(rest.canonical(), self.options.starts)
+        if self.options.starts == 1:
             return UPRIGHT[None]
-        return super_fibonacci(self.starts)
+        return super_fibonacci(self.options.starts)
 
     def fit(
         self,
@@ -522,11 +511,11 @@ class ICPBackend(Backend):
         """Align the observed points of ``obs`` to ``surf``; ``up``: the known canonical +z in
         the camera frame (1-DOF), or None (3-DOF); ``rest``: on a table, the rest prior in
         the camera frame the starts are drawn from."""
-        pts = _thin(obs.points, self.max_points)
-        coarse = _thin(pts, self.coarse_points)
+        pts = _thin(obs.points, self.options.max_points)
+        coarse = _thin(pts, self.options.coarse_points)
         R0 = self._start_rotations(up, rest)
         yaw_only = up is not None
-        aligner = _Aligner(surf, self.trim, self.point_to_plane, yaw_only)
+        aligner = _Aligner(surf, self.options.trim, self.options.point_to_plane, yaw_only)
 
         # translation of each start: the camera-facing model surface's centroid onto the
         # observed centroid (the centre lies behind the visible surface)
@@ -539,25 +528,25 @@ class ICPBackend(Backend):
         b = c_vis - np.einsum("sij,j->si", B, centroid)
 
         def cost(B: np.ndarray, b: np.ndarray, res: np.ndarray) -> np.ndarray:
-            if self.free_space <= 0:
+            if self.options.free_space <= 0:
                 return res
             R = B.transpose(0, 2, 1)
             fs = obs.free_space(surf, R, -np.einsum("sij,sj->si", R, b))
-            return res + self.free_space * fs
+            return res + self.options.free_space * fs
 
-        n_coarse = max(1, self.iterations // 2)
+        n_coarse = max(1, self.options.iterations // 2)
         B, b, _, res = aligner.run(coarse, B, b, n_coarse, exact=False)
-        keep = np.argsort(cost(B, b, res), kind="stable")[: max(1, self.refine_starts)]
+        keep = np.argsort(cost(B, b, res), kind="stable")[: max(1, self.options.refine_starts)]
         B, b = B[keep], b[keep]
-        B, b, _, res = aligner.run(pts, B, b, max(1, self.iterations - n_coarse))
+        B, b, _, res = aligner.run(pts, B, b, max(1, self.options.iterations - n_coarse))
         total = cost(B, b, res)
         best = int(np.argmin(total))
         B, b, scale = B[best : best + 1], b[best : best + 1], 1.0
         residual, score = float(res[best]), float(total[best])
-        if self.scale_range is not None and self.point_to_plane:
+        if self.options.scale_range is not None and self.options.point_to_plane:
             # q = B p + b ~ sigma m: the canonical frame stays in metres, so R = B^T and
             # t = -B^T b whatever sigma is
-            B, b, sig, sc = aligner.run(pts, B, b, 8, fit_scale=self.scale_range)
+            B, b, sig, sc = aligner.run(pts, B, b, 8, fit_scale=self.options.scale_range)
             scale, residual = float(sig[0]), float(sc[0])
         R = orthonormalise(B[0].T)
         t = -R @ b[0]
@@ -576,14 +565,16 @@ class ICPBackend(Backend):
         extent is the given one (the grids' unit cube is the largest extent)."""
         surf = self.surface(cats, c)
         scale = float(np.max(size) / np.max(self._class_means(cats).size[c]))
-        pts = _thin(obs.points, self.max_points)
+        pts = _thin(obs.points, self.options.max_points)
         q = (pts - t) @ R / scale  # camera -> canonical, in units of the mean surface
         d, _ = surf.nearest(q)
-        k = min(len(d), max(3, int(np.ceil(self.trim * len(d)))))
+        k = min(len(d), max(3, int(np.ceil(self.options.trim * len(d)))))
         residual = float(np.mean(np.partition(d, k - 1)[:k]) * scale)
         score = residual
-        if self.free_space > 0:
-            score += self.free_space * float(obs.free_space(surf, R[None], t[None], scale)[0])
+        if self.options.free_space > 0:
+            score += self.options.free_space * float(
+                obs.free_space(surf, R[None], t[None], scale)[0]
+            )
         return Fit(R, t, scale, residual, score, size=np.array(size, dtype=np.float64))
 
     def predict(self, view: View) -> Estimate:
@@ -602,7 +593,7 @@ class ICPBackend(Backend):
             fits = [self.fit_known_pose(obs, cats, c, R, t, size) for c in classes]
         else:
             rest = None
-            if up is None and view.world_up is not None and self.pose_prior:
+            if up is None and view.world_up is not None and self.options.pose_prior:
                 rest = rest_prior()[0].in_view(np.asarray(view.world_up, dtype=np.float64))
             fits = [self.fit(obs, self.surface(cats, c), up, rest) for c in classes]
         res_mm = np.array([f.residual * 1e3 for f in fits])
@@ -611,14 +602,14 @@ class ICPBackend(Backend):
         if len(classes) == 1:
             probs[classes[0]] = 1.0
         else:
-            z = -(score_mm - score_mm.min()) / self.temperature_mm
+            z = -(score_mm - score_mm.min()) / self.options.temperature_mm
             probs[classes] = np.exp(z) / np.exp(z).sum()
         k = int(np.argmin(score_mm))
         c, fit = classes[k], fits[k]
         info = {
             "residual_mm": float(res_mm[k]),
             "score_mm": float(score_mm[k]),
-            "starts": self.starts,
+            "starts": self.options.starts,
             "scale": fit.scale,
             "protocol": _protocol(view),
         }
@@ -669,27 +660,7 @@ class PlainICPBackend(ICPBackend):
     docstring); every ``icp`` option can still be given."""
 
     name = "icp-plain"
-
-    def __init__(self, options: ICPOptions | None = None, **kwargs: Any) -> None:
-        super().__init__(options if options is not None else PlainICPOptions(**kwargs))
-
-
-register(
-    BackendSpec(
-        name="icp",
-        build=ICPBackend,
-        options=ICPOptions,
-        capabilities=Capabilities(class_hint=ClassHint.OPTIONAL),
-    )
-)
-register(
-    BackendSpec(
-        name="icp-plain",
-        build=PlainICPBackend,
-        options=PlainICPOptions,
-        capabilities=Capabilities(class_hint=ClassHint.OPTIONAL),
-    )
-)
+    Options = PlainICPOptions
 
 
 def _protocol(view: View) -> str:

@@ -23,14 +23,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from beo_bench.backend import Backend, BackendSpec, Capabilities, get_spec, register
+from beo_bench.backend import Backend, Capabilities, PrepareContext, get_spec
 from beo_bench.errors import UsageError, ViewError
 from beo_bench.objects import instance_from_key
 from beo_bench.options import option, parse_options
 from beo_bench.types import Estimate, View
 
 if TYPE_CHECKING:
-    from beo_bench.bench.runs import RunContext
     from beo_bench.objects.datasets import Dataset
 
 PARTS = ("class", "pose", "shape")
@@ -87,27 +86,31 @@ def _base_options(options: SwapOptions) -> Any:
     return get_spec(options.base).parse({})
 
 
-def swap_capabilities(options: SwapOptions) -> Capabilities:
-    """The base backend's capabilities (class hint, model), handed the truth and marked a
-    diagnostic tool; read from the base's spec, building nothing."""
-    base = get_spec(options.base).capabilities_of(_base_options(options))
-    return replace(base, privileged=True, diagnostic=True)
-
-
 class SwapBackend(Backend):
     """A base backend's estimate with some components replaced by the truth (module
     docstring; options: :class:`SwapOptions`)."""
 
     name = "swap"
+    Options = SwapOptions
+    options: SwapOptions
+
+    @classmethod
+    def parse(cls, raw: Mapping[str, Any]) -> SwapOptions:
+        return parse_swap(raw)
+
+    @classmethod
+    def capabilities_for(cls, options: SwapOptions) -> Capabilities:
+        """The base backend's capabilities (class hint, model), handed the truth; read from
+        the base's spec, building nothing."""
+        base = get_spec(options.base).capabilities_of(_base_options(options))
+        return replace(base, privileged=True)
 
     def __init__(self, options: SwapOptions | None = None, **kwargs: Any) -> None:
-        self.options = options if options is not None else parse_swap(kwargs)
-        self.truth = self.options.parts()
-        self.base_name = self.options.base
-        self.base = get_spec(self.base_name).make(_base_options(self.options))
+        super().__init__(options, **kwargs)
+        self.base = get_spec(self.options.base).make(_base_options(self.options))
         self._dataset: Dataset | None = None
 
-    def prepare(self, ctx: RunContext) -> None:
+    def prepare(self, ctx: PrepareContext) -> None:
         """Prepare the base backend for the run (its ``prepare(ctx)``), and remember the
         dataset the true shapes come from."""
         self._dataset = ctx.dataset
@@ -122,11 +125,11 @@ class SwapBackend(Backend):
         if gt is None:
             raise ViewError("swap needs View.ground_truth (the runner fills it for it)")
         est = self.base.predict(replace(view, ground_truth=None))
-        if "class" in self.truth:
+        if "class" in self.options.parts():
             p = np.zeros(len(view.categories))
             p[gt.class_index] = 1.0
             est = replace(est, class_probs=p)
-        if "pose" in self.truth:
+        if "pose" in self.options.parts():
             est = replace(
                 est,
                 rotation=np.array(gt.R_cam),
@@ -136,19 +139,8 @@ class SwapBackend(Backend):
                 pose_weights=None,
                 mesh=None,
             )
-        if "shape" in self.truth:
+        if "shape" in self.options.parts():
             D = int(np.asarray(est.shape).shape[0])
             grid = instance_from_key(gt.key, self._dataset).voxels(D).astype(np.float32)
             est = replace(est, shape=grid, mesh=None)
         return est
-
-
-register(
-    BackendSpec(
-        name="swap",
-        build=SwapBackend,
-        options=SwapOptions,
-        capabilities=swap_capabilities,
-        parser=parse_swap,
-    )
-)

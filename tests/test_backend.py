@@ -15,7 +15,6 @@ from beo_bench.errors import BackendError, EstimateError, ViewError
 from beo_bench.objects import instance_from_key
 from beo_bench.types import Estimate, View
 from tests.plugins import install_plugin
-from tests.specs import register_class
 
 # keep the class means small in tests (the default uses the whole train split); beo and
 # hbeo load the published models (nothing trains in the tests, nor in a run)
@@ -39,12 +38,44 @@ def test_in_tree_backends_are_listed() -> None:
     assert "swap" in B.list_backends() and "swap" not in B.list_backends(diagnostic=False)
 
 
-def test_the_in_tree_catalogue_is_what_the_modules_register() -> None:
-    # listings read the catalogue without importing torch; the modules must register
-    # exactly its entries (registering one from another module raises)
+def test_the_in_tree_catalogue_names_each_class_under_its_own_name() -> None:
+    # listings and reports read the catalogue without importing torch; each line's class
+    # carries the same name, and the spec its line's role and description
     B._ensure_in_tree()
-    registered = {name for name, spec in B._REGISTRY.items() if spec.module in B._IN_TREE}
-    assert registered == set(B.IN_TREE)
+    for name, line in B.IN_TREE.items():
+        spec = B.get_spec(name)
+        assert (spec.cls.name, spec.role, spec.origin) == (name, line.role, "in-tree")
+        assert B.describe_backend(name) == line.description
+    assert B.in_tree("baseline") == ("icp-plain", "icp")
+    assert B.in_tree("upper bound", "lower bound") == ("oracle", "random")
+
+
+def test_a_catalogue_line_naming_a_class_of_another_name_is_refused(monkeypatch) -> None:
+    monkeypatch.setattr(B, "_loaded_in_tree", False)
+    monkeypatch.setitem(B.IN_TREE, "icp", B.IN_TREE["icp-plain"])
+    monkeypatch.setattr(B, "_REGISTRY", {})
+    with pytest.raises(BackendError, match="whose name is 'icp-plain'"):
+        B._ensure_in_tree()
+
+
+def test_a_plugins_role_is_its_classes_and_diagnostics_are_not_every_backend() -> None:
+    class Tool(B.Backend):
+        name = "test-tool"
+        role = "diagnostic"
+
+        def predict(self, view):
+            raise NotImplementedError
+
+    B.register(Tool)
+    try:
+        assert B.get_spec("test-tool").role == "diagnostic"
+        assert "test-tool" in B.list_backends()
+        assert "test-tool" not in B.list_backends(diagnostic=False)
+    finally:
+        B.unregister_backend("test-tool")
+    Tool.role = "judge"  # type: ignore[assignment]
+    with pytest.raises(BackendError, match="role 'judge'"):
+        B.register(Tool)
 
 
 @pytest.mark.parametrize("name", B.list_backends())
@@ -59,7 +90,7 @@ def test_unknown_backend_names_the_registered_ones() -> None:
 
 def test_duplicate_names_raise() -> None:
     with pytest.raises(BackendError, match="already registered"):
-        B.register(B.BackendSpec("oracle", build=lambda options: B.get_backend("random")))
+        B.register(type("Fake", (B.get_spec("random").cls,), {"name": "oracle"}))
 
 
 def test_oracle_returns_the_truth(views) -> None:
@@ -130,7 +161,8 @@ def test_a_nondeterministic_backend_fails_the_check(views) -> None:
     class Flaky(B.Backend):
         name = "flaky"
 
-        def __init__(self) -> None:
+        def __init__(self, options=None) -> None:
+            super().__init__(options)
             self.rng = np.random.default_rng()
 
         def predict(self, view: View) -> Estimate:
@@ -157,7 +189,7 @@ def test_entry_point_plugin_is_listed_and_runs(tmp_path, views, monkeypatch) -> 
         textwrap.dedent(
             """
             import numpy as np
-            from beo_bench.backend import Backend, BackendSpec
+            from beo_bench.backend import Backend
             from beo_bench.types import Estimate
 
             class CentroidBackend(Backend):
@@ -167,15 +199,13 @@ def test_entry_point_plugin_is_listed_and_runs(tmp_path, views, monkeypatch) -> 
                     C = len(view.categories)
                     return Estimate(np.full(C, 1 / C), np.eye(3), view.points().mean(axis=0),
                                     np.full(3, 0.1), np.full((16, 16, 16), 0.5, np.float32))
-
-            SPEC = BackendSpec("centroid-demo", build=lambda options: CentroidBackend())
             """
         )
     )
     install_plugin(
         tmp_path,
         "beo-plugin-demo",
-        {"centroid-demo": "beo_plugin_demo:SPEC"},
+        {"centroid-demo": "beo_plugin_demo:CentroidBackend"},
         monkeypatch,
     )
     try:
@@ -206,7 +236,7 @@ def test_swap_replaces_exactly_the_named_parts_and_hides_the_truth(views) -> Non
             seen.append(view.ground_truth)
             return B.get_backend("random", mean_instances=4).predict(view)
 
-    register_class(Spy)
+    B.register(Spy)
     try:
         base = B.get_backend("spy").predict(views[0])
         seen.clear()  # from here on only swap calls the spy

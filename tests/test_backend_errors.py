@@ -43,7 +43,7 @@ def test_bad_backend_options_are_usage_errors(name, options, match) -> None:
 
 def test_good_option_spellings_are_accepted() -> None:
     b = B.get_backend("icp", starts=8.0, trim=1, point_to_plane="no")
-    assert b.starts == 8 and b.point_to_plane is False
+    assert b.options.starts == 8 and b.options.point_to_plane is False
     assert B.backend_options("oracle") == {
         "resolution": 32, "mesh": True, "rot_deg": 0.0, "rot_axis": "random", "trans_cm": 0.0,
         "shape": "true", "seed": 0, "mean_instances": None,
@@ -69,7 +69,7 @@ def test_as_bool_spellings(value, expected) -> None:
 # -- plugins ------------------------------------------------------------------------------
 GOOD = """
 import numpy as np
-from beo_bench.backend import Backend, BackendSpec
+from beo_bench.backend import Backend
 from beo_bench.types import Estimate
 
 class Good(Backend):
@@ -80,26 +80,28 @@ class Good(Backend):
         return Estimate(np.full(C, 1 / C), np.eye(3), np.zeros(3), np.full(3, 0.1),
                         np.full((8, 8, 8), 0.5, np.float32))
 
-GOOD = BackendSpec("good-demo", build=lambda options: Good())
-RANDOM = BackendSpec("random", build=lambda options: Good())
+class Random(Good):
+    name = "random"
+
+INSTANCE = Good()
 
 NOT_A_BACKEND = 42
 """
 
 ENTRY_POINTS = {
     "broken-demo": "beo_plugin_broken_mod:Backend",
-    "good-demo": "beo_plugin_good_mod:GOOD",
+    "good-demo": "beo_plugin_good_mod:Good",
     "number-demo": "beo_plugin_good_mod:NOT_A_BACKEND",
-    "class-demo": "beo_plugin_good_mod:Good",
-    "random": "beo_plugin_good_mod:RANDOM",
+    "instance-demo": "beo_plugin_good_mod:INSTANCE",
+    "random": "beo_plugin_good_mod:Random",
 }
 
 
 @pytest.fixture
 def plugins(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """One installed distribution advertising a good backend and four bad ones: a module
-    that fails to import, an object that is not a backend, a backend class instead of its
-    spec, and a name that an in-tree backend already has."""
+    that fails to import, an object that is not a backend, a backend instance instead of
+    its class, and a name that an in-tree backend already has."""
     (tmp_path / "beo_plugin_good_mod.py").write_text(textwrap.dedent(GOOD))
     (tmp_path / "beo_plugin_broken_mod.py").write_text("import no_such_dependency_xyz\n")
     install_plugin(tmp_path, "beo-plugin-mixed", ENTRY_POINTS, monkeypatch)
@@ -123,7 +125,7 @@ def test_broken_plugins_are_named_skipped_and_the_others_load(plugins) -> None:
     text = "\n".join(messages)
     assert "broken-demo = beo_plugin_broken_mod:Backend" in text
     assert "No module named 'no_such_dependency_xyz'" in text
-    assert text.count("not a BackendSpec") == 2  # the number and the class
+    assert text.count("not a beo_bench.backend.Backend subclass") == 2  # number, instance
     assert "already registered" in text
     B.get_backend("good-demo")
 
@@ -137,7 +139,7 @@ def test_a_broken_plugin_warns_once_and_its_name_says_why(plugins) -> None:
     with pytest.raises(PluginError, match=r"beo-plugin-mixed.*no_such_dependency_xyz") as e:
         B.get_backend("broken-demo")
     assert isinstance(e.value, BackendError) and e.value.exit_code == 1
-    with pytest.raises(PluginError, match="not a BackendSpec"):
+    with pytest.raises(PluginError, match=r"not a beo_bench\.backend\.Backend subclass"):
         B.get_backend("number-demo")
 
 

@@ -61,12 +61,13 @@ def plugin(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
     site = tmp_path / "site"
     site.mkdir()
     (site / "beo_help_plugin_mod.py").write_text(
-        "from beo_bench.backend import BackendSpec\n"
-        "SPEC = BackendSpec('help-plugin', build=lambda options: None,\n"
-        "                   description='a third-party backend, listed from its entry point')\n"
+        "from beo_bench.backend import Backend\n"
+        "class Help(Backend):\n"
+        "    name = 'help-plugin'\n"
+        "    description = 'a third-party backend, listed from its entry point'\n"
     )
     install_plugin(
-        site, "beo-help-plugin", {"help-plugin": "beo_help_plugin_mod:SPEC"}, monkeypatch
+        site, "beo-help-plugin", {"help-plugin": "beo_help_plugin_mod:Help"}, monkeypatch
     )
     yield
     B.unregister_backend("help-plugin")
@@ -81,7 +82,11 @@ def test_help_lists_a_plugin_backend_with_its_description(capsys, plugin) -> Non
 def test_a_backend_is_described_by_its_spec_until_unregistered() -> None:
     from beo_bench import backend as B
 
-    B.register(B.BackendSpec("help-doc-only", lambda options: None, description="Guesses"))
+    class DocOnly(B.Backend):
+        name = "help-doc-only"
+        description = "Guesses"
+
+    B.register(DocOnly)
     try:
         assert describe_backend("help-doc-only") == "Guesses"
     finally:

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from beo_bench.backend import in_tree
 from beo_bench.bench.columns import markdown_table, spec, verdict_cell
 from beo_bench.bench.leaderboard import (
     BOUNDS,
@@ -174,7 +175,7 @@ def _table(head: list[str], rows: list[list[str]]) -> str:
     return markdown_table(head, rows, "l") + "\n"
 
 
-METHODS = ("beo", "hbeo", "hbeo-mdn-likelihood", "hbeo-mdn-posterior", "icp", "icp-plain")
+METHODS = (*in_tree("method"), *sorted(in_tree("baseline")))
 
 
 # -- the tables ------------------------------------------------------------------------------

@@ -56,6 +56,7 @@ from typing import Any
 import numpy as np
 
 from beo_bench.atomic import atomic_write_bytes
+from beo_bench.backend import IN_TREE, in_tree
 from beo_bench.bench import ablations, compare, rundir
 from beo_bench.bench.columns import (
     BOARD_PER_CATEGORY,
@@ -76,7 +77,7 @@ from beo_bench.bench.runs import RunError, backend_label, options_label
 from beo_bench.bench.scoring import PICK_ERRORS
 from beo_bench.errors import UsageError
 
-BOUNDS = {"oracle": "upper bound", "random": "lower bound"}
+BOUNDS: dict[str, str] = {n: IN_TREE[n].role for n in in_tree("upper bound", "lower bound")}
 PRIVILEGED_MARK = "privileged: given the truth"
 """How a row is marked whose backend was handed the ground truth (``privileged``) and is not
 one of the :data:`BOUNDS`: such rows are listed with the bounds and never ranked or paired."""
@@ -109,10 +110,10 @@ def _bound_mark(s: dict[str, Any]) -> str | None:
     return PRIVILEGED_MARK if s.get("privileged") else None
 
 
-BASELINES: tuple[str, ...] = ("icp-plain", "icp")
+BASELINES: tuple[str, ...] = in_tree("baseline")
 """The baselines every method is paired against (default options only): the
 dissertation's plain ICP and this benchmark's multi-start ICP."""
-DIAGNOSTIC = ("swap",)
+DIAGNOSTIC = in_tree("diagnostic")
 """Backends that are analysis tools, not methods (never paired)."""
 TRACK_ORDER: tuple[str | None, ...] = ("class-given", "class-free", None)
 TRACK_NOTES = {

@@ -570,7 +570,7 @@ def check_same_run(old: dict[str, Any] | None, meta: dict[str, Any], out: Path) 
 
 def code_changed(old: dict[str, Any], digest: str | None, out: Path, force: bool) -> bool:
     """Whether the results in ``out`` were scored by other code or options of the backend
-    than it has now (``code_digest`` in the run record; :func:`beo_bench.backend.code_digest`)
+    than it has now (``code_digest`` in the run record; :func:`beo_bench.codedigest.code_digest`)
     and are to be discarded (``force``); refused otherwise, naming the flag. A record
     without a digest was written before digests were recorded: for a plugin it cannot be
     checked, so it counts as changed."""

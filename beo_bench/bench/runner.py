@@ -318,7 +318,7 @@ def _open_run(
     is work left and record a new run: (the run record, the items done, the items to do,
     what preparing learnt). ``force_rerun``: results scored by other code of the backend
     are discarded rather than refused."""
-    from beo_bench.backend import code_digest
+    from beo_bench.codedigest import code_digest
     from beo_bench.objects import LIBRARY_VERSION
 
     results, record_path = out / RESULTS_NAME, out / RECORD_NAME

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from beo_bench.backend import Backend, BackendSpec, Capabilities, ClassHint, register
+from beo_bench.backend import Backend, Capabilities, ClassHint, register
 from beo_bench.options import option
 from beo_bench.types import Estimate, View
 
@@ -56,16 +56,20 @@ class FaultBackend(Backend):
     """See the module docstring."""
 
     name = NAME
+    Options = FaultOptions
+    capabilities = Capabilities(class_hint=ClassHint.OPTIONAL)
+    role = "diagnostic"  # never among the default backends of `beo-bench all` or `demo`
+    options: FaultOptions
 
-    def __init__(self, options: FaultOptions) -> None:
-        self.mode, self.marker = options.mode, options.marker
-        self.classes = None if options.classes is None else set(options.classes)
+    def __init__(self, options: FaultOptions | None = None) -> None:
+        super().__init__(options)
+        self.classes = None if self.options.classes is None else set(self.options.classes)
 
     def predict(self, view: View) -> Estimate:
         if self.classes is None or view.class_hint in self.classes:
-            if self.marker:
-                Path(self.marker).write_text(f"{os.getpid()}\n")
-            _misbehave(self.mode)
+            if self.options.marker:
+                Path(self.options.marker).write_text(f"{os.getpid()}\n")
+            _misbehave(self.options.mode)
         C = len(view.categories)
         probs = np.full(C, 0.0)
         probs[view.class_hint if view.class_hint is not None else 0] = 1.0
@@ -75,12 +79,4 @@ class FaultBackend(Backend):
         return Estimate(probs, np.eye(3), pts.mean(axis=0), np.full(3, 0.1), shape)
 
 
-register(
-    BackendSpec(
-        NAME,
-        build=FaultBackend,
-        options=FaultOptions,
-        # diagnostic: never among the default backends of `beo-bench all` or `demo`
-        capabilities=Capabilities(class_hint=ClassHint.OPTIONAL, diagnostic=True),
-    )
-)
+register(FaultBackend)

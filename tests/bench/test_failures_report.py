@@ -22,7 +22,7 @@ PLUGIN = '''
 from dataclasses import dataclass
 
 import numpy as np
-from beo_bench.backend import Backend, BackendSpec
+from beo_bench.backend import Backend
 from beo_bench.options import option
 from beo_bench.types import Estimate
 
@@ -32,7 +32,7 @@ class ModelMissingError(Exception):
 
 
 @dataclass(frozen=True)
-class Options:
+class ReportOptions:
     mode: str = option("raise", "raise, mixed or anything else: fine")
 
 
@@ -40,23 +40,19 @@ class Report(Backend):
     """A plugin that misbehaves as its mode says (a test's)."""
 
     name = "test-report"
-
-    def __init__(self, options):
-        self.mode = options.mode
+    Options = ReportOptions
 
     def predict(self, view):
         pixels = int(np.count_nonzero(view.mask))
-        if self.mode == "raise" or (self.mode == "mixed" and pixels % 2):
+        if self.options.mode == "raise" or (self.options.mode == "mixed" and pixels % 2):
             raise ModelMissingError(f"no model file at /models/x.pt ({pixels} px seen)")
         probs = np.full(len(view.categories), 1.0 / len(view.categories))
         shape = np.zeros((16, 16, 16), dtype=np.float32)
-        if self.mode != "mixed":  # mixed: an empty shape, nothing to grasp
+        if self.options.mode != "mixed":  # mixed: an empty shape, nothing to grasp
             shape[3:13, 3:13, 3:13] = 1.0
         pts = view.points()
         return Estimate(probs, np.eye(3), pts.mean(axis=0), np.full(3, 0.2), shape)
 
-
-SPEC = BackendSpec("test-report", build=Report, options=Options)
 '''
 
 
@@ -69,7 +65,7 @@ def plugin(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
     site.mkdir()
     (site / "beo_report_plugin.py").write_text(PLUGIN)
     install_plugin(
-        site, "beo-report-plugin", {"test-report": "beo_report_plugin:SPEC"}, monkeypatch
+        site, "beo-report-plugin", {"test-report": "beo_report_plugin:Report"}, monkeypatch
     )
     yield "test-report"
     from beo_bench import backend as B

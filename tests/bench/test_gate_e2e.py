@@ -21,6 +21,7 @@ from xml.etree import ElementTree as ET
 
 import pytest
 
+from beo_bench import codedigest
 from beo_bench.bench.suites import SMOKE_SIZES, Kind
 from beo_bench.cli import main
 from tests.plugins import install_plugin
@@ -28,7 +29,7 @@ from tests.plugins import install_plugin
 PLUGIN = textwrap.dedent(
     """
     import numpy as np
-    from beo_bench.backend import Backend, BackendSpec, Capabilities
+    from beo_bench.backend import Backend, Capabilities
     from beo_bench.types import Estimate
 
     class _FromTruth(Backend):
@@ -43,10 +44,12 @@ PLUGIN = textwrap.dedent(
 
     class Steady(_FromTruth):
         name = "gate-steady"
+        capabilities = Capabilities(privileged=True)  # handed each view's truth
 
     class Worse(_FromTruth):
         # the regression: every class one off, the rest unchanged
         name = "gate-worse"
+        capabilities = Capabilities(privileged=True)
         class_offset = 1
 
     class Broken(Backend):
@@ -54,12 +57,6 @@ PLUGIN = textwrap.dedent(
 
         def predict(self, view):
             raise RuntimeError("broken on purpose")
-
-    # the first two are handed each view's truth: a render per item, nothing more
-    PRIVILEGED = Capabilities(privileged=True)
-    STEADY = BackendSpec("gate-steady", lambda options: Steady(), capabilities=PRIVILEGED)
-    WORSE = BackendSpec("gate-worse", lambda options: Worse(), capabilities=PRIVILEGED)
-    BROKEN = BackendSpec("gate-broken", lambda options: Broken())
     """
 )
 ITEMS = 8
@@ -77,7 +74,7 @@ def repo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     site = tmp_path / "site"
     site.mkdir()
     (site / "beo_gate_plugins.py").write_text(PLUGIN)
-    names = {"gate-steady": "STEADY", "gate-worse": "WORSE", "gate-broken": "BROKEN"}
+    names = {"gate-steady": "Steady", "gate-worse": "Worse", "gate-broken": "Broken"}
     install_plugin(
         site, "beo-gate-plugins", {n: f"beo_gate_plugins:{c}" for n, c in names.items()},
         monkeypatch,
@@ -213,7 +210,7 @@ def planted(repo: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path
     site = tmp_path / "planted-site"
     site.mkdir()
     shutil.copy(PLANTED, site / "planted_bug.py")
-    install_plugin(site, "beo-planted", {"planted": "planted_bug:SPEC"}, monkeypatch)
+    install_plugin(site, "beo-planted", {"planted": "planted_bug:PlantedBackend"}, monkeypatch)
     yield site / "planted_bug.py"
     B.unregister_backend("planted")
     sys.modules.pop("planted_bug", None)
@@ -304,18 +301,20 @@ def test_a_backend_registered_in_process_digests_its_module(tmp_path) -> None:
     from beo_bench import backend as B
     from beo_bench.perception.bounds import OracleOptions, RandomBackend, RandomOptions
 
-    assert B.code_digest("oracle", OracleOptions()) is None
-    spec = B.BackendSpec("digest-local", build=RandomBackend, options=RandomOptions,
-                         module=__name__)  # fmt: skip
-    B.register(spec)
+    class DigestLocal(RandomBackend):
+        name = "digest-local"
+
+    assert codedigest.code_digest("oracle", OracleOptions()) is None
+    B.register(DigestLocal)
+    spec = B.get_spec("digest-local")
     try:
-        one, two = (B.code_digest("digest-local", RandomOptions(seed=s)) for s in (0, 1))
+        one, two = (codedigest.code_digest("digest-local", RandomOptions(seed=s)) for s in (0, 1))
         assert one is not None and two is not None and one != two
-        mine = B._code_files("digest-local", spec)
+        mine = codedigest._code_files("digest-local", spec)
         assert list(mine.values()) == [Path(__file__)]
         h = hashlib.sha256(f"module {__name__}".encode() + b"\0")
         h.update(hashlib.sha256(Path(__file__).read_bytes()).digest())
-        h.update(b"options\0" + B._options_text(RandomOptions(seed=0)).encode())
+        h.update(b"options\0" + codedigest._options_text(RandomOptions(seed=0)).encode())
         assert one == h.hexdigest()
     finally:
         B.unregister_backend("digest-local")
@@ -332,15 +331,15 @@ def test_a_plugins_digest_covers_its_distributions_files_and_options(repo, plant
     (site / "planted_data.json").write_text("{}")
     listed = ["planted_bug.py", "planted_data.json", f"{info.name}/METADATA", f"{info.name}/RECORD"]
     (info / "RECORD").write_text("".join(f"{f},,\n" for f in listed))
-    first = B.code_digest("planted", spec.parse({}))
-    assert f"dist beo-planted:{info.name}/METADATA" in B._code_files("planted", spec)
+    first = codedigest.code_digest("planted", spec.parse({}))
+    assert f"dist beo-planted:{info.name}/METADATA" in codedigest._code_files("planted", spec)
     (site / "planted_data.json").write_text('{"changed": true}')
-    assert B.code_digest("planted", spec.parse({})) != first
+    assert codedigest.code_digest("planted", spec.parse({})) != first
     (site / "planted_data.json").write_text("{}")
     (info / "INSTALLER").write_text("pip\n")
     (info / "RECORD").write_text("".join(f"{f},,\n" for f in [*listed, f"{info.name}/INSTALLER"]))
-    assert B.code_digest("planted", spec.parse({})) == first
-    assert B.code_digest("planted", spec.parse({"shift_cm": 1})) != first
+    assert codedigest.code_digest("planted", spec.parse({})) == first
+    assert codedigest.code_digest("planted", spec.parse({"shift_cm": 1})) != first
 
 
 def test_an_editable_plugins_digest_covers_its_package(tmp_path, monkeypatch) -> None:
@@ -355,10 +354,10 @@ def test_an_editable_plugins_digest_covers_its_package(tmp_path, monkeypatch) ->
     site.mkdir()
     shutil.copy(PLANTED, pkg / "bug.py")
     (pkg / "__init__.py").write_text(
-        "from dataclasses import replace\nfrom planted_pkg.bug import SPEC as _SPEC\n"
-        "SPEC = replace(_SPEC, name='planted-pkg')\n"
+        "from planted_pkg.bug import PlantedBackend\n"
+        "class PkgBackend(PlantedBackend):\n    name = 'planted-pkg'\n"
     )
-    install_plugin(site, "beo-planted-pkg", {"planted-pkg": "planted_pkg:SPEC"}, monkeypatch)
+    install_plugin(site, "beo-planted-pkg", {"planted-pkg": "planted_pkg:PkgBackend"}, monkeypatch)
     info = site / "beo_planted_pkg-0.1.dist-info"
     pth = "__editable__.beo_planted_pkg.pth"
     (site / pth).write_text(f"{src}\n")
@@ -367,11 +366,11 @@ def test_an_editable_plugins_digest_covers_its_package(tmp_path, monkeypatch) ->
     try:
         assert "planted-pkg" in B.load_plugins()
         spec = B.get_spec("planted-pkg")
-        files = B._code_files("planted-pkg", spec)
+        files = codedigest._code_files("planted-pkg", spec)
         assert {f"dist beo-planted-pkg:{pth}", "package planted_pkg:bug.py"} <= set(files)
-        first = B.code_digest("planted-pkg", spec.parse({}))
+        first = codedigest.code_digest("planted-pkg", spec.parse({}))
         (pkg / "bug.py").write_text((pkg / "bug.py").read_text() + "\n# edited in place\n")
-        assert B.code_digest("planted-pkg", spec.parse({})) != first
+        assert codedigest.code_digest("planted-pkg", spec.parse({})) != first
     finally:
         B.unregister_backend("planted-pkg")
         for name in ("planted_pkg", "planted_pkg.bug"):

@@ -16,7 +16,6 @@ from beo_bench.bench.runner import RunConfig, run
 from beo_bench.bench.suites import get_suite
 from beo_bench.cli import build_parser
 from beo_bench.types import Estimate, GroundTruth
-from tests.specs import register_class
 
 FAST = {"mean_instances": 4}
 """The random bound's class means from 4 instances a class (the default uses the split)."""
@@ -26,8 +25,10 @@ class Peek(B.Backend):
     """Wraps the oracle and declares ``privileged``: what a cheating plugin would do."""
 
     name = "test-peek"
+    capabilities = B.Capabilities(privileged=True)
 
-    def __init__(self) -> None:
+    def __init__(self, options=None) -> None:
+        super().__init__(options)
         self.inner = B.get_backend("oracle")
 
     def predict(self, view):
@@ -36,7 +37,7 @@ class Peek(B.Backend):
 
 @pytest.fixture
 def peek():
-    register_class(Peek, privileged=True)  # what a cheating plugin would declare
+    B.register(Peek)  # what a cheating plugin would declare
     try:
         yield "test-peek"
     finally:
@@ -80,7 +81,8 @@ class StackSearch(B.Backend):
 
     name = "test-stack-search"
 
-    def __init__(self) -> None:
+    def __init__(self, options=None) -> None:
+        super().__init__(options)
         self.found: list[str] = []
 
     def predict(self, view):
@@ -99,7 +101,7 @@ class StackSearch(B.Backend):
 
 @pytest.mark.parametrize("suite", ["pose-3dof", "pose-1dof", "tabletop", "pick"])
 def test_the_truth_is_not_on_predicts_call_stack(suite) -> None:
-    register_class(StackSearch)
+    B.register(StackSearch)
     try:
         ev = Evaluator.of(get_suite(suite).with_overrides(size=2), "test-stack-search")
         rows = ev.run_item(1)

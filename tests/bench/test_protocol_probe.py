@@ -100,10 +100,13 @@ def probe_backend():
     """Registers ``test-probe`` (its memory filled by the test) for the Evaluator to build."""
     memory: list[Memory] = []
 
-    def build(options: ProbeOptions) -> FieldProbe:
-        return FieldProbe(options.attack, memory[0] if memory else None)
+    class Probe(FieldProbe):
+        Options = ProbeOptions
 
-    B.register(B.BackendSpec("test-probe", build, ProbeOptions))
+        def __init__(self, options: ProbeOptions) -> None:
+            super().__init__(options.attack, memory[0] if memory else None)
+
+    B.register(Probe)
     try:
         yield memory
     finally:

@@ -10,7 +10,6 @@ from beo_bench import backend as B
 from beo_bench.bench.rundir import read_rows
 from beo_bench.bench.runner import RunError
 from tests.bench.runs import FAST_RANDOM, short_run
-from tests.specs import register_class
 
 
 def test_a_failing_backend_is_recorded_and_the_run_goes_on(tmp_path) -> None:
@@ -22,7 +21,7 @@ def test_a_failing_backend_is_recorded_and_the_run_goes_on(tmp_path) -> None:
                 raise RuntimeError("odd mask")
             return B.get_backend("random", **FAST_RANDOM).predict(view)
 
-    register_class(Boom)
+    B.register(Boom)
     try:
         # registered here, so it exists only in this process: one in-process worker
         s = short_run(tmp_path, "pose-3dof", "test-boom", 12, workers=1)
@@ -44,7 +43,8 @@ def test_prepare_runs_once_before_the_items_with_the_suite_classes(tmp_path) -> 
     class Prepared(B.Backend):
         name = "test-prepared"
 
-        def __init__(self) -> None:
+        def __init__(self, options=None) -> None:
+            super().__init__(options)
             self.inner = B.get_backend("random", **FAST_RANDOM)
 
         def prepare(self, ctx) -> None:
@@ -53,7 +53,7 @@ def test_prepare_runs_once_before_the_items_with_the_suite_classes(tmp_path) -> 
         def predict(self, view):
             return self.inner.predict(view)
 
-    register_class(Prepared)
+    B.register(Prepared)
     try:
         short_run(tmp_path, "pick", "test-prepared", 1, workers=1)
         short_run(tmp_path, "pick", "test-prepared", 1, workers=1, resume=True)  # nothing to do

@@ -24,7 +24,6 @@ from beo_bench.bench.runs import CorruptRunError, RunUsageError
 from beo_bench.bench.suites import get_suite
 from beo_bench.bench.summary import TIMING_KEYS
 from beo_bench.errors import CorruptDataError, UsageError
-from tests.specs import register_class
 
 ROOT = Path(__file__).resolve().parents[2]
 FAULTS = "tests.bench.runner_faults"
@@ -405,8 +404,10 @@ def test_a_resume_with_another_model_is_refused(tmp_path) -> None:
 
     class Learned(B.Backend):
         name = "test-digest"
+        capabilities = B.Capabilities(privileged=True)
 
-        def __init__(self) -> None:
+        def __init__(self, options=None) -> None:
+            super().__init__(options)
             self.inner = B.get_backend("oracle")
 
         def model_digest(self) -> str:
@@ -415,7 +416,7 @@ def test_a_resume_with_another_model_is_refused(tmp_path) -> None:
         def predict(self, view):
             return self.inner.predict(view)
 
-    register_class(Learned, privileged=True)
+    B.register(Learned)
     out = tmp_path / "out"
     try:
         s = run(_priv(_cfg("pose-1dof", "test-digest", 2)), out, progress=False, workers=1)

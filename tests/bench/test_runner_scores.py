@@ -12,7 +12,6 @@ from beo_bench.bench.rundir import read_rows
 from beo_bench.bench.runner import RunConfig, run
 from beo_bench.bench.suites import get_suite
 from tests.bench.runs import FAST_RANDOM, short_run
-from tests.specs import register_class
 
 
 @pytest.mark.parametrize("suite", ["known-pose", "pose-1dof", "pose-3dof"])
@@ -114,8 +113,10 @@ def test_a_backend_that_fails_on_some_views_loses_on_every_mean(tmp_path) -> Non
 
     class Flaky(B.Backend):
         name = "test-flaky-oracle"
+        capabilities = B.Capabilities(privileged=True)
 
-        def __init__(self) -> None:
+        def __init__(self, options=None) -> None:
+            super().__init__(options)
             self.inner = B.get_backend("oracle")
 
         def predict(self, view):
@@ -123,7 +124,7 @@ def test_a_backend_that_fails_on_some_views_loses_on_every_mean(tmp_path) -> Non
                 raise RuntimeError("no estimate for this one")
             return self.inner.predict(view)
 
-    register_class(Flaky, privileged=True)
+    B.register(Flaky)
     try:
         flaky = short_run(
             tmp_path, "pose-3dof", "test-flaky-oracle", 12, workers=1, allow_privileged=True
@@ -149,8 +150,10 @@ def test_the_runner_scores_an_equivalent_symmetric_pose_as_exact(tmp_path) -> No
 
     class Symmetric(B.Backend):
         name = "test-symmetric"
+        capabilities = B.Capabilities(privileged=True)
 
-        def __init__(self) -> None:
+        def __init__(self, options=None) -> None:
+            super().__init__(options)
             self.inner = B.get_backend("oracle")
 
         def predict(self, view):
@@ -160,7 +163,7 @@ def test_the_runner_scores_an_equivalent_symmetric_pose_as_exact(tmp_path) -> No
             est.rotation, est.translation = gt.R_cam @ R[k], gt.t_cam + gt.R_cam @ t[k]
             return est
 
-    register_class(Symmetric, privileged=True)
+    B.register(Symmetric)
     # a suite seed whose table item (the 17th: the 18 classes cycle) is table/test/3
     base = get_suite("pose-1dof")
     seed = next(

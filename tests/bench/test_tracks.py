@@ -19,7 +19,6 @@ from beo_bench.bench.runner import RunConfig, RunError, run
 from beo_bench.bench.suites import TRACKS, backend_tracks, get_suite, list_suites
 from beo_bench.errors import UsageError
 from beo_bench.types import Estimate, View
-from tests.specs import register_class
 
 SPY = "test-hint-spy"
 
@@ -28,6 +27,7 @@ class HintSpy(B.Backend):
     """Says which class it was told: the hinted one, else class 0 (cheap and valid)."""
 
     name = SPY
+    capabilities = B.Capabilities(class_hint=B.ClassHint.OPTIONAL)
 
     def predict(self, view: View) -> Estimate:
         probs = np.zeros(len(view.categories))
@@ -41,7 +41,7 @@ class HintSpy(B.Backend):
 
 @pytest.fixture
 def spy():
-    register_class(HintSpy, class_hint=B.ClassHint.OPTIONAL)  # scored in-process
+    B.register(HintSpy)  # scored in-process
     yield SPY
     B.unregister_backend(SPY)
 
@@ -184,6 +184,7 @@ class PerCategorySpy(HintSpy):
     """A backend that cannot answer without the class (per-category networks)."""
 
     name = "test-percat-spy"
+    capabilities = B.Capabilities(class_hint=B.ClassHint.REQUIRED)
 
 
 def test_a_backend_that_needs_the_hint_runs_in_the_class_given_track_only(tmp_path) -> None:
@@ -191,7 +192,7 @@ def test_a_backend_that_needs_the_hint_runs_in_the_class_given_track_only(tmp_pa
     the campaign runs them class-given only, and a class-free run of one is refused."""
     suite = get_suite("pose-3dof")
     assert backend_tracks(suite, True, needs_class_hint=True) == ("class-given",)
-    register_class(PerCategorySpy, class_hint=B.ClassHint.REQUIRED)
+    B.register(PerCategorySpy)
     try:
         with pytest.raises(UsageError, match=r"needs the class hint.*--track class-given"):
             _run(tmp_path / "free", "pose-3dof", "test-percat-spy", 2, track="class-free")

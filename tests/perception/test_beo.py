@@ -204,7 +204,7 @@ def test_a_seed_facing_away_is_turned_round_when_its_twin_scores_higher(model_na
         obs = Observation.from_view(view)
         t0, e0 = b.start_box(obs)
         away = gt.R_cam @ np.diag([-1.0, -1.0, 1.0])
-        seeds = b.fit_box(obs, full, Hypotheses.of(away[None], t0, e0), b.size_rounds)
+        seeds = b.fit_box(obs, full, Hypotheses.of(away[None], t0, e0), b.options.size_rounds)
         classes = [gt.class_index]
         score = b.fine_scores(obs, model, full, seeds, classes)
         out, best = b._better_twins(obs, model, full, seeds, score, classes, None)

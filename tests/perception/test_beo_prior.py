@@ -118,8 +118,8 @@ def test_the_coarse_candidates_cover_the_support_evenly() -> None:
 def test_pose_prior_is_a_documented_option_on_by_default() -> None:
     opts = backend_options("beo")
     assert opts is not None and opts["pose_prior"] is True
-    assert get_backend("beo", pose_prior="no").pose_prior is False  # parsed by its type
-    assert BEOBackend(pose_prior=False).pose_prior is False
+    assert get_backend("beo", pose_prior="no").options.pose_prior is False  # parsed by its type
+    assert BEOBackend(pose_prior=False).options.pose_prior is False
 
 
 @pytest.fixture(scope="module")

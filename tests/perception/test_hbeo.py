@@ -21,7 +21,14 @@ from beo_bench.objects import ObjectSet
 from beo_bench.perception.beo_model import BEOConfig, train_beo
 from beo_bench.perception.beo_model import model_path as beo_model_path
 from beo_bench.perception.digest import model_digest
-from beo_bench.perception.hbeo import HBEOBackend, sdf_errors, signed_distance, silhouettes
+from beo_bench.perception.hbeo import (
+    BY_MODE,
+    HBEOBackend,
+    MDNLikelihoodBackend,
+    sdf_errors,
+    signed_distance,
+    silhouettes,
+)
 from beo_bench.perception.hbeo_crop import make_crop
 from beo_bench.perception.hbeo_data import (
     DatasetConfig,
@@ -287,7 +294,7 @@ def test_short_training_lowers_loss_and_beats_chance(trained) -> None:
 def test_each_mode_passes_check_backend(trained) -> None:
     views = sample_views(n=2, categories=CATS)
     for mode, kind in (("hbeo", "hbeo"), ("likelihood", "hbeo-mdn"), ("posterior", "hbeo-mdn")):
-        b = HBEOBackend(mode, model=trained[kind + "-path"].name, samples=16)  # type: ignore[arg-type]
+        b = BY_MODE[mode](model=trained[kind + "-path"].name, samples=16)  # type: ignore[arg-type]
         check_backend(b, views)
         est = b.predict(views[0])
         if mode == "hbeo":
@@ -421,7 +428,7 @@ def test_devices_resolve_and_a_missing_gpu_is_a_clear_error() -> None:
         resolve_device("tpu")
     if not torch.cuda.is_available():
         with pytest.raises(UsageError, match="no CUDA GPU"):
-            HBEOBackend("hbeo", device="cuda")
+            HBEOBackend(device="cuda")
 
 
 def test_a_published_model_reads_back_as_trained(trained, tmp_path) -> None:
@@ -485,7 +492,7 @@ def test_per_category_networks_are_chosen_by_the_hint_and_never_trained_in_a_run
         raise AssertionError("a per-category network was trained inside a run")
 
     monkeypatch.setattr(hbeo_train, "train_hbeo", refuse)
-    b = HBEOBackend("likelihood", per_category=True)
+    b = MDNLikelihoodBackend(per_category=True)
     spec = get_spec("hbeo-mdn-likelihood")
     assert spec.capabilities_of(b.options).class_hint is ClassHint.REQUIRED
     assert spec.capabilities_of(spec.parse({})).class_hint is ClassHint.NONE
@@ -501,4 +508,4 @@ def test_per_category_networks_are_chosen_by_the_hint_and_never_trained_in_a_run
     with pytest.raises(UsageError, match="class hint"):
         b.predict(dc_replace(view, class_hint=None))
     with pytest.raises(ValueError, match="leave model unset"):
-        HBEOBackend("hbeo", per_category=True, model="mine")
+        HBEOBackend(per_category=True, model="mine")

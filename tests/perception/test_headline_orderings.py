@@ -25,7 +25,7 @@ from beo_bench.objects import instance_from_key
 from beo_bench.perception.beo import BEOBackend
 from beo_bench.perception.beo_model import BEOConfig, train_beo
 from beo_bench.perception.beo_model import model_path as beo_model_path
-from beo_bench.perception.hbeo import HBEOBackend
+from beo_bench.perception.hbeo import BY_MODE
 from beo_bench.perception.hbeo_data import DatasetConfig
 from beo_bench.perception.hbeo_train import HBEOConfig, model_path, train_hbeo
 from beo_bench.perception.means import class_means
@@ -160,7 +160,7 @@ def test_hbeo_mdn_errs_less_than_hbeo_in_3dof(hbeo_models) -> None:
     ]
     median = {}
     for mode, kind in (("hbeo", "hbeo"), ("likelihood", "hbeo-mdn"), ("posterior", "hbeo-mdn")):
-        b = HBEOBackend(mode, model=hbeo_models[kind])  # type: ignore[arg-type]
+        b = BY_MODE[mode](model=hbeo_models[kind])  # type: ignore[arg-type]
         median[mode] = float(np.median([_rot_err(b.predict(v).rotation, v) for v in views]))
     # seen, medians over these 48 views for data seeds 7 / 8 / 9 / 10: hbeo 27.3 / 18.9 /
     # 22.3 / 21.5, likelihood 19.9 / 19.1 / 19.3 / 19.2, posterior (with the silhouette

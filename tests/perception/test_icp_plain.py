@@ -34,7 +34,7 @@ def test_icp_plain_is_icp_with_the_plain_defaults(plain) -> None:
     opts = backend_options("icp-plain")
     assert opts is not None
     for key, value in PLAIN_DEFAULTS.items():
-        assert opts[key] == value and getattr(plain, key) == value
+        assert opts[key] == value and getattr(plain.options, key) == value
     # every other option is icp's, with icp's default
     icp_opts = backend_options("icp")
     assert icp_opts is not None and set(opts) == set(icp_opts)
@@ -46,7 +46,7 @@ def test_icp_plain_is_icp_with_the_plain_defaults(plain) -> None:
     # its options are checked like any backend's
     with pytest.raises(UsageError, match=r"no option 'startz'.*starts \(an integer, default 1\)"):
         get_backend("icp-plain", startz=2)
-    assert get_backend("icp-plain", trim=0.8, **FAST).trim == 0.8
+    assert get_backend("icp-plain", trim=0.8, **FAST).options.trim == 0.8
 
 
 def test_icp_plain_conforms(plain) -> None:

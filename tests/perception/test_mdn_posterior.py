@@ -20,7 +20,14 @@ from beo_bench.backend import sample_views
 from beo_bench.metrics import rotation_error
 from beo_bench.objects import ObjectSet
 from beo_bench.perception import hbeo
-from beo_bench.perception.hbeo import Forward, HBEOBackend, sdf_errors, silhouettes
+from beo_bench.perception.hbeo import (
+    BY_MODE,
+    Forward,
+    MDNLikelihoodBackend,
+    MDNPosteriorBackend,
+    sdf_errors,
+    silhouettes,
+)
 from beo_bench.perception.hbeo_crop import make_crop
 from beo_bench.perception.hbeo_net import Mixture
 
@@ -53,11 +60,11 @@ def test_posterior_weights_are_the_likelihood_times_the_silhouette_prior(views) 
     samples' densities times 1 / (e^4 + eps), normalised, and its rotation is their mode;
     the likelihood's are the densities alone, over the same samples. The prior moves the
     weights on every view, so a posterior without it is told apart."""
-    post = HBEOBackend("posterior")
-    lik = HBEOBackend("likelihood")
+    post = MDNPosteriorBackend()
+    lik = MDNLikelihoodBackend()
     for view in views:
         s = post.rotation_samples(view, prior=True)
-        assert s.silhouette_error is not None and len(s.R) == post.samples
+        assert s.silhouette_error is not None and len(s.R) == post.options.samples
         want = expected_weights(s.log_likelihood, s.silhouette_error)
         density = expected_weights(s.log_likelihood, None)
         # the prior moves some weight by more than 5% of it (by 10-50% on these views)
@@ -123,7 +130,7 @@ def test_the_prior_of_the_true_shape_overturns_the_likelihoods_choice() -> None:
 
     chosen = {}
     for mode in ("likelihood", "posterior"):
-        b = HBEOBackend(mode, samples=2)
+        b = BY_MODE[mode](samples=2)
         b.forward = lambda _view, f=f: f  # type: ignore[method-assign]
         est = b.predict(view)
         np.testing.assert_allclose(est.pose_samples, [R_wrong, R_true], atol=1e-12)

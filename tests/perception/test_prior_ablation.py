@@ -23,6 +23,8 @@ from beo_bench.perception.hbeo import (
     Forward,
     HBEOBackend,
     HBEOOptions,
+    MDNLikelihoodBackend,
+    MDNPosteriorBackend,
     align_centroids,
     companion_model,
     project_masks,
@@ -38,11 +40,11 @@ def views():
     return sample_views(picks=[("car", 1), ("sofa", 4), ("mug", 3)], seed=5)
 
 
-def test_the_ablation_options_are_the_posteriors_and_truth_makes_a_diagnostic() -> None:
+def test_the_ablation_options_are_the_posteriors_and_truth_makes_it_privileged() -> None:
     with pytest.raises(UsageError, match="hbeo-mdn-posterior's options"):
-        HBEOBackend("likelihood", select="prior")
+        MDNLikelihoodBackend(select="prior")
     with pytest.raises(UsageError, match="prior_grid"):
-        HBEOBackend("hbeo", prior_grid=64)
+        HBEOBackend(prior_grid=64)
     with pytest.raises(ValueError, match="prior_grid=48"):
         HBEOOptions(prior_grid=48)
     with pytest.raises(ValueError, match="select='best'"):
@@ -57,15 +59,15 @@ def test_the_ablation_options_are_the_posteriors_and_truth_makes_a_diagnostic() 
         ({"prior_translation": "truth"}, True),
     ):
         caps = spec.capabilities_of(spec.parse(opts))
-        assert caps.privileged is privileged and caps.diagnostic is privileged, opts
+        assert caps.privileged is privileged, opts
 
 
 def test_select_oracle_and_prior_choose_the_dissertations_baselines(views) -> None:
     """Random Sample + Oracle picks the sample nearest the truth; Random Sample + SDF
     Error the sample of least silhouette error, whatever its density."""
-    oracle = HBEOBackend("posterior", select="oracle")
-    prior = HBEOBackend("posterior", select="prior")
-    post = HBEOBackend("posterior")
+    oracle = MDNPosteriorBackend(select="oracle")
+    prior = MDNPosteriorBackend(select="prior")
+    post = MDNPosteriorBackend()
     picked_other = 0
     for view in views:
         gt = view.ground_truth
@@ -118,7 +120,7 @@ def test_the_truth_options_hand_the_prior_the_true_shape_and_translation() -> No
         return sdf_errors(f.crop.mask, masks)
 
     def got(**opts: object) -> np.ndarray:
-        b = HBEOBackend("posterior", **opts)  # type: ignore[arg-type]
+        b = MDNPosteriorBackend(**opts)  # type: ignore[arg-type]
         return b.silhouette_errors(view, f, R)
 
     np.testing.assert_array_equal(got(), want(wrong, f.size, f.translation))
@@ -127,7 +129,7 @@ def test_the_truth_options_hand_the_prior_the_true_shape_and_translation() -> No
     both = got(prior_shape="truth", prior_translation="truth")
     np.testing.assert_array_equal(both, want(truth, gt.size, t_true))
     assert both[0] < both[1]  # the true rotation fits best (a car's half-turn nearly fits)
-    blind = HBEOBackend("posterior", prior_shape="truth")
+    blind = MDNPosteriorBackend(prior_shape="truth")
     with pytest.raises(ViewError, match="ground_truth"):
         blind.silhouette_errors(replace(view, ground_truth=None), f, R)
 
@@ -141,8 +143,8 @@ def test_view_pixels_and_the_64_grid_compare_the_same_object(views) -> None:
     truth = ObjectSet("test").get("car", 1).voxels(32).astype(np.float32)
     f = _car_forward(view, truth, np.asarray(gt.t_cam, dtype=np.float64))
     R = _rotations(gt)
-    base = HBEOBackend("posterior", prior_translation="truth").silhouette_errors(view, f, R)
-    on_view = HBEOBackend("posterior", prior_pixels="view", prior_translation="truth")
+    base = MDNPosteriorBackend(prior_translation="truth").silhouette_errors(view, f, R)
+    on_view = MDNPosteriorBackend(prior_pixels="view", prior_translation="truth")
     e_view = on_view.silhouette_errors(view, f, R)
     affine, hw, (y0, x0) = view_window(view)
     masks = project_masks(torch.from_numpy(truth), f.size, R, gt.t_cam, view.K, affine, hw)
@@ -151,7 +153,7 @@ def test_view_pixels_and_the_64_grid_compare_the_same_object(views) -> None:
     )
     np.testing.assert_array_equal(e_view, sdf_errors(observed, masks))
     assert not np.allclose(e_view, base)
-    e64 = HBEOBackend("posterior", prior_grid=64, prior_translation="truth").silhouette_errors(
+    e64 = MDNPosteriorBackend(prior_grid=64, prior_translation="truth").silhouette_errors(
         view, f, R
     )
     assert not np.allclose(e64, base)
@@ -183,8 +185,8 @@ def test_only_pixels_no_other_object_covers_count() -> None:
     us = np.nonzero(view.mask)[1]
     seg[:, us.max() - 3 :] = np.where(seg[:, us.max() - 3 :] == 1, 1, 2)  # another object
     occluded = replace(view, segmentation=seg)
-    b = HBEOBackend("posterior", prior_occlusion=True, prior_translation="truth")
-    plain = HBEOBackend("posterior", prior_translation="truth")
+    b = MDNPosteriorBackend(prior_occlusion=True, prior_translation="truth")
+    plain = MDNPosteriorBackend(prior_translation="truth")
     assert np.array_equal(b.silhouette_errors(view, f, R), plain.silhouette_errors(view, f, R))
     assert not np.array_equal(
         b.silhouette_errors(occluded, f, R), plain.silhouette_errors(occluded, f, R)
@@ -198,10 +200,10 @@ def test_the_hbeo_options_take_the_hbeo_networks_shape_and_translation(views) ->
     assert companion_model(None) is None
     assert companion_model("seed2-hbeo-mdn") == "seed2-hbeo"
     with pytest.raises(UsageError, match="no hbeo network"):
-        HBEOBackend("posterior", prior_shape="hbeo", model="mine")
-    hb = HBEOBackend("hbeo")
-    both = HBEOBackend("posterior", prior_shape="hbeo", prior_translation="hbeo")
-    mdn = HBEOBackend("posterior")
+        MDNPosteriorBackend(prior_shape="hbeo", model="mine")
+    hb = HBEOBackend()
+    both = MDNPosteriorBackend(prior_shape="hbeo", prior_translation="hbeo")
+    mdn = MDNPosteriorBackend()
     for view in views[:2]:
         f, g = mdn.forward(view), hb.forward(view)
         R = mdn.rotation_samples(view, f, prior=False).R
@@ -209,7 +211,7 @@ def test_the_hbeo_options_take_the_hbeo_networks_shape_and_translation(views) ->
         np.testing.assert_array_equal(
             both.silhouette_errors(view, f, R), sdf_errors(f.crop.mask, masks)
         )
-        shape_only = HBEOBackend("posterior", prior_shape="hbeo").silhouette_errors(view, f, R)
+        shape_only = MDNPosteriorBackend(prior_shape="hbeo").silhouette_errors(view, f, R)
         masks = silhouettes(torch.from_numpy(g.shape), g.size, R, f.translation, view.K, f.crop)
         np.testing.assert_array_equal(shape_only, sdf_errors(f.crop.mask, masks))
 
@@ -234,7 +236,7 @@ def test_aligned_translation_moves_each_silhouette_onto_the_observed_centroid() 
     R = _rotations(gt)
     masks = silhouettes(torch.from_numpy(truth), f.size, R, off, view.K, f.crop)
     want = sdf_errors(f.crop.mask, align_centroids(masks, f.crop.mask))
-    aligned = HBEOBackend("posterior", prior_translation="aligned").silhouette_errors(view, f, R)
+    aligned = MDNPosteriorBackend(prior_translation="aligned").silhouette_errors(view, f, R)
     np.testing.assert_array_equal(aligned, want)
     assert not np.array_equal(aligned, sdf_errors(f.crop.mask, masks))
     assert int(np.argmin(aligned)) == 0

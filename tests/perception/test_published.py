@@ -133,7 +133,7 @@ def test_a_suite_on_some_classes_is_answered_by_the_published_network(no_trainin
     cats = ("airplane", "car", "sofa")
     m = hbeo_train.load_hbeo(None, "hbeo", cats)
     assert m.categories == default_categories()  # the 11-class published one
-    b = HBEOBackend("hbeo")
+    b = HBEOBackend()
     b.prepare(run_context("hbeo", cats))
     (view,) = sample_views(picks=[("car", 0)], seed=3)
     from dataclasses import replace

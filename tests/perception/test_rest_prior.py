@@ -159,7 +159,7 @@ def test_icp_starts_gravity_aligned_on_a_table() -> None:
     rest = rest_prior()[0].in_view(up)
     icp = ICPBackend()
     R0 = icp._start_rotations(None, rest)
-    assert len(R0) == icp.starts and np.mean(rest.tilt(R0) < 5.0) > 0.9
+    assert len(R0) == icp.options.starts and np.mean(rest.tilt(R0) < 5.0) > 0.9
     # without the prior (or without a table) the starts cover SO(3)
     free = ICPBackend(pose_prior=False)
     assert np.mean(rest.tilt(free._start_rotations(None, None)) > 30) > 0.5

@@ -11,9 +11,9 @@ It fits a box to the observed points and reads the class off the box's size:
 4. The class is the one whose mean training size (from beo-bench's class means) is
    nearest in log-size. The shape is that class's mean occupancy grid.
 
-It is deliberately simple: it shows the contract (a :class:`~beo_bench.backend.BackendSpec`
-with typed options and capabilities, a :class:`~beo_bench.backend.Backend` with ``name``,
-``predict`` and ``prepare(ctx)``, determinism, clear errors), not a good method.
+It is deliberately simple: it shows the contract (one :class:`~beo_bench.backend.Backend`
+subclass with its ``name``, typed options, capabilities, ``predict`` and ``prepare(ctx)``;
+determinism; clear errors), not a good method.
 """
 
 from __future__ import annotations
@@ -22,13 +22,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from beo_bench.backend import Backend, BackendSpec, Capabilities
+from beo_bench.backend import Backend, Capabilities, PrepareContext
 from beo_bench.errors import ViewError
 from beo_bench.options import option
 from beo_bench.perception.means import ClassMeans, class_means
 from beo_bench.types import Estimate, View
 
-__all__ = ["SPEC", "BoxFitBackend", "BoxFitOptions"]
+__all__ = ["BoxFitBackend", "BoxFitOptions"]
 
 
 @dataclass(frozen=True)
@@ -45,16 +45,22 @@ class BoxFitOptions:
 
 
 class BoxFitBackend(Backend):
-    """A box fitted to the observed points; the class by its size."""
+    """A box fitted to the observed points; the class by its size. What the entry point
+    names: beo-bench reads its options and capabilities from the class without building
+    it."""
 
     name = "box-fit"
+    description = "a box fitted to the observed points; the class by its size"
+    Options = BoxFitOptions
+    capabilities = Capabilities()  # no class hint, not privileged, no trained model
+    options: BoxFitOptions  # self.options: parsed from --opt KEY=VALUE
 
     def __init__(self, options: BoxFitOptions | None = None) -> None:
-        self.options = options if options is not None else BoxFitOptions()
+        super().__init__(options)
         self._dataset = None
         self._means: dict[tuple[str, ...], ClassMeans] = {}
 
-    def prepare(self, ctx) -> None:  # ctx: beo_bench.bench.runs.RunContext
+    def prepare(self, ctx: PrepareContext) -> None:
         """Called once in every process before its first view (the runner's first, then
         each worker's): build what is slow, cached on disk, for the run's class list and
         dataset (None: the procedural library)."""
@@ -117,15 +123,3 @@ def _axes(p: np.ndarray, up: np.ndarray | None) -> np.ndarray:
     if np.linalg.det(R) < 0:
         R[:, 0] = -R[:, 0]
     return R
-
-
-SPEC = BackendSpec(
-    name="box-fit",
-    build=BoxFitBackend,
-    options=BoxFitOptions,
-    capabilities=Capabilities(),  # no class hint, not privileged, no trained model
-    description="a box fitted to the observed points; the class by its size",
-    module=__name__,
-)
-"""What the entry point names: beo-bench reads the options and capabilities from it without
-building the backend."""
