@@ -31,7 +31,7 @@ CASES = (
 
 
 def main() -> None:
-    from beo_bench.perception.beo_model import BEOConfig, train_beo
+    from beo_bench.perception.beo.model import BEOConfig, train_beo
     from beo_bench.perception.means import training_voxels
 
     cats = default_categories()
@@ -100,8 +100,8 @@ def diagnose(suite: str) -> None:
 
     from beo_bench.geometry import yaw_starts
     from beo_bench.metrics import rotation_error
-    from beo_bench.perception.beo import Hypotheses
-    from beo_bench.perception.beo_observe import Observation
+    from beo_bench.perception.beo.backend import Hypotheses
+    from beo_bench.perception.beo.observe import Observation
 
     ev = Evaluator.of(get_suite(suite), "beo")  # the suite's own class list and model
     backend = ev.backend

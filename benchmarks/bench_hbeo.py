@@ -37,8 +37,8 @@ CASES = (
 
 
 def main() -> None:
-    from beo_bench.perception.hbeo_data import DatasetConfig, dataset_dir, render_dataset
-    from beo_bench.perception.hbeo_train import load_hbeo
+    from beo_bench.perception.hbeo.data import DatasetConfig, dataset_dir, render_dataset
+    from beo_bench.perception.hbeo.train import load_hbeo
 
     cats = default_categories()
     models = {k: load_hbeo(None, k, cats, progress=True) for k in ("hbeo", "hbeo-mdn")}
@@ -109,7 +109,7 @@ def half_precision_cost(cats: tuple[str, ...]) -> None:
     import numpy as np
 
     from beo_bench.metrics import rotation_error
-    from beo_bench.perception.hbeo_train import load_hbeo, model_path
+    from beo_bench.perception.hbeo.train import load_hbeo, model_path
 
     ev = Evaluator.of(get_suite("pose-3dof"), "oracle")
     pairs = [ev.items.isolated_view(i) for i in range(HALF_VIEWS)]
@@ -152,7 +152,7 @@ def int8_cost() -> None:
     import numpy as np
 
     from beo_bench.metrics import rotation_error
-    from beo_bench.perception import hbeo_train
+    from beo_bench.perception.hbeo.backend import train as hbeo_train
 
     suite = get_suite("pose-3dof-percat").with_overrides(track="class-given")
     ev = Evaluator.of(suite, "hbeo-mdn-likelihood", {"per_category": True})  # views with hints
@@ -209,7 +209,7 @@ def diagnose(cats: tuple[str, ...]) -> None:
 
     from beo_bench.metrics import rotation_error
     from beo_bench.objects import instance_from_key
-    from beo_bench.perception.hbeo import PRIOR_EPS, sdf_errors, silhouettes
+    from beo_bench.perception.hbeo.backend import PRIOR_EPS, sdf_errors, silhouettes
 
     backend = get_backend("hbeo-mdn-posterior", samples=DIAG_SAMPLES)
     ev = Evaluator.of(get_suite("pose-3dof"), "oracle")

@@ -86,32 +86,32 @@ IN_TREE: dict[str, InTree] = {
     ),
     # the baselines in the order every method is paired against them
     "icp-plain": InTree(
-        "beo_bench.perception.icp:PlainICPBackend",
+        "beo_bench.perception.icp.backend:PlainICPBackend",
         "baseline",
         "the dissertation's ICP baseline: icp with its plain defaults",
     ),
     "icp": InTree(
-        "beo_bench.perception.icp:ICPBackend",
+        "beo_bench.perception.icp.backend:ICPBackend",
         "baseline",
         "multi-start trimmed ICP of the observed points to the class-mean surface",
     ),
     "beo": InTree(
-        "beo_bench.perception.beo:BEOBackend",
+        "beo_bench.perception.beo.backend:BEOBackend",
         "method",
         "Bayesian Eigenobjects (chapter 3): class, pose and shape by search",
     ),
     "hbeo": InTree(
-        "beo_bench.perception.hbeo:HBEOBackend",
+        "beo_bench.perception.hbeo.backend:HBEOBackend",
         "method",
         "Hybrid Bayesian Eigenobjects (chapter 4): one network pass per view",
     ),
     "hbeo-mdn-likelihood": InTree(
-        "beo_bench.perception.hbeo:MDNLikelihoodBackend",
+        "beo_bench.perception.hbeo.backend:MDNLikelihoodBackend",
         "method",
         "HBEO-MDN (chapter 5): the rotation sample of highest mixture density",
     ),
     "hbeo-mdn-posterior": InTree(
-        "beo_bench.perception.hbeo:MDNPosteriorBackend",
+        "beo_bench.perception.hbeo.backend:MDNPosteriorBackend",
         "method",
         "HBEO-MDN (chapter 5): rotation samples scored with the silhouette prior",
     ),

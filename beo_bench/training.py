@@ -16,8 +16,8 @@ from beo_bench.errors import UsageError
 
 if TYPE_CHECKING:
     from beo_bench.objects.datasets import Dataset
-    from beo_bench.perception.beo_model import BEOConfig
-    from beo_bench.perception.hbeo_train import HBEOConfig, Kind
+    from beo_bench.perception.beo.model import BEOConfig
+    from beo_bench.perception.hbeo.train import HBEOConfig, Kind
 
 
 @dataclass(frozen=True)
@@ -95,7 +95,7 @@ def train_categories(req: TrainRequest) -> tuple[str, ...]:
 
 def beo_config(req: TrainRequest) -> BEOConfig:
     """The BEO model ``req`` describes."""
-    from beo_bench.perception.beo_model import BEOConfig
+    from beo_bench.perception.beo.model import BEOConfig
 
     return BEOConfig(
         categories=train_categories(req),
@@ -108,7 +108,7 @@ def beo_config(req: TrainRequest) -> BEOConfig:
 def hbeo_config(req: TrainRequest, kind: Kind) -> HBEOConfig:
     """The HBEO (or HBEO-MDN) training set-up ``req`` describes; on a dataset, rendered from
     it, its BEO subspace the dataset's."""
-    from beo_bench.perception.hbeo_train import default_config, with_overrides
+    from beo_bench.perception.hbeo.train import default_config, with_overrides
 
     split = req.train_split
     cats = train_categories(req)

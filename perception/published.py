@@ -14,7 +14,7 @@ every file. The stems:
   scenes (:func:`~beo_bench.perception.means.fit_rest_prior`): ``beo``'s pose prior and
   ``icp``'s starts on the ``tabletop`` and ``pick`` views;
 - ``hbeo`` and ``hbeo-mdn``: the small networks of the ``reference`` recipe
-  (:data:`~beo_bench.perception.hbeo_train.RECIPES`), weights stored in float16 (they are
+  (:data:`~beo_bench.perception.hbeo.train.RECIPES`), weights stored in float16 (they are
   used in float32; ``make bench`` measures what the rounding costs: nothing measurable);
 - ``hbeo-mdn-car``, ``hbeo-mdn-airplane``, ``hbeo-mdn-sofa``: chapter 5's per-category
   networks (the ``per-category`` recipe, Tables 5.1/5.2), weights stored in int8 with a
@@ -45,8 +45,8 @@ from beo_bench.atomic import atomic_write_bytes
 from beo_bench.errors import CheckpointError, UsageError
 
 if TYPE_CHECKING:
-    from beo_bench.perception.beo_model import BEOModel
-    from beo_bench.perception.hbeo_train import HBEOModel
+    from beo_bench.perception.beo.model import BEOModel
+    from beo_bench.perception.hbeo.train import HBEOModel
 
 PUBLISHED_DIR = Path(__file__).resolve().parent / "published"
 MANIFEST = "MANIFEST.json"

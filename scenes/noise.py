@@ -1,5 +1,5 @@
 """HBEO's training augmentation: a simple depth-noise model applied to a share of its
-training crops (``beo_bench.perception.hbeo_data``, ``DatasetConfig.noise_share``), which the
+training crops (``beo_bench.perception.hbeo.data``, ``DatasetConfig.noise_share``), which the
 published models were trained with.
 
 It is no suite's sensor any more: the suites and BEOPick-v0 capture their depth through

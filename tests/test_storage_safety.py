@@ -20,12 +20,12 @@ import torch
 from beo_bench.backend import get_backend
 from beo_bench.errors import CheckpointError, CorruptDataError, InvalidNameError, UsageError
 from beo_bench.objects import LIBRARY_VERSION, cache
-from beo_bench.perception.beo import BEOBackend
-from beo_bench.perception.beo_model import BEOConfig, BEOModel, load_model
-from beo_bench.perception.beo_model import model_path as beo_path
+from beo_bench.perception.beo.backend import BEOBackend
+from beo_bench.perception.beo.model import BEOConfig, BEOModel, load_model
+from beo_bench.perception.beo.model import model_path as beo_path
 from beo_bench.perception.digest import model_digest
-from beo_bench.perception.hbeo import HBEOBackend
-from beo_bench.perception.hbeo_data import (
+from beo_bench.perception.hbeo.backend import HBEOBackend
+from beo_bench.perception.hbeo.data import (
     DatasetConfig,
     Shard,
     dataset_dir,
@@ -33,15 +33,15 @@ from beo_bench.perception.hbeo_data import (
     render_dataset,
     shard_path,
 )
-from beo_bench.perception.hbeo_net import HBEONet
-from beo_bench.perception.hbeo_train import (
+from beo_bench.perception.hbeo.net import HBEONet
+from beo_bench.perception.hbeo.train import (
     HBEOConfig,
     HBEOModel,
     fingerprint,
     load_hbeo,
     train_hbeo,
 )
-from beo_bench.perception.hbeo_train import model_path as hbeo_path
+from beo_bench.perception.hbeo.train import model_path as hbeo_path
 from tests.perception.contexts import run_context
 
 CATS = ("bowl", "can")

@@ -188,7 +188,7 @@ def _beo_dir(tmp_path: Path) -> tuple[Path, dict]:
 
 
 def test_a_zip_bomb_as_a_models_arrays_is_refused_before_unpacking(tmp_path) -> None:
-    from beo_bench.perception.beo_model import BEOModel
+    from beo_bench.perception.beo.model import BEOModel
     from beo_bench.perception.digest import model_digest
 
     d, _ = _beo_dir(tmp_path)
@@ -313,7 +313,7 @@ def test_entries_with_values_their_writer_never_makes_are_rebuilt(kind, settings
 
 # -- 4. training that would run no step ---------------------------------------------------------
 def test_training_refuses_zero_steps_before_rendering(capsys, monkeypatch) -> None:
-    from beo_bench.perception import hbeo_train
+    from beo_bench.perception.hbeo.backend import train as hbeo_train
 
     def never(*a, **kw):
         raise AssertionError("rendered or trained although no step can run")

@@ -48,13 +48,13 @@ def run(args: argparse.Namespace) -> int:
 
         sha = publish_rest_prior(out, progress=True)
     elif args.model == "beo":
-        from beo_bench.perception.beo_model import BEOModel, model_dir
+        from beo_bench.perception.beo.model import BEOModel, model_dir
 
         cats = library_categories(categories_of(args))
         path = model_dir(args.name, cats, 32)
         sha = published.publish_beo(BEOModel.load(path), out)
     else:
-        from beo_bench.perception.hbeo_train import (
+        from beo_bench.perception.hbeo.train import (
             HBEOModel,
             default_config,
             default_name,

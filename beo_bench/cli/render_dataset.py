@@ -16,7 +16,7 @@ from beo_bench.cli.options import (
     split_parent,
 )
 from beo_bench.cli.train import hbeo_config
-from beo_bench.perception.hbeo_data import render_dataset
+from beo_bench.perception.hbeo.data import render_dataset
 
 
 def add(sub: Any, help: str) -> None:

@@ -33,7 +33,7 @@ from beo_bench.errors import UsageError
 from beo_bench.training import TrainRequest
 
 if TYPE_CHECKING:
-    from beo_bench.perception.hbeo_train import HBEOConfig, Kind
+    from beo_bench.perception.hbeo.train import HBEOConfig, Kind
 
 
 def add(sub: Any, help: str) -> None:
@@ -124,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
             "are captured by); beo trains on voxels, nothing is rendered"
         )
     # each model's module is imported by its branch only: hbeo's imports torch
-    from beo_bench.perception.beo_model import default_name, model_path, train_beo
+    from beo_bench.perception.beo.model import default_name, model_path, train_beo
 
     req = train_request(args)
     cfg = training.beo_config(req)
@@ -142,7 +142,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _train_hbeo(args: argparse.Namespace) -> int:
-    from beo_bench.perception.hbeo_train import default_name, model_path, train_hbeo
+    from beo_bench.perception.hbeo.train import default_name, model_path, train_hbeo
 
     cfg = hbeo_config(args, args.model)
     name = args.name or default_name(cfg)

@@ -793,7 +793,7 @@ def test_figure_5_3s_curves_follow_one_network_each() -> None:
     network's N = 5 to the other's N = 100; variants of other options and bounds are not
     points on them."""
     from beo_bench.bench.leaderboard import MDN_DEFAULT_SAMPLES, sample_curves
-    from beo_bench.perception.hbeo import HBEOOptions
+    from beo_bench.perception.hbeo.backend import HBEOOptions
 
     assert HBEOOptions().samples == MDN_DEFAULT_SAMPLES
 

@@ -14,15 +14,15 @@ from beo_bench.errors import CheckpointError, InvalidNameError, ViewError
 from beo_bench.geometry import yaw_starts
 from beo_bench.metrics import rotation_error, voxel_iou
 from beo_bench.objects import ObjectSet, instance_from_key
-from beo_bench.perception.beo import BEOBackend, Hypotheses
-from beo_bench.perception.beo_model import (
+from beo_bench.perception.beo.backend import BEOBackend, Hypotheses
+from beo_bench.perception.beo.model import (
     BEOConfig,
     BEOModel,
     load_model,
     model_path,
     train_beo,
 )
-from beo_bench.perception.beo_observe import Observation
+from beo_bench.perception.beo.observe import Observation
 from beo_bench.perception.digest import model_digest
 from beo_bench.types import View
 

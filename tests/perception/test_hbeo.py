@@ -18,10 +18,10 @@ from beo_bench.backend import ClassHint, check_backend, get_spec, sample_views
 from beo_bench.errors import CheckpointError, InvalidNameError, ViewError
 from beo_bench.metrics import rotation_error
 from beo_bench.objects import ObjectSet
-from beo_bench.perception.beo_model import BEOConfig, train_beo
-from beo_bench.perception.beo_model import model_path as beo_model_path
+from beo_bench.perception.beo.model import BEOConfig, train_beo
+from beo_bench.perception.beo.model import model_path as beo_model_path
 from beo_bench.perception.digest import model_digest
-from beo_bench.perception.hbeo import (
+from beo_bench.perception.hbeo.backend import (
     BY_MODE,
     HBEOBackend,
     MDNLikelihoodBackend,
@@ -29,15 +29,15 @@ from beo_bench.perception.hbeo import (
     signed_distance,
     silhouettes,
 )
-from beo_bench.perception.hbeo_crop import make_crop
-from beo_bench.perception.hbeo_data import (
+from beo_bench.perception.hbeo.crop import make_crop
+from beo_bench.perception.hbeo.data import (
     DatasetConfig,
     canonical_rotation,
     dataset_dir,
     load_split,
     render_dataset,
 )
-from beo_bench.perception.hbeo_net import (
+from beo_bench.perception.hbeo.net import (
     HBEONet,
     Mixture,
     NetConfig,
@@ -46,7 +46,7 @@ from beo_bench.perception.hbeo_net import (
     rotvec_to_matrix,
     sixd_to_matrix,
 )
-from beo_bench.perception.hbeo_train import (
+from beo_bench.perception.hbeo.train import (
     HBEOConfig,
     HBEOModel,
     default_config,
@@ -381,7 +381,7 @@ def test_the_reference_recipe_keeps_the_best_validation_epoch(beo_dir) -> None:
     hist = model.info["history"]
     best = int(np.argmin([h["val_total"] for h in hist]))
     assert model.info["epoch_kept"] == best + 1
-    from beo_bench.perception.hbeo_train import _coefficients, _tensors, evaluate
+    from beo_bench.perception.hbeo.train import _coefficients, _tensors, evaluate
 
     val = load_split(cfg.dataset, "val")
     codes = _coefficients(model.beo, val.keys)
@@ -420,7 +420,7 @@ def test_variance_weighting_is_the_voxel_space_reconstruction_error() -> None:
 
 def test_devices_resolve_and_a_missing_gpu_is_a_clear_error() -> None:
     from beo_bench.errors import UsageError
-    from beo_bench.perception.hbeo_train import resolve_device
+    from beo_bench.perception.hbeo.train import resolve_device
 
     assert resolve_device("cpu").type == "cpu"
     assert resolve_device("auto").type == ("cuda" if torch.cuda.is_available() else "cpu")
@@ -459,7 +459,7 @@ def test_the_network_and_its_rotations_stay_on_the_device_of_their_input() -> No
     """Every tensor the network and its rotation heads make follows the input's device
     (a CPU-made identity broke `--device cuda` training at the first validation). The
     ``meta`` device stands in for a GPU: mixing it with a CPU tensor raises."""
-    from beo_bench.perception.hbeo_net import HBEONet, NetConfig, losses, point_rotation
+    from beo_bench.perception.hbeo.net import HBEONet, NetConfig, losses, point_rotation
 
     for rot in ("axis-angle", "6d", "mdn"):
         cfg = NetConfig.preset("small", classes=3, coefficients=5, crop=32, rotation=rot)
@@ -486,7 +486,7 @@ def test_per_category_networks_are_chosen_by_the_hint_and_never_trained_in_a_run
     from dataclasses import replace as dc_replace
 
     from beo_bench.errors import UsageError
-    from beo_bench.perception import hbeo_train
+    from beo_bench.perception.hbeo.backend import train as hbeo_train
 
     def refuse(*a: object, **k: object) -> None:
         raise AssertionError("a per-category network was trained inside a run")

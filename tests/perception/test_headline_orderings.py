@@ -22,12 +22,12 @@ import pytest
 from beo_bench.backend import get_backend, sample_views
 from beo_bench.metrics import rotation_error, voxel_iou
 from beo_bench.objects import instance_from_key
-from beo_bench.perception.beo import BEOBackend
-from beo_bench.perception.beo_model import BEOConfig, train_beo
-from beo_bench.perception.beo_model import model_path as beo_model_path
-from beo_bench.perception.hbeo import BY_MODE
-from beo_bench.perception.hbeo_data import DatasetConfig
-from beo_bench.perception.hbeo_train import HBEOConfig, model_path, train_hbeo
+from beo_bench.perception.beo.backend import BEOBackend
+from beo_bench.perception.beo.model import BEOConfig, train_beo
+from beo_bench.perception.beo.model import model_path as beo_model_path
+from beo_bench.perception.hbeo.backend import BY_MODE
+from beo_bench.perception.hbeo.data import DatasetConfig
+from beo_bench.perception.hbeo.train import HBEOConfig, model_path, train_hbeo
 from beo_bench.perception.means import class_means
 from beo_bench.scenes.camera import OBJECT_RIG
 from beo_bench.types import View, ViewpointPrior

@@ -13,7 +13,7 @@ from beo_bench.backend import check_backend, get_backend, sample_views
 from beo_bench.errors import ViewError
 from beo_bench.geometry import axis_angle, symmetry_transformations
 from beo_bench.objects import ObjectSet
-from beo_bench.perception.icp import ICPBackend, mean_surface
+from beo_bench.perception.icp.backend import ICPBackend, mean_surface
 from beo_bench.perception.means import class_means
 from beo_bench.scenes.camera import OBJECT_RIG, Intrinsics, look_at
 from beo_bench.types import View

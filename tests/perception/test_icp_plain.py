@@ -19,7 +19,7 @@ from beo_bench.backend import (
     sample_views,
 )
 from beo_bench.errors import UsageError
-from beo_bench.perception.icp import PLAIN_DEFAULTS, UPRIGHT, ICPBackend
+from beo_bench.perception.icp.backend import PLAIN_DEFAULTS, UPRIGHT, ICPBackend
 from tests.perception.test_icp import FAST, _angle_deg, _synthetic_view
 
 OFFSET = np.array([0.02, -0.01, 0.0])

@@ -2,7 +2,7 @@
 density (eq. 5.7) times the silhouette prior 1 / (e^4 + eps) (eq. 5.8, e the SDF error of
 eq. 5.6), and the prior decides where the likelihood alone would choose wrong.
 
-``perception/hbeo.py`` ``predict``: ``rotation_samples(..., prior=mode == "posterior")``
+``perception/hbeo/backend.py`` ``predict``: ``rotation_samples(..., prior=mode == "posterior")``
 gives each of the N samples its log density and (posterior) its error e; the estimate's
 ``pose_weights`` are the normalised scores, ``rotation`` the highest-scoring sample. With
 ``prior=False`` there, the posterior is the likelihood and both tests below fail; so they
@@ -19,8 +19,7 @@ from scipy.spatial.transform import Rotation
 from beo_bench.backend import sample_views
 from beo_bench.metrics import rotation_error
 from beo_bench.objects import ObjectSet
-from beo_bench.perception import hbeo
-from beo_bench.perception.hbeo import (
+from beo_bench.perception.hbeo.backend import (
     BY_MODE,
     Forward,
     MDNLikelihoodBackend,
@@ -28,8 +27,9 @@ from beo_bench.perception.hbeo import (
     sdf_errors,
     silhouettes,
 )
-from beo_bench.perception.hbeo_crop import make_crop
-from beo_bench.perception.hbeo_net import Mixture
+from beo_bench.perception.hbeo.backend import backend as hbeo
+from beo_bench.perception.hbeo.crop import make_crop
+from beo_bench.perception.hbeo.net import Mixture
 
 EPS = 1e-6
 """eps of eq. 5.8's prior 1 / (e^4 + eps): a guard against e = 0 (e is in pixels, e^4 is

@@ -19,7 +19,7 @@ from beo_bench.backend import get_spec, sample_views
 from beo_bench.errors import UsageError, ViewError
 from beo_bench.metrics import rotation_error
 from beo_bench.objects import ObjectSet
-from beo_bench.perception.hbeo import (
+from beo_bench.perception.hbeo.backend import (
     Forward,
     HBEOBackend,
     HBEOOptions,
@@ -32,7 +32,7 @@ from beo_bench.perception.hbeo import (
     silhouettes,
     view_window,
 )
-from beo_bench.perception.hbeo_crop import make_crop
+from beo_bench.perception.hbeo.crop import make_crop
 
 
 @pytest.fixture(scope="module")

@@ -10,8 +10,10 @@ from pathlib import Path
 import pytest
 
 from beo_bench.errors import CheckpointError
-from beo_bench.perception import beo_model, hbeo_train, published
+from beo_bench.perception import published
+from beo_bench.perception.beo.backend import model as beo_model
 from beo_bench.perception.digest import state_digest
+from beo_bench.perception.hbeo.backend import train as hbeo_train
 from beo_bench.scenes.pickconfig import default_categories
 from tests.perception.contexts import run_context
 
@@ -65,7 +67,7 @@ def test_the_models_page_states_the_published_sizes() -> None:
 def test_the_models_page_states_the_top_down_share_of_the_recipe() -> None:
     """The recipes' share of top-down views on the page is the code's, and the published
     networks were trained with it."""
-    from beo_bench.perception.hbeo_data import DatasetConfig
+    from beo_bench.perception.hbeo.data import DatasetConfig
 
     d = DatasetConfig(categories=("car",))
     for kind in ("hbeo", "hbeo-mdn"):
@@ -128,7 +130,7 @@ def test_a_suite_on_some_classes_is_answered_by_the_published_network(no_trainin
     """``pose-3dof-percat`` holds three of the 18 classes: the published network answers
     it (nothing trains), its class scores read at those three classes."""
     from beo_bench.backend import sample_views
-    from beo_bench.perception.hbeo import HBEOBackend
+    from beo_bench.perception.hbeo.backend import HBEOBackend
 
     cats = ("airplane", "car", "sofa")
     m = hbeo_train.load_hbeo(None, "hbeo", cats)
@@ -194,7 +196,7 @@ def test_int8_storage_reads_back_within_half_a_step(tmp_path, monkeypatch) -> No
 
     q, scale = published.quantise(np.array([[0.0, 0.0], [1.0, -0.5]], np.float32))
     assert q.tolist() == [[0, 0], [127, -64]] and scale[0] == 1.0
-    from beo_bench.perception.hbeo_net import HBEONet, NetConfig
+    from beo_bench.perception.hbeo.net import HBEONet, NetConfig
 
     torch.manual_seed(0)
     net = HBEONet(NetConfig.preset("small", classes=1, coefficients=6, crop=32, rotation="mdn"))

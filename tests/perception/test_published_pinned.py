@@ -174,7 +174,7 @@ def test_the_published_model_scores_as_its_leaderboard_row(backend: str) -> None
 # Mutation checks, each made here and reverted (issue 26 point 4). Unmutated, the 66 items
 # give beo class accuracy 0.83 and IoU 0.53; hbeo 1.00, median 5.8 deg, IoU 0.64; the MDN
 # modes 1.00, 3.2 / 3.1 deg, IoU 0.49. Mutated:
-# - perception/hbeo_crop.py, depth relief doubled, 2 (d - z_ref) / scale: hbeo median 18.9
+# - perception/hbeo/crop.py, depth relief doubled, 2 (d - z_ref) / scale: hbeo median 18.9
 #   deg (leaderboard 6.8 +- 3.5), IoU 0.43; the MDN modes 11.9 / 11.6 deg (2.7 +- 1.4 / 1.5),
 #   class accuracy 0.91: three of four fail. Even 1.25 (d - z_ref) / scale fails the MDN
 #   modes (4.9 / 5.0 deg);
@@ -182,6 +182,6 @@ def test_the_published_model_scores_as_its_leaderboard_row(backend: str) -> None
 #   deg, IoU 0.05-0.10: three of four fail;
 # - the mask channel dropped (channel 1 all 0): class accuracy 0.33-0.45, medians 27-32 deg,
 #   IoU 0.14: three of four fail;
-# - perception/beo_observe.py, no free-space carving (no voxel known empty): beo's class
+# - perception/beo/observe.py, no free-space carving (no voxel known empty): beo's class
 #   accuracy 0.09, IoU 0.21; carving one margin past the observed surface (z < fd + margin):
 #   IoU 0.30 (leaderboard 0.57 +- 0.12): beo fails.

@@ -16,9 +16,9 @@ import pytest
 from beo_bench.errors import ViewError
 from beo_bench.geometry import axis_angle, super_fibonacci, up_rotation
 from beo_bench.perception import published
-from beo_bench.perception.beo import BEOBackend, prior_rotations
+from beo_bench.perception.beo.backend import BEOBackend, prior_rotations
 from beo_bench.perception.digest import state_digest
-from beo_bench.perception.icp import ICPBackend, PlainICPBackend
+from beo_bench.perception.icp.backend import ICPBackend, PlainICPBackend
 from beo_bench.perception.means import (
     REST_BANDWIDTH_DEG,
     REST_SCENES,

@@ -82,14 +82,14 @@ def _trained_by(argv: list[str]) -> Path:
     the CLI's own reading of its flags (no training)."""
     args = cli.build_parser().parse_args(argv[1:])
     if args.model == "beo":
-        from beo_bench.perception.beo_model import default_name, model_path
+        from beo_bench.perception.beo.model import default_name, model_path
         from beo_bench.training import beo_config
 
         req = train_command.train_request(args)
         cats = beo_config(req).categories
         name = default_name(cats, args.resolution, args.per_category, req.dataset)
         return model_path(name) / "config.json"
-    from beo_bench.perception.hbeo_train import default_name, model_path
+    from beo_bench.perception.hbeo.train import default_name, model_path
 
     return model_path(default_name(train_command.hbeo_config(args, args.model))) / "weights.pt"
 

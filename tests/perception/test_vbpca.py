@@ -8,8 +8,8 @@ import pytest
 from scipy.linalg import subspace_angles
 from scipy.stats import multivariate_normal
 
-from beo_bench.perception.shrinkage import shrinkage_covariance
-from beo_bench.perception.vbpca import VBPCAConfig, fit_vbpca, ppca_log_likelihood
+from beo_bench.perception.beo.shrinkage import shrinkage_covariance
+from beo_bench.perception.beo.vbpca import VBPCAConfig, fit_vbpca, ppca_log_likelihood
 
 
 def low_rank(n: int, d: int = 300, q: int = 4, noise: float = 0.5, seed: int = 0):

@@ -47,7 +47,7 @@ import numpy as np
 from beo_bench.atomic import atomic_write, atomic_write_bytes
 from beo_bench.errors import CorruptDataError
 from beo_bench.objects import cache
-from beo_bench.perception.hbeo_crop import CROP_SIZE, make_crop
+from beo_bench.perception.hbeo.crop import CROP_SIZE, make_crop
 from beo_bench.safe_npz import read_npz
 from beo_bench.types import Mat3, Symmetry
 

@@ -40,10 +40,10 @@ from beo_bench.errors import CheckpointError
 from beo_bench.names import inside
 from beo_bench.objects.datasets import Dataset, train_command
 from beo_bench.perception import modeldir
+from beo_bench.perception.beo.shrinkage import shrinkage_covariance
+from beo_bench.perception.beo.vbpca import VBPCAConfig, fit_vbpca
 from beo_bench.perception.digest import BEO_ARRAYS, beo_array_shapes, read_beo_arrays, state_digest
 from beo_bench.perception.means import training_voxels
-from beo_bench.perception.shrinkage import shrinkage_covariance
-from beo_bench.perception.vbpca import VBPCAConfig, fit_vbpca
 
 FORMAT_VERSION = 1
 DEFAULT_NAME = "default"

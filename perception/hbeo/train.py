@@ -42,10 +42,10 @@ from beo_bench.atomic import atomic_dir, atomic_write_bytes
 from beo_bench.errors import CheckpointError, UsageError
 from beo_bench.names import inside
 from beo_bench.perception import modeldir
-from beo_bench.perception.beo_model import BEOModel, load_model, published_model
+from beo_bench.perception.beo.model import BEOModel, load_model, published_model
 from beo_bench.perception.digest import state_digest
-from beo_bench.perception.hbeo_data import DatasetConfig, Shard, load_split, render_dataset
-from beo_bench.perception.hbeo_net import (
+from beo_bench.perception.hbeo.data import DatasetConfig, Shard, load_split, render_dataset
+from beo_bench.perception.hbeo.net import (
     HBEONet,
     NetConfig,
     geodesic_deg,
@@ -410,7 +410,7 @@ def default_config(
 
 def default_name(config: HBEOConfig) -> str:
     from beo_bench.objects import LIBRARY_VERSION
-    from beo_bench.perception.hbeo_data import DATA_VERSION
+    from beo_bench.perception.hbeo.data import DATA_VERSION
 
     cfg = config.to_json()
     if config.dataset.objects is not None:

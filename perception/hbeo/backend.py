@@ -41,11 +41,11 @@ from beo_bench.metrics import rotation_error
 from beo_bench.names import check_name
 from beo_bench.objects import instance_from_key
 from beo_bench.options import option
-from beo_bench.perception.beo_observe import grid_centres
+from beo_bench.perception.beo.observe import grid_centres
 from beo_bench.perception.digest import state_digest
-from beo_bench.perception.hbeo_crop import Crop, make_crop
-from beo_bench.perception.hbeo_net import Mixture, Output, point_rotation
-from beo_bench.perception.hbeo_train import HBEOModel, load_hbeo
+from beo_bench.perception.hbeo.crop import Crop, make_crop
+from beo_bench.perception.hbeo.net import Mixture, Output, point_rotation
+from beo_bench.perception.hbeo.train import HBEOModel, load_hbeo
 from beo_bench.types import Estimate, GroundTruth, View
 
 if TYPE_CHECKING:
@@ -235,7 +235,7 @@ class HBEOBackend(Backend):
         return "hbeo" if cls.mode == "hbeo" else "hbeo-mdn"
 
     def __init__(self, options: HBEOOptions | None = None, **kwargs: Any) -> None:
-        from beo_bench.perception.hbeo_train import resolve_device
+        from beo_bench.perception.hbeo.train import resolve_device
 
         super().__init__(options, **kwargs)
         o = self.options
@@ -342,7 +342,7 @@ class HBEOBackend(Backend):
         from beo_bench.errors import TrainingInRunError
         from beo_bench.objects import pickable_categories
         from beo_bench.objects.datasets import train_command
-        from beo_bench.perception.hbeo_train import (
+        from beo_bench.perception.hbeo.train import (
             default_config,
             default_name,
             model_path,

@@ -70,14 +70,14 @@ from beo_bench.backend import Backend, Capabilities, ClassHint, PrepareContext
 from beo_bench.geometry import orthonormalise, super_fibonacci, yaw_starts
 from beo_bench.names import check_name
 from beo_bench.options import option
-from beo_bench.perception.beo_model import BEOModel, load_model
-from beo_bench.perception.beo_observe import (
+from beo_bench.perception.beo.model import BEOModel, load_model
+from beo_bench.perception.beo.observe import (
     Observation,
     distance_transform,
     grid_centres,
     voxelise,
 )
-from beo_bench.perception.beo_project import Subspace, project
+from beo_bench.perception.beo.project import Subspace, project
 from beo_bench.perception.digest import state_digest
 from beo_bench.types import Estimate, PosePrior, RestPrior, View
 
@@ -270,7 +270,7 @@ class BEOBackend(Backend):
         from beo_bench.errors import TrainingInRunError
         from beo_bench.objects import pickable_categories
         from beo_bench.objects.datasets import train_command
-        from beo_bench.perception.beo_model import model_dir
+        from beo_bench.perception.beo.model import model_dir
 
         given: dict[str, object] = dict(self._training_options())
         if not given or self.options.model is not None or self._dataset is not None:

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import torch
 
-from beo_bench.perception.beo_model import BEOModel
+from beo_bench.perception.beo.model import BEOModel
 
 
 @dataclass(frozen=True)

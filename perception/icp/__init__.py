@@ -1,0 +1,1 @@
+"""The ICP baseline (:mod:`.backend`)."""
