@@ -55,11 +55,11 @@ def main() -> None:
         train_s < 180,
         f"k={model.k}; voxels loaded in {model.info['data_s']} s",
     )
-    # what publishing's rounding costs (perception/published.py, storable_beo): the class
+    # what publishing's rounding costs (perception/beo/model.py, storable_beo): the class
     # means' reconstructions and the class densities of the codes, lossless against rounded
     import numpy as np
 
-    from beo_bench.perception.published import storable_beo
+    from beo_bench.perception.beo.model import storable_beo
 
     rounded = storable_beo(model)
     codes = model.class_mean.astype(np.float64)

@@ -152,7 +152,7 @@ def int8_cost() -> None:
     import numpy as np
 
     from beo_bench.metrics import rotation_error
-    from beo_bench.perception.hbeo.backend import train as hbeo_train
+    from beo_bench.perception.hbeo import train as hbeo_train
 
     suite = get_suite("pose-3dof-percat").with_overrides(track="class-given")
     ev = Evaluator.of(suite, "hbeo-mdn-likelihood", {"per_category": True})  # views with hints

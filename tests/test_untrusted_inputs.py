@@ -313,7 +313,7 @@ def test_entries_with_values_their_writer_never_makes_are_rebuilt(kind, settings
 
 # -- 4. training that would run no step ---------------------------------------------------------
 def test_training_refuses_zero_steps_before_rendering(capsys, monkeypatch) -> None:
-    from beo_bench.perception.hbeo.backend import train as hbeo_train
+    from beo_bench.perception.hbeo import train as hbeo_train
 
     def never(*a, **kw):
         raise AssertionError("rendered or trained although no step can run")

@@ -48,12 +48,13 @@ def run(args: argparse.Namespace) -> int:
 
         sha = publish_rest_prior(out, progress=True)
     elif args.model == "beo":
-        from beo_bench.perception.beo.model import BEOModel, model_dir
+        from beo_bench.perception.beo.model import BEOModel, model_dir, publish_beo
 
         cats = library_categories(categories_of(args))
         path = model_dir(args.name, cats, 32)
-        sha = published.publish_beo(BEOModel.load(path), out)
+        sha = publish_beo(BEOModel.load(path), out)
     else:
+        from beo_bench.perception.hbeo.publish import publish_hbeo
         from beo_bench.perception.hbeo.train import (
             HBEOModel,
             default_config,
@@ -77,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
         if model.config.kind != args.model:
             raise UsageError(f"{args.name!r} is a {model.config.kind} model, not {args.model}")
         one = len(model.categories) == 1 and is_per_category_default(model.config)
-        sha = published.publish_hbeo(model, out, storage=args.storage, per_category=one)
+        sha = publish_hbeo(model, out, storage=args.storage, per_category=one)
     print(f"published {args.model} -> {out} (SHA-256 {sha})")
     for name, size, digest in published.files_table(out):
         print(f"  {name:<16} {size / 1e6:6.2f} MB  {digest}")

@@ -28,7 +28,7 @@ import functools
 import hashlib
 import json
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -39,7 +39,7 @@ from beo_bench.atomic import atomic_dir
 from beo_bench.errors import CheckpointError
 from beo_bench.names import inside
 from beo_bench.objects.datasets import Dataset, train_command
-from beo_bench.perception import modeldir
+from beo_bench.perception import modeldir, published
 from beo_bench.perception.beo.shrinkage import shrinkage_covariance
 from beo_bench.perception.beo.vbpca import VBPCAConfig, fit_vbpca
 from beo_bench.perception.digest import BEO_ARRAYS, beo_array_shapes, read_beo_arrays, state_digest
@@ -373,7 +373,6 @@ def published_model(stem: str = "beo") -> BEOModel | None:
     published 18-class HBEO model regresses, or ``beo-<class>``, a per-category network's),
     read and checked once per version of the published files; None when none is published.
     :class:`CheckpointError` for an altered or unreadable file."""
-    from beo_bench.perception import published
 
     files = published.manifest()
     if f"{stem}.npz" not in files:
@@ -386,7 +385,6 @@ def _read_published(root: Path, files: tuple[tuple[str, str], ...], stem: str = 
     """The published BEO model ``stem`` under ``root``; ``files`` (the manifest: name,
     SHA-256) is part of the cache key, so publishing anew (:func:`.published.write`) reads
     it again."""
-    from beo_bench.perception import published
 
     meta, arrays = published.read(stem, root)
     return BEOModel.from_stored(meta, arrays, f"{root}/{stem}", published._restore(stem))
@@ -400,7 +398,6 @@ def published_for(
     18-class one, or a per-category network's one-class subspace; else None (the caller
     trains its own)."""
     from beo_bench.objects import LIBRARY_VERSION
-    from beo_bench.perception import published
 
     want = BEOConfig(categories=tuple(categories), resolution=resolution, per_category=per_category)
     stems = ["beo"]
@@ -470,3 +467,23 @@ def load_model(
             "retrain it with `beo-bench train beo`"
         )
     return model
+
+
+def storable_beo(model: BEOModel) -> BEOModel:
+    """The BEO model as it is published: the basis rounded (:data:`BASIS_DROPPED_BITS`), the
+    class covariances rounded to float32's precision (kept in float64, so their low 29 bits
+    are zeros). What the published HBEO networks are trained against and the backends load;
+    ``make bench`` measures what the rounding costs."""
+
+    return replace(
+        model,
+        basis=published.round_mantissa(model.basis, published.BASIS_DROPPED_BITS),
+        class_cov=model.class_cov.astype(np.float32).astype(np.float64),
+    )
+
+
+def publish_beo(model: BEOModel, root: Path | None = None) -> str:
+    stored = storable_beo(model)
+    return published.write(
+        "beo", stored.stored_meta(), stored.arrays(), root or published.PUBLISHED_DIR
+    )

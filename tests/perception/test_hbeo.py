@@ -438,10 +438,12 @@ def test_a_published_model_reads_back_as_trained(trained, tmp_path) -> None:
     from beo_bench.perception.digest import state_digest
 
     m = trained["hbeo-mdn"]
-    published.publish_hbeo(m, tmp_path, storage="float32")
+    from beo_bench.perception.hbeo.publish import publish_hbeo
+
+    publish_hbeo(m, tmp_path, storage="float32")
     meta, arrays = published.read("hbeo-mdn", tmp_path)
     assert state_digest(published._state(arrays)) == meta["digest"] == state_digest(m.state())
-    published.publish_hbeo(m, tmp_path, storage="float16")
+    publish_hbeo(m, tmp_path, storage="float16")
     meta, arrays = published.read("hbeo-mdn", tmp_path)
     state = published._state(arrays)
     assert meta["stored_dtype"] == "float16" and meta["digest"] == state_digest(state)
@@ -486,7 +488,7 @@ def test_per_category_networks_are_chosen_by_the_hint_and_never_trained_in_a_run
     from dataclasses import replace as dc_replace
 
     from beo_bench.errors import UsageError
-    from beo_bench.perception.hbeo.backend import train as hbeo_train
+    from beo_bench.perception.hbeo import train as hbeo_train
 
     def refuse(*a: object, **k: object) -> None:
         raise AssertionError("a per-category network was trained inside a run")

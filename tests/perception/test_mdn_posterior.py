@@ -19,6 +19,7 @@ from scipy.spatial.transform import Rotation
 from beo_bench.backend import sample_views
 from beo_bench.metrics import rotation_error
 from beo_bench.objects import ObjectSet
+from beo_bench.perception.hbeo import backend as hbeo
 from beo_bench.perception.hbeo.backend import (
     BY_MODE,
     Forward,
@@ -27,7 +28,6 @@ from beo_bench.perception.hbeo.backend import (
     sdf_errors,
     silhouettes,
 )
-from beo_bench.perception.hbeo.backend import backend as hbeo
 from beo_bench.perception.hbeo.crop import make_crop
 from beo_bench.perception.hbeo.net import Mixture
 

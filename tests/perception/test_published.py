@@ -11,9 +11,10 @@ import pytest
 
 from beo_bench.errors import CheckpointError
 from beo_bench.perception import published
-from beo_bench.perception.beo.backend import model as beo_model
+from beo_bench.perception.beo import model as beo_model
 from beo_bench.perception.digest import state_digest
-from beo_bench.perception.hbeo.backend import train as hbeo_train
+from beo_bench.perception.hbeo import train as hbeo_train
+from beo_bench.perception.hbeo.publish import hbeo_arrays
 from beo_bench.scenes.pickconfig import default_categories
 from tests.perception.contexts import run_context
 
@@ -202,7 +203,7 @@ def test_int8_storage_reads_back_within_half_a_step(tmp_path, monkeypatch) -> No
     net = HBEONet(NetConfig.preset("small", classes=1, coefficients=6, crop=32, rotation="mdn"))
     monkeypatch.setattr(published, "INT8_MIN_SIZE", 1000)
     model = type("M", (), {"net": net, "coef_mean": np.zeros(6), "coef_std": np.ones(6)})()
-    arrays = published.hbeo_arrays(model, "int8")  # type: ignore[arg-type]
+    arrays = hbeo_arrays(model, "int8")  # type: ignore[arg-type]
     quantised = [k for k in arrays if k.endswith(published.SCALE)]
     assert quantised
     assert all(arrays[k.removesuffix(published.SCALE)].dtype == np.int8 for k in quantised)
