@@ -109,7 +109,8 @@ def half_precision_cost(cats: tuple[str, ...]) -> None:
     import numpy as np
 
     from beo_bench.metrics import rotation_error
-    from beo_bench.perception.hbeo.train import load_hbeo, model_path
+    from beo_bench.perception.hbeo.model import model_path
+    from beo_bench.perception.hbeo.train import load_hbeo
 
     ev = Evaluator.of(get_suite("pose-3dof"), "oracle")
     pairs = [ev.items.isolated_view(i) for i in range(HALF_VIEWS)]

@@ -17,7 +17,7 @@ from beo_bench.errors import UsageError
 if TYPE_CHECKING:
     from beo_bench.objects.datasets import Dataset
     from beo_bench.perception.beo.model import BEOConfig
-    from beo_bench.perception.hbeo.train import HBEOConfig, Kind
+    from beo_bench.perception.hbeo.model import HBEOConfig, Kind
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,7 @@ class TrainRequest:
     val_images: int | None = None
     epochs: int | None = None
     recipe: str = "default"
-    """``--recipe``: default, reference or per-category (``hbeo_train.default_config``)."""
+    """``--recipe``: default, reference or per-category (``hbeo.model.default_config``)."""
     seed: int | None = None
     crop: int | None = None
     size: str | None = None
@@ -108,7 +108,7 @@ def beo_config(req: TrainRequest) -> BEOConfig:
 def hbeo_config(req: TrainRequest, kind: Kind) -> HBEOConfig:
     """The HBEO (or HBEO-MDN) training set-up ``req`` describes; on a dataset, rendered from
     it, its BEO subspace the dataset's."""
-    from beo_bench.perception.hbeo.train import default_config, with_overrides
+    from beo_bench.perception.hbeo.model import default_config, with_overrides
 
     split = req.train_split
     cats = train_categories(req)

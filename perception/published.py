@@ -14,7 +14,7 @@ every file. The stems:
   scenes (:func:`~beo_bench.perception.means.fit_rest_prior`): ``beo``'s pose prior and
   ``icp``'s starts on the ``tabletop`` and ``pick`` views;
 - ``hbeo`` and ``hbeo-mdn``: the small networks of the ``reference`` recipe
-  (:data:`~beo_bench.perception.hbeo.train.RECIPES`), weights stored in float16 (they are
+  (:data:`~beo_bench.perception.hbeo.model.RECIPES`), weights stored in float16 (they are
   used in float32; ``make bench`` measures what the rounding costs: nothing measurable);
 - ``hbeo-mdn-car``, ``hbeo-mdn-airplane``, ``hbeo-mdn-sofa``: chapter 5's per-category
   networks (the ``per-category`` recipe, Tables 5.1/5.2), weights stored in int8 with a
@@ -331,7 +331,7 @@ def write(stem: str, meta: dict[str, Any], arrays: dict[str, np.ndarray], root: 
     )
     for name in sorted(old):  # after the manifest stops listing them
         (root / name).unlink(missing_ok=True)
-    # the models read from these files (beo_model.published_model, hbeo_train.published_hbeo)
+    # the models read from these files (beo_model.published_model, hbeo.model.published_hbeo)
     # are cached by the manifest's digests: they are read again
     return files[f"{stem}.npz"]
 

@@ -33,15 +33,10 @@ from beo_bench.perception.hbeo.data import (
     render_dataset,
     shard_path,
 )
+from beo_bench.perception.hbeo.model import HBEOConfig, HBEOModel, fingerprint
+from beo_bench.perception.hbeo.model import model_path as hbeo_path
 from beo_bench.perception.hbeo.net import HBEONet
-from beo_bench.perception.hbeo.train import (
-    HBEOConfig,
-    HBEOModel,
-    fingerprint,
-    load_hbeo,
-    train_hbeo,
-)
-from beo_bench.perception.hbeo.train import model_path as hbeo_path
+from beo_bench.perception.hbeo.train import load_hbeo, train_hbeo
 from tests.perception.contexts import run_context
 
 CATS = ("bowl", "can")

@@ -313,6 +313,7 @@ def test_entries_with_values_their_writer_never_makes_are_rebuilt(kind, settings
 
 # -- 4. training that would run no step ---------------------------------------------------------
 def test_training_refuses_zero_steps_before_rendering(capsys, monkeypatch) -> None:
+    from beo_bench.perception.hbeo import model as hbeo_model
     from beo_bench.perception.hbeo import train as hbeo_train
 
     def never(*a, **kw):
@@ -324,7 +325,7 @@ def test_training_refuses_zero_steps_before_rendering(capsys, monkeypatch) -> No
     err = _error(capsys, argv)
     assert "--images 100" in err and "--batch-size 128" in err and "no step" in err
     assert time.perf_counter() - t0 < 10
-    assert not hbeo_train.model_path("zero-steps").exists()
+    assert not hbeo_model.model_path("zero-steps").exists()
 
 
 # -- 5. odd arguments ------------------------------------------------------------------------------

@@ -54,14 +54,14 @@ def run(args: argparse.Namespace) -> int:
         path = model_dir(args.name, cats, 32)
         sha = publish_beo(BEOModel.load(path), out)
     else:
-        from beo_bench.perception.hbeo.publish import publish_hbeo
-        from beo_bench.perception.hbeo.train import (
+        from beo_bench.perception.hbeo.model import (
             HBEOModel,
             default_config,
             default_name,
             is_per_category_default,
             model_path,
         )
+        from beo_bench.perception.hbeo.publish import publish_hbeo
 
         name = args.name
         cats = tuple(args.categories or ())

@@ -33,7 +33,7 @@ from beo_bench.errors import UsageError
 from beo_bench.training import TrainRequest
 
 if TYPE_CHECKING:
-    from beo_bench.perception.hbeo.train import HBEOConfig, Kind
+    from beo_bench.perception.hbeo.model import HBEOConfig, Kind
 
 
 def add(sub: Any, help: str) -> None:
@@ -142,7 +142,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _train_hbeo(args: argparse.Namespace) -> int:
-    from beo_bench.perception.hbeo.train import default_name, model_path, train_hbeo
+    from beo_bench.perception.hbeo.model import default_name, model_path
+    from beo_bench.perception.hbeo.train import train_hbeo
 
     cfg = hbeo_config(args, args.model)
     name = args.name or default_name(cfg)

@@ -44,8 +44,9 @@ from beo_bench.options import option
 from beo_bench.perception.beo.observe import grid_centres
 from beo_bench.perception.digest import state_digest
 from beo_bench.perception.hbeo.crop import Crop, make_crop
+from beo_bench.perception.hbeo.model import HBEOModel
 from beo_bench.perception.hbeo.net import Mixture, Output, point_rotation
-from beo_bench.perception.hbeo.train import HBEOModel, load_hbeo
+from beo_bench.perception.hbeo.train import load_hbeo
 from beo_bench.types import Estimate, GroundTruth, View
 
 if TYPE_CHECKING:
@@ -342,7 +343,7 @@ class HBEOBackend(Backend):
         from beo_bench.errors import TrainingInRunError
         from beo_bench.objects import pickable_categories
         from beo_bench.objects.datasets import train_command
-        from beo_bench.perception.hbeo.train import (
+        from beo_bench.perception.hbeo.model import (
             default_config,
             default_name,
             model_path,

@@ -10,7 +10,7 @@ import numpy as np
 
 from beo_bench.errors import UsageError
 from beo_bench.perception.digest import state_digest
-from beo_bench.perception.hbeo.train import HBEOModel
+from beo_bench.perception.hbeo.model import HBEOModel
 from beo_bench.perception.published import (
     INT8_MIN_SIZE,
     NET_PREFIX,
@@ -55,7 +55,7 @@ def publish_hbeo(
     per_category: bool = False,
 ) -> str:
     """Publish ``model`` as ``<kind>`` or, with ``per_category`` (it is the
-    ``per-category`` recipe's one-class network: ``hbeo_train.is_per_category_default``)
+    ``per-category`` recipe's one-class network: ``hbeo.model.is_per_category_default``)
     of a class in :data:`PER_CATEGORY`, as :func:`per_category_stem` with its subspace."""
 
     if model.config.size != "small":

@@ -37,6 +37,7 @@ from beo_bench.perception.hbeo.data import (
     load_split,
     render_dataset,
 )
+from beo_bench.perception.hbeo.model import HBEOConfig, HBEOModel, default_config, model_path
 from beo_bench.perception.hbeo.net import (
     HBEONet,
     Mixture,
@@ -46,14 +47,7 @@ from beo_bench.perception.hbeo.net import (
     rotvec_to_matrix,
     sixd_to_matrix,
 )
-from beo_bench.perception.hbeo.train import (
-    HBEOConfig,
-    HBEOModel,
-    default_config,
-    load_hbeo,
-    model_path,
-    train_hbeo,
-)
+from beo_bench.perception.hbeo.train import load_hbeo, train_hbeo
 from tests.perception.contexts import run_context
 
 CATS = ("airplane", "bowl", "chair")

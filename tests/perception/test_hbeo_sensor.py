@@ -13,7 +13,7 @@ import pytest
 
 from beo_bench.objects import LIBRARY_VERSION
 from beo_bench.perception.hbeo.data import DATA_VERSION, DatasetConfig, Shard, render_shard
-from beo_bench.perception.hbeo.train import default_config, default_name
+from beo_bench.perception.hbeo.model import default_config, default_name
 from beo_bench.scenes.sensors import SensorError
 from beo_bench.training import TrainRequest, hbeo_config
 

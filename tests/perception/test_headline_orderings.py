@@ -27,7 +27,8 @@ from beo_bench.perception.beo.model import BEOConfig, train_beo
 from beo_bench.perception.beo.model import model_path as beo_model_path
 from beo_bench.perception.hbeo.backend import BY_MODE
 from beo_bench.perception.hbeo.data import DatasetConfig
-from beo_bench.perception.hbeo.train import HBEOConfig, model_path, train_hbeo
+from beo_bench.perception.hbeo.model import HBEOConfig, model_path
+from beo_bench.perception.hbeo.train import train_hbeo
 from beo_bench.perception.means import class_means
 from beo_bench.scenes.camera import OBJECT_RIG
 from beo_bench.types import View, ViewpointPrior

@@ -13,6 +13,7 @@ from beo_bench.errors import CheckpointError
 from beo_bench.perception import published
 from beo_bench.perception.beo import model as beo_model
 from beo_bench.perception.digest import state_digest
+from beo_bench.perception.hbeo import model as hbeo_model
 from beo_bench.perception.hbeo import train as hbeo_train
 from beo_bench.perception.hbeo.publish import hbeo_arrays
 from beo_bench.scenes.pickconfig import default_categories
@@ -243,9 +244,9 @@ def test_the_per_category_networks_are_published_with_their_subspaces(no_trainin
         m = hbeo_train.load_hbeo(None, "hbeo-mdn", (c,), recipe="per-category")
         meta, _ = published.read(f"hbeo-mdn-{c}")
         assert meta["stored_dtype"] == "int8" and state_digest(m.state()) == meta["digest"]
-        assert m.categories == (c,) and hbeo_train.is_per_category_default(m.config)
+        assert m.categories == (c,) and hbeo_model.is_per_category_default(m.config)
         assert m.beo is beo_model.published_model(f"beo-{c}")
-        assert hbeo_train.fingerprint(m.beo) == meta["subspace"]
+        assert hbeo_model.fingerprint(m.beo) == meta["subspace"]
         assert beo_model.load_model(None, (c,), 32) is m.beo  # BEO of that class alone
-    assert hbeo_train.published_per_category("hbeo-mdn", "chair") is None
-    assert hbeo_train.published_per_category("hbeo", "car") is None  # not published
+    assert hbeo_model.published_per_category("hbeo-mdn", "chair") is None
+    assert hbeo_model.published_per_category("hbeo", "car") is None  # not published

@@ -89,7 +89,7 @@ def _trained_by(argv: list[str]) -> Path:
         cats = beo_config(req).categories
         name = default_name(cats, args.resolution, args.per_category, req.dataset)
         return model_path(name) / "config.json"
-    from beo_bench.perception.hbeo.train import default_name, model_path
+    from beo_bench.perception.hbeo.model import default_name, model_path
 
     return model_path(default_name(train_command.hbeo_config(args, args.model))) / "weights.pt"
 
