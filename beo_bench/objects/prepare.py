@@ -3,8 +3,8 @@ collision parts (CoACD for loaded meshes) land in the cache, and per-instance st
 come back.
 
 Workers receive unbuilt copies of the instances (their recipes: procedural parameters, or a
-file's path and loading options; not meshes) with the cache directory, and build them
-themselves, so nothing large crosses process boundaries and no dataset root has to be
+file's path and loading options; not meshes) that name the cache directory
+(``ObjectInstance.cache_dir``), and build them themselves, so nothing large crosses process boundaries and no dataset root has to be
 known there; the cache's atomic writes make concurrent workers safe.
 """
 
@@ -16,6 +16,7 @@ import time
 from collections.abc import Iterable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, replace
+from pathlib import Path
 from typing import Any, Literal
 
 from tqdm import tqdm
@@ -69,9 +70,7 @@ def process(inst: ObjectInstance, D: int = DEFAULT_RESOLUTION) -> InstanceStats:
     )
 
 
-def _process_unbuilt(inst: ObjectInstance, D: int, cache_dir: str) -> dict[str, Any]:
-    # explicit, not inherited: a forkserver keeps the environment of its first use
-    os.environ[cache.CACHE_ENV] = cache_dir
+def _process_unbuilt(inst: ObjectInstance, D: int) -> dict[str, Any]:
     d = asdict(process(inst, D))
     d["extents"] = tuple(d["extents"])
     return d
@@ -83,6 +82,7 @@ def prepare(
     workers: int | None = None,
     progress: bool = True,
     on_error: Literal["raise", "skip"] = "raise",
+    cache_root: Path | None = None,
 ) -> list[InstanceStats]:
     """Process ``instances`` with ``workers`` processes (default: all cores; 1 runs in this
     process); results come back in input order.
@@ -90,6 +90,11 @@ def prepare(
     An instance that fails (a corrupt file, a mesh that cannot be repaired) does not stop
     the others: afterwards ``on_error="raise"`` raises the first failure, naming how many
     failed, and ``"skip"`` leaves the failures out of the result.
+
+    ``cache_root``: the cache the entries go to (a run's ``RunContext.cache_root``); None:
+    each instance's own (``ObjectInstance.cache_dir``, else the environment's, resolved
+    here, once). Workers are handed it with each instance, never through the environment
+    (a forkserver keeps the environment of its first use).
     """
     insts = list(instances)
     workers = (os.cpu_count() or 1) if workers is None else workers
@@ -98,6 +103,8 @@ def prepare(
     failed: list[tuple[str, BeoBenchError]] = []
     if workers <= 1 or len(insts) <= 1:
         for inst in insts:
+            if cache_root is not None and inst.cache_dir != cache_root:
+                inst = replace(inst, cache_dir=cache_root)
             try:
                 out.append(process(inst, D))
             except BeoBenchError as e:
@@ -107,10 +114,21 @@ def prepare(
         # forkserver: workers start clean; a forked copy of a process that already runs
         # embree, torch or GL threads can deadlock
         ctx = mp.get_context("forkserver")
-        args = (D, str(cache.cache_root()))
+        env_root = cache.cache_root()
         with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
-            # replace(): a copy without the built mesh, which would otherwise be pickled too
-            futures = [(i.key, pool.submit(_process_unbuilt, replace(i), *args)) for i in insts]
+            # replace(): a copy without the built mesh, which would otherwise be pickled too,
+            # that names its cache (the given, its own, else the environment's read here)
+            futures = [
+                (
+                    i.key,
+                    pool.submit(
+                        _process_unbuilt,
+                        replace(i, cache_dir=cache_root or i.cache_dir or env_root),
+                        D,
+                    ),
+                )
+                for i in insts
+            ]
             for key, f in futures:
                 try:
                     out.append(InstanceStats(**f.result()))
