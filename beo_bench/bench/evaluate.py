@@ -51,7 +51,9 @@ class Evaluator:
         self.kind = get_kind(ctx.suite.kind)
         # the items may be the caller's (the report rebuilds views with its own, and the
         # truth a privileged backend is handed must be of the scene those hold)
-        self.items: Items = self.kind.open(ctx.suite, ctx.class_given) if items is None else items
+        self.items: Items = (
+            self.kind.open(ctx.suite, ctx.class_given, ctx.cache_root) if items is None else items
+        )
         if backend is None:
             backend = ctx.backend.build()
             backend.prepare(ctx)

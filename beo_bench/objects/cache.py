@@ -167,9 +167,7 @@ def check_kind(kind: str) -> str:
     return kind
 
 
-def entry_path(
-    kind: str, content: str, settings: dict[str, Any], root: Path | None = None
-) -> Path:
+def entry_path(kind: str, content: str, settings: dict[str, Any], root: Path | None = None) -> Path:
     """Where the ``kind`` entry of ``content`` processed with ``settings`` lives in the cache
     at ``root`` (default: the environment's)."""
     check_name(content, "cache content key")

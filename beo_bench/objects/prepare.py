@@ -4,8 +4,9 @@ come back.
 
 Workers receive unbuilt copies of the instances (their recipes: procedural parameters, or a
 file's path and loading options; not meshes) that name the cache directory
-(``ObjectInstance.cache_dir``), and build them themselves, so nothing large crosses process boundaries and no dataset root has to be
-known there; the cache's atomic writes make concurrent workers safe.
+(``ObjectInstance.cache_dir``), and build them themselves, so nothing large crosses process
+boundaries, no dataset root has to be known there and no worker reads its environment for
+the cache; the cache's atomic writes make concurrent workers safe.
 """
 
 from __future__ import annotations

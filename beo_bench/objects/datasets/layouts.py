@@ -537,8 +537,9 @@ def resolve_key(
 ) -> ObjectInstance:
     """The instance the key ``<layout name>/<rest>`` names in the dataset at ``root`` (an
     absolute path), kept in the cache at ``cache_root``; one instance object per key, root
-    and cache in a process, so that its loaded mesh is shared. An :class:`~beo_bench.errors.InvalidKeyError` for a malformed key or
-    one of a model the dataset does not have."""
+    and cache in a process, so that its loaded mesh is shared. An
+    :class:`~beo_bench.errors.InvalidKeyError` for a malformed key or one of a model the
+    dataset does not have."""
     key = f"{layout.name}/{rest}"
     quoted, _, query = rest.partition("?")
     ident = unquote(quoted)
