@@ -17,7 +17,6 @@ import time
 from collections.abc import Iterable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, replace
-from pathlib import Path
 from typing import Any, Literal
 
 from tqdm import tqdm
@@ -83,7 +82,6 @@ def prepare(
     workers: int | None = None,
     progress: bool = True,
     on_error: Literal["raise", "skip"] = "raise",
-    cache_root: Path | None = None,
 ) -> list[InstanceStats]:
     """Process ``instances`` with ``workers`` processes (default: all cores; 1 runs in this
     process); results come back in input order.
@@ -92,10 +90,9 @@ def prepare(
     the others: afterwards ``on_error="raise"`` raises the first failure, naming how many
     failed, and ``"skip"`` leaves the failures out of the result.
 
-    ``cache_root``: the cache the entries go to (a run's ``RunContext.cache_root``); None:
-    each instance's own (``ObjectInstance.cache_dir``, else the environment's, resolved
-    here, once). Workers are handed it with each instance, never through the environment
-    (a forkserver keeps the environment of its first use).
+    The entries go to each instance's cache (``ObjectInstance.cache_dir``; None: the
+    environment's, read here, once): a worker is handed it with the instance, never through
+    its environment (a forkserver keeps the environment of its first use).
     """
     insts = list(instances)
     workers = (os.cpu_count() or 1) if workers is None else workers
@@ -104,8 +101,6 @@ def prepare(
     failed: list[tuple[str, BeoBenchError]] = []
     if workers <= 1 or len(insts) <= 1:
         for inst in insts:
-            if cache_root is not None and inst.cache_dir != cache_root:
-                inst = replace(inst, cache_dir=cache_root)
             try:
                 out.append(process(inst, D))
             except BeoBenchError as e:
@@ -115,21 +110,11 @@ def prepare(
         # forkserver: workers start clean; a forked copy of a process that already runs
         # embree, torch or GL threads can deadlock
         ctx = mp.get_context("forkserver")
-        env_root = cache.cache_root()
+        root = cache.cache_root()
+        # replace(): a copy without the built mesh, which would otherwise be pickled too
+        unbuilt = [replace(i, cache_dir=i.cache_dir or root) for i in insts]
         with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
-            # replace(): a copy without the built mesh, which would otherwise be pickled too,
-            # that names its cache (the given, its own, else the environment's read here)
-            futures = [
-                (
-                    i.key,
-                    pool.submit(
-                        _process_unbuilt,
-                        replace(i, cache_dir=cache_root or i.cache_dir or env_root),
-                        D,
-                    ),
-                )
-                for i in insts
-            ]
+            futures = [(i.key, pool.submit(_process_unbuilt, i, D)) for i in unbuilt]
             for key, f in futures:
                 try:
                     out.append(InstanceStats(**f.result()))
