@@ -88,7 +88,7 @@ def main() -> None:
         split="test",
         index=0,
         source="folder",
-        build=lambda: Generated(mug, None, no_symmetry()),
+        build=lambda _root: Generated(mug, None, no_symmetry()),
     )
     t0 = time.perf_counter()
     hulls = outside.collision_parts()

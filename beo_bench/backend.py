@@ -35,6 +35,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from enum import Enum
 from importlib.metadata import EntryPoint, entry_points
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar, Literal, Protocol, get_args
 
 import numpy as np
@@ -191,9 +192,9 @@ class SuiteInfo(Protocol):
 
 
 class PrepareContext(Protocol):
-    """What :meth:`Backend.prepare` is handed: its run's class list, dataset and suite, and
-    whether it may show progress bars. The runner's ``RunContext`` is one; a plugin types
-    its ``prepare`` with this and imports nothing of the runner."""
+    """What :meth:`Backend.prepare` is handed: its run's class list, dataset, suite and
+    asset cache, and whether it may show progress bars. The runner's ``RunContext`` is one;
+    a plugin types its ``prepare`` with this and imports nothing of the runner."""
 
     @property
     def categories(self) -> tuple[str, ...]:
@@ -207,6 +208,12 @@ class PrepareContext(Protocol):
 
     @property
     def suite(self) -> SuiteInfo: ...
+
+    @property
+    def cache_root(self) -> Path:
+        """The asset cache the run keeps derived data in (pass it on to
+        ``beo_bench.objects``' functions: ``instance_from_key(key, dataset, cache_root)``)."""
+        ...
 
     @property
     def progress(self) -> bool:

@@ -171,7 +171,9 @@ class BEOPickEnv(gym.Env):
       scaled with the image area);
     - ``obs_mode``: "image" or "pointcloud";
     - ``num_points``: points per observation (pointcloud mode only; 4096; at most
-      :data:`~beo_bench.scenes.pickconfig.MAX_NUM_POINTS`, 2**20).
+      :data:`~beo_bench.scenes.pickconfig.MAX_NUM_POINTS`, 2**20);
+    - ``cache_root``: the asset cache the library's objects are kept in (a path; default
+      None: ``$BEO_BENCH_CACHE``, else ``~/.cache/beo_bench``).
 
     ## Version History
 

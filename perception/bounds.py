@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
@@ -88,7 +89,7 @@ class OracleBackend(Backend):
     def prepare(self, ctx: PrepareContext) -> None:
         """Remember the run's dataset, where the views' instance keys are looked up (and
         with ``shape=class-mean`` compute its classes' means once)."""
-        self._means.use(ctx.dataset)
+        self._means.use(ctx.dataset, ctx.cache_root)
         if self.options.shape == "class-mean":
             self._means.get(tuple(ctx.categories), ctx.progress)
 
@@ -105,7 +106,7 @@ class OracleBackend(Backend):
             shape, size = means.shape[gt.class_index].copy(), means.size[gt.class_index].copy()
             mesh = None
         else:
-            inst = instance_from_key(gt.key, self._means.dataset)
+            inst = instance_from_key(gt.key, self._means.dataset, self._means.cache_root)
             shape = inst.voxels(o.resolution).astype(np.float32)
             mesh = inst.mesh if o.mesh else None
         if o.damaged:
@@ -128,10 +129,12 @@ class MeansCache:
     def __init__(self, resolution: int, instances: int | None) -> None:
         self.resolution, self.instances = resolution, instances
         self.dataset: Dataset | None = None
+        self.cache_root: Path | None = None
         self._means: dict[tuple[str, ...], ClassMeans] = {}
 
-    def use(self, dataset: Dataset | None) -> None:
-        """Another dataset's means are not these."""
+    def use(self, dataset: Dataset | None, cache_root: Path | None = None) -> None:
+        """Another dataset's means are not these; ``cache_root``: the run's asset cache."""
+        self.cache_root = cache_root
         if dataset != self.dataset:
             self.dataset = dataset
             self._means.clear()
@@ -139,7 +142,7 @@ class MeansCache:
     def get(self, cats: tuple[str, ...], progress: bool = False) -> ClassMeans:
         if cats not in self._means:
             self._means[cats] = class_means(
-                cats, self.resolution, self.instances, progress, self.dataset
+                cats, self.resolution, self.instances, progress, self.dataset, self.cache_root
             )
         return self._means[cats]
 
@@ -191,7 +194,7 @@ class RandomBackend(Backend):
     def prepare(self, ctx: PrepareContext) -> None:
         """Compute (or load) the class means of the run's classes and dataset once (with a
         progress bar where ``ctx.progress``)."""
-        self._means.use(ctx.dataset)
+        self._means.use(ctx.dataset, ctx.cache_root)
         self._means.get(tuple(ctx.categories), ctx.progress)
 
     def predict(self, view: View) -> Estimate:

@@ -60,11 +60,13 @@ def class_means(
     per_category: int | None = None,
     progress: bool = False,
     dataset: Dataset | None = None,
+    cache_root: Path | None = None,
 ) -> ClassMeans:
     """Means over the first ``per_category`` (default: all) ``train`` instances of each
     category (see :func:`training_voxels`), cached. On a user's ``dataset`` (None: the
     procedural library) its instances instead: its ``train`` split, or every model when a
-    class has none there (a small folder's hash split)."""
+    class has none there (a small folder's hash split). ``cache_root``: the asset cache
+    (None: the environment's)."""
     from beo_bench.objects.datasets import reference_split
 
     settings: dict[str, object] = {
@@ -82,14 +84,14 @@ def class_means(
 
     def compute() -> dict[str, np.ndarray]:
         grids, sizes = training_voxels(
-            categories, resolution, per_category, progress, dataset, split
+            categories, resolution, per_category, progress, dataset, split, cache_root
         )
         return {
             "shape": np.asarray([grids[c].mean(axis=0) for c in categories], dtype=np.float32),
             "size": np.asarray([sizes[c].mean(axis=0) for c in categories], dtype=np.float64),
         }
 
-    arrays = cache.cached("classmeans", key, settings, compute)
+    arrays = cache.cached("classmeans", key, settings, compute, cache_root)
     return ClassMeans(tuple(categories), arrays["shape"], arrays["size"])
 
 
@@ -100,14 +102,16 @@ def training_voxels(
     progress: bool = False,
     dataset: Dataset | None = None,
     split: str = "train",
+    cache_root: Path | None = None,
 ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Per category, the (n, D, D, D) bool voxel grids and (n, 3) extents of the first
     ``per_category`` (default: all) ``train`` instances. The first call voxelises them in
     worker processes (one per core; in this process inside a daemonic worker, which may not
     start children), which also caches their meshes, samples and parts; later calls read
     the disk cache. ``dataset``: a user's dataset instead of the procedural library, and
-    ``split`` instead of ``train``."""
-    objects = object_set(dataset, split, categories, per_category)
+    ``split`` instead of ``train``; ``cache_root``: the asset cache (None: the
+    environment's)."""
+    objects = object_set(dataset, split, categories, per_category, cache_root)
     workers = 1 if mp.current_process().daemon else None
     prepare(objects, D=resolution, workers=workers, progress=progress)
     grids, sizes = {}, {}

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -109,11 +110,12 @@ class SwapBackend(Backend):
         super().__init__(options, **kwargs)
         self.base = get_spec(self.options.base).make(_base_options(self.options))
         self._dataset: Dataset | None = None
+        self._cache_root: Path | None = None
 
     def prepare(self, ctx: PrepareContext) -> None:
         """Prepare the base backend for the run (its ``prepare(ctx)``), and remember the
         dataset the true shapes come from."""
-        self._dataset = ctx.dataset
+        self._dataset, self._cache_root = ctx.dataset, ctx.cache_root
         self.base.prepare(ctx)
 
     def model_digest(self) -> str | None:
@@ -141,6 +143,10 @@ class SwapBackend(Backend):
             )
         if "shape" in self.options.parts():
             D = int(np.asarray(est.shape).shape[0])
-            grid = instance_from_key(gt.key, self._dataset).voxels(D).astype(np.float32)
+            grid = (
+                instance_from_key(gt.key, self._dataset, self._cache_root)
+                .voxels(D)
+                .astype(np.float32)
+            )
             est = replace(est, shape=grid, mesh=None)
         return est

@@ -76,7 +76,11 @@ def _simulate_rest(instance: ObjectInstance) -> dict[str, np.ndarray]:
 def rest_pose(instance: ObjectInstance) -> RestPose:
     """The instance's stable pose on a plane (found by simulation once, then cached)."""
     out = cache.cached(
-        "rest", instance.content_hash, REST_SETTINGS, lambda: _simulate_rest(instance)
+        "rest",
+        instance.content_hash,
+        REST_SETTINGS,
+        lambda: _simulate_rest(instance),
+        instance.cache_dir,
     )
     R = np.asarray(out["rotation"], dtype=np.float64)
     # the lowest point of the rested mesh defines the height exactly (no contact softness)

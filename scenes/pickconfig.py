@@ -15,6 +15,7 @@ import math
 import numbers
 from collections import Counter
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -106,6 +107,9 @@ class PickConfig:
     """"image" or "pointcloud"."""
     num_points: int | None = None
     """Points per observation (pointcloud mode only); None: :data:`DEFAULT_NUM_POINTS`."""
+    cache_root: Path | None = None
+    """The asset cache the library's objects are kept in (ignored when ``objects`` is given:
+    its instances name theirs); None: ``$BEO_BENCH_CACHE``, read at each use."""
 
     # what the settings imply, worked out by __post_init__ (not arguments)
     object_set: ObjectSet = field(init=False, repr=False, compare=False)
@@ -125,7 +129,9 @@ class PickConfig:
         categories = None if self.categories is None else _category_names(self.categories)
         try:
             objects = (
-                self.objects if self.objects is not None else ObjectSet(self.split, categories)
+                self.objects
+                if self.objects is not None
+                else ObjectSet(self.split, categories, cache_root=self.cache_root)
             )
         except Exception as e:  # unknown split or category: say so at make time
             raise EnvConfigError(f"BEOPick-v0: {e}") from e

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 from beo_bench.backend import Backend, validate_estimate
@@ -25,10 +26,11 @@ from beo_bench.bench.suites import Suite
 from beo_bench.types import View
 
 
-def ItemViews(suite: Suite, class_given: bool = False) -> Items:
+def ItemViews(suite: Suite, class_given: bool = False, cache_root: Path | None = None) -> Items:
     """A suite's items without a backend (views, truths, rows before a backend call), as
-    its item kind makes them."""
-    return get_kind(suite.kind).open(suite, class_given)
+    its item kind makes them, their objects kept in the cache at ``cache_root`` (None: the
+    environment's)."""
+    return get_kind(suite.kind).open(suite, class_given, cache_root)
 
 
 def failed_rows(suite: Suite, templates: list[dict[str, Any]], reason: str) -> list[dict[str, Any]]:
@@ -51,7 +53,9 @@ class Evaluator:
         self.kind = get_kind(ctx.suite.kind)
         # the items may be the caller's (the report rebuilds views with its own, and the
         # truth a privileged backend is handed must be of the scene those hold)
-        self.items: Items = self.kind.open(ctx.suite, ctx.class_given) if items is None else items
+        self.items: Items = (
+            self.kind.open(ctx.suite, ctx.class_given, ctx.cache_root) if items is None else items
+        )
         if backend is None:
             backend = ctx.backend.build()
             backend.prepare(ctx)

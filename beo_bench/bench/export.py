@@ -131,7 +131,7 @@ def _scene(items: Any, index: int, min_pixels: int) -> ExportImage:
 
 def open_items(suite: Suite) -> Items:
     """The suite's items (no class given: an export shows no backend anything)."""
-    return get_kind(suite.kind).open(suite, False)
+    return get_kind(suite.kind).open(suite, False, None)
 
 
 def images(suite: Suite, items: Items, indices: range) -> Iterator[ExportImage]:

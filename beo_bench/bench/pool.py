@@ -573,7 +573,7 @@ def ray_results(
 
     actors: Any = Actor  # ray.remote gives the class its `remote`, which mypy cannot see
 
-    views = ItemViews(ctx.suite, ctx.class_given)
+    views = ItemViews(ctx.suite, ctx.class_given, ctx.cache_root)
 
     def failed(i: int, why: str) -> list[dict[str, Any]]:
         return [clean_row(r) for r in failed_rows(ctx.suite, views.templates(i), why)]

@@ -4,9 +4,10 @@ A user asks for a run with a :class:`RunConfig` (suite, backend name, options as
 ``--allow-privileged``). The driver resolves it once into a :class:`RunContext`: the suite
 and its item kind, the dataset, the backend's spec reference with its parsed options and
 capabilities, the class list the views carry, whether the class hint is given and whether
-the backend is handed the truth. The context is frozen and picklable; it is the only thing
+the backend is handed the truth, and the asset cache it keeps derived data in (read from
+``$BEO_BENCH_CACHE`` here, once). The context is frozen and picklable; it is the only thing
 that workers, the evaluator and ``Backend.prepare(ctx)`` receive (no per-process state
-carries a run's configuration).
+carries a run's configuration, its cache root included).
 
 A run directory's default name is :func:`run_name`; its files, identity, lock, rows and
 summary are :mod:`beo_bench.bench.rundir`'s.
@@ -18,11 +19,13 @@ import dataclasses
 import json
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from beo_bench.backend import Capabilities, check_privileged, get_spec, load_plugins
 from beo_bench.bench.suites import Suite, check_track
 from beo_bench.errors import BeoBenchError, CorruptDataError, UsageError
+from beo_bench.objects import cache
 
 if TYPE_CHECKING:
     from beo_bench.backend import Backend, BackendSpec
@@ -155,6 +158,9 @@ class RunContext:
     backend: BackendRef
     categories: tuple[str, ...]
     """The class list the views carry (``View.categories``)."""
+    cache_root: Path = field(default_factory=cache.cache_root)
+    """The asset cache the run's objects, scenes and models are kept in (resolved from the
+    environment when the context is made: a worker is handed it, never reads its own)."""
     privileged: bool = False
     """The backend is handed each view's ground truth (a bound)."""
     class_given: bool = False
@@ -187,11 +193,14 @@ class RunContext:
         return RunConfig(self.suite, self.backend.name, self.backend.kwargs, self.allow_privileged)
 
     @classmethod
-    def of(cls, cfg: RunConfig, progress: bool = False) -> RunContext:
+    def of(
+        cls, cfg: RunConfig, progress: bool = False, cache_root: Path | None = None
+    ) -> RunContext:
         """Resolve ``cfg``: find the backend's spec (plugins loaded), parse its options,
         read its capabilities (without building it), refuse a privileged plugin without
-        leave and a track the backend cannot run in, and find the views' class list. Every
-        refusal is a usage error raised here, before any run starts."""
+        leave and a track the backend cannot run in, and find the views' class list and the
+        asset cache (``cache_root``, default: the environment's, read here). Every refusal
+        is a usage error raised here, before any run starts."""
         load_plugins()
         spec = get_spec(cfg.backend)
         options = spec.parse(cfg.backend_kwargs)
@@ -202,6 +211,7 @@ class RunContext:
             suite=cfg.suite,
             backend=BackendRef(cfg.backend, dict(cfg.backend_kwargs), options, caps),
             categories=suite_categories(cfg.suite),
+            cache_root=cache.cache_root() if cache_root is None else Path(cache_root),
             privileged=privileged,
             class_given=cfg.suite.gives_class and caps.wants_class_hint,
             allow_privileged=cfg.allow_privileged,

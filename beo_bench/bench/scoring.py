@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -135,10 +136,12 @@ class TruthShape:
 
 
 @functools.lru_cache(maxsize=256)
-def truth_shape(key: str, D: int, dataset: Dataset | None = None) -> TruthShape:
+def truth_shape(
+    key: str, D: int, dataset: Dataset | None = None, cache_root: Path | None = None
+) -> TruthShape:
     """The true shape of instance ``key`` (of ``dataset``, for a dataset's key; voxels
-    disk-cached; the rest kept per process)."""
-    inst = instance_from_key(key, dataset)
+    disk-cached at ``cache_root``, default the environment's; the rest kept per process)."""
+    inst = instance_from_key(key, dataset, cache_root)
     v = inst.voxels(D)
     out = TruthShape(v, grid_surface(v), np.array(inst.mesh.convex_hull.vertices, dtype=float))
     for a in (out.voxels, out.surface.triangles, out.surface.samples, out.model_points):
@@ -297,6 +300,7 @@ def pick_errors(
     cam_to_world: np.ndarray,
     resolution: int,
     dataset: Dataset | None = None,
+    cache_root: Path | None = None,
 ) -> dict[str, Any]:
     """The errors of the estimate a pick episode grasped, against its object's truth (issue
     49: success tied to each estimate's error): rotation (deg, under the object's
@@ -308,7 +312,7 @@ def pick_errors(
 
     from beo_bench.objects.processing import surface_samples
 
-    truth = truth_shape(gt.key, resolution, dataset)
+    truth = truth_shape(gt.key, resolution, dataset, cache_root)
     sym, pred = gt.symmetry, resample(est.shape, resolution)
     # only the errors recorded (score_pose / score_shape add EDT, F-score, MSSD: not needed)
     out: dict[str, Any] = {
@@ -321,7 +325,7 @@ def pick_errors(
             (gt.R_cam, gt.t_cam), gt.size, resolution=resolution,
         ),
     }  # fmt: skip
-    inst = instance_from_key(gt.key, dataset)
+    inst = instance_from_key(gt.key, dataset, cache_root)
     true_est = Estimate(
         np.ones(1), np.asarray(gt.R_cam), np.asarray(gt.t_cam), np.asarray(gt.size),
         truth.voxels.astype(np.float32), mesh=inst.mesh,
@@ -358,11 +362,11 @@ class BopModel:
 
 
 @functools.lru_cache(maxsize=64)
-def bop_model(key: str, dataset: Dataset | None = None) -> BopModel:
+def bop_model(key: str, dataset: Dataset | None = None, cache_root: Path | None = None) -> BopModel:
     """The BOP model of instance ``key`` (kept per process, as ``scoring.truth_shape``)."""
     from scipy.spatial.distance import pdist
 
-    mesh = instance_from_key(key, dataset).mesh
+    mesh = instance_from_key(key, dataset, cache_root).mesh
     V = np.array(mesh.vertices, dtype=np.float64)
     hull = np.asarray(mesh.convex_hull.vertices, dtype=np.float64)
     diameter = float(pdist(hull).max()) if len(hull) > 1 else 0.0
@@ -411,12 +415,16 @@ def _crop(
 
 
 def score_bop(
-    est: Estimate | None, gt: GroundTruth, view: View, dataset: Dataset | None = None
+    est: Estimate | None,
+    gt: GroundTruth,
+    view: View,
+    dataset: Dataset | None = None,
+    cache_root: Path | None = None,
 ) -> dict[str, Any]:
     """The BOP fields of one view (:data:`BOP_FIELDS`) and NOCS's ``iou3d`` for ``est``
     (None: the backend failed; only the diameter and the visible fraction, which a
     failure's row needs to count as a target or not)."""
-    model = bop_model(gt.key, dataset)
+    model = bop_model(gt.key, dataset, cache_root)
     K = np.asarray(view.K, dtype=np.float64)
     h, w = np.asarray(view.depth).shape
     d_gt = model.renderer.depth(gt.R_cam, gt.t_cam, K, w, h)
@@ -479,6 +487,7 @@ def view_row(
     resolution: int,
     scores_pose: bool,
     dataset: Dataset | None = None,
+    cache_root: Path | None = None,
 ) -> dict[str, Any]:
     """``row`` (:func:`base_row`) completed with the scores of ``answer``: the class, and
     where the protocol does not give the pose (``scores_pose``) the pose metrics and Pix3D
@@ -486,14 +495,14 @@ def view_row(
     est, seconds, failure = answer
     row.update(ms=1000 * seconds, failure=failure)
     if scores_pose:  # the field's figures (BOP, NOCS): a failure's row counts as a target
-        row.update(score_bop(est, gt, view, dataset))
+        row.update(score_bop(est, gt, view, dataset, cache_root))
     if est is None:
         row.update(pred_class=-1, correct=False)
         return row
     row["pred_class"] = est.class_index
     row["correct"] = est.class_index == gt.class_index
     row["class_prob_true"] = float(est.class_probs[gt.class_index])
-    truth = truth_shape(gt.key, resolution, dataset)
+    truth = truth_shape(gt.key, resolution, dataset, cache_root)
     if scores_pose:
         row.update(score_pose(est, gt, truth, view.K))
         row.update(viewpoints(est, gt))

@@ -307,7 +307,7 @@ def card(case: ReportCase, ctx: RunContext, predicted: bool) -> Card:
 
     view, gt, est = case.view, case.truth, case.estimate
     shape = view.depth.shape
-    true_voxels = truth_shape(gt.key, ctx.suite.resolution, ctx.dataset).voxels
+    true_voxels = truth_shape(gt.key, ctx.suite.resolution, ctx.dataset, ctx.cache_root).voxels
     truth = silhouette(true_voxels, gt.R_cam, gt.t_cam, gt.size, view.K, shape)
     mine = (
         silhouette(est.shape, est.rotation, est.translation, est.size, view.K, shape)
@@ -444,7 +444,7 @@ def write_report(
     chosen = [rows[i] for i in ranking.order[: max(0, int(views))]]
     cards: list[Card] = []
     predicted = 0
-    items = kind.open(ctx.suite, ctx.class_given)
+    items = kind.open(ctx.suite, ctx.class_given, ctx.cache_root)
     ev: Evaluator | None = None  # built at the first row predicted again
 
     def predict(index: int, j: int, view: View) -> Answer:

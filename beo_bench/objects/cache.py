@@ -1,11 +1,16 @@
 """The on-disk asset cache: content-addressed, checksummed, written atomically.
 
-Entries live under ``$BEO_BENCH_CACHE`` (default ``~/.cache/beo_bench``), one ``.npz`` file
+Entries live under a root directory, one ``.npz`` file
 per (mesh content hash, processing settings), in one directory per kind (:data:`KINDS`).
 Writers go through a temporary file in the same directory and ``os.replace``
 (:func:`beo_bench.atomic.atomic_write`), so a reader in another process sees either nothing
 or the whole file, and a killed writer leaves only a ``.tmp`` file that the next writer
 ignores.
+
+The root is an argument (``root=``) of every function that reads or writes the cache: a
+run carries its own (``RunContext.cache_root``) down to its workers. A function given none
+uses :func:`cache_root`, ``$BEO_BENCH_CACHE`` (default ``~/.cache/beo_bench``) read at the
+call; nothing in this package writes that variable.
 
 Every entry carries a checksum of its arrays (``__checksum__``); an entry that does not
 match it, has none (written by an older version) or cannot be read is recomputed and
@@ -77,8 +82,15 @@ def default_root() -> Path:
 
 
 def cache_root() -> Path:
-    """The cache directory (``$BEO_BENCH_CACHE`` or ``~/.cache/beo_bench``)."""
+    """The cache directory the environment names (``$BEO_BENCH_CACHE`` or
+    ``~/.cache/beo_bench``), read at each call and never written: the edge a run resolves its
+    root at (``RunContext.cache_root``), and what a function given no ``root`` uses."""
     return Path(os.environ.get(CACHE_ENV) or default_root())
+
+
+def _root(root: Path | str | None) -> Path:
+    """``root``, or the environment's (:func:`cache_root`) when none is given."""
+    return cache_root() if root is None else Path(root)
 
 
 MIN_FREE_BYTES = 256 << 20
@@ -90,16 +102,20 @@ disk; rendered HBEO training sets need more (docs/reference-models.md)."""
 _FIX = f"set {CACHE_ENV} to a writable directory with free space"
 
 
-def check_root(writable: bool = True, min_free: int = MIN_FREE_BYTES) -> Path:
+def check_root(
+    writable: bool = True, min_free: int = MIN_FREE_BYTES, root: Path | None = None
+) -> Path:
     """The cache root, checked once as a command starts, so that a cache that cannot work
     fails now with one line rather than later inside a worker: it must be a directory (or
     not exist yet: it is then created, as the first entry would create it) and, when
     ``writable``, accept a new file and have ``min_free`` bytes free.
-    :class:`~beo_bench.errors.CacheDirError` (exit status 2) says which and how to fix it."""
-    root = cache_root()
+    :class:`~beo_bench.errors.CacheDirError` (exit status 2) says which and how to fix it.
+    ``root``: the cache to check (default: the environment's)."""
+    root = _root(root)
+    named = os.environ.get(CACHE_ENV)  # only to say where the root came from
     where = (
         f"the asset cache {root} (${CACHE_ENV})"
-        if os.environ.get(CACHE_ENV)
+        if named and Path(named) == root
         else (f"the asset cache {root}")
     )
     if root.exists() and not root.is_dir():
@@ -151,11 +167,12 @@ def check_kind(kind: str) -> str:
     return kind
 
 
-def entry_path(kind: str, content: str, settings: dict[str, Any]) -> Path:
-    """Where the ``kind`` entry of ``content`` processed with ``settings`` lives."""
+def entry_path(kind: str, content: str, settings: dict[str, Any], root: Path | None = None) -> Path:
+    """Where the ``kind`` entry of ``content`` processed with ``settings`` lives in the cache
+    at ``root`` (default: the environment's)."""
     check_name(content, "cache content key")
     s = hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
-    return cache_root() / check_kind(kind) / content[:2] / f"{content}-{s}.npz"
+    return _root(root) / check_kind(kind) / content[:2] / f"{content}-{s}.npz"
 
 
 # -- the root's tag: what the cache may delete ------------------------------------------------
@@ -180,7 +197,7 @@ def claim_root(root: Path | None = None) -> bool:
     directory that ``$BEO_BENCH_CACHE`` points at is left untagged: entries are still
     written there on request, but :func:`clear` will not delete anything in it. Returns
     whether the root is tagged."""
-    root = cache_root() if root is None else Path(root)
+    root = _root(root)
     if str(root) in _claimed:
         return True
     if not is_tagged(root):
@@ -198,10 +215,11 @@ def claim_root(root: Path | None = None) -> bool:
     return True
 
 
-def claim_for(path: Path) -> None:
-    """Call before writing ``path``: tags the cache root first when ``path`` lies in it (a
-    model saved elsewhere, e.g. a test's temporary directory, claims nothing)."""
-    root = cache_root().absolute()
+def claim_for(path: Path, root: Path | None = None) -> None:
+    """Call before writing ``path``: tags the cache ``root`` (default: the environment's)
+    first when ``path`` lies in it (a model saved elsewhere, e.g. a test's temporary
+    directory, claims nothing)."""
+    root = _root(root).absolute()
     if Path(path).absolute().is_relative_to(root):
         claim_root(root)
 
@@ -361,17 +379,23 @@ def _read_entry(
 
 
 def cached(
-    kind: str, content: str, settings: dict[str, Any], compute: Callable[[], dict[str, np.ndarray]]
+    kind: str,
+    content: str,
+    settings: dict[str, Any],
+    compute: Callable[[], dict[str, np.ndarray]],
+    root: Path | None = None,
 ) -> dict[str, np.ndarray]:
-    """Load an entry, or compute and store it. An entry that cannot be read or does not
-    match its checksum or its kind's arrays (a disk error, a tampered or an older file) is
-    recomputed and atomically replaced rather than trusted."""
-    path = entry_path(kind, content, settings)
+    """Load an entry from the cache at ``root`` (default: the environment's), or compute and
+    store it. An entry that cannot be read or does not match its checksum or its kind's
+    arrays (a disk error, a tampered or an older file) is recomputed and atomically replaced
+    rather than trusted."""
+    root = _root(root)
+    path = entry_path(kind, content, settings, root)
     found = _read_entry(path, kind, settings)
     if found is not None:
         return found
     arrays = {k: np.asarray(v) for k, v in compute().items()}
-    claim_for(path)
+    claim_for(path, root)
     try:
         atomic_save_npz(path, **with_checksum(arrays))
     except OSError as e:
@@ -414,9 +438,10 @@ def _tree_bytes(top: Path) -> tuple[int, int]:
     return entries, size
 
 
-def info() -> dict[str, Any]:
-    """Per-kind entry counts and sizes (known kinds only)."""
-    root = cache_root()
+def info(root: Path | None = None) -> dict[str, Any]:
+    """Per-kind entry counts and sizes (known kinds only) of the cache at ``root`` (default:
+    the environment's)."""
+    root = _root(root)
     kinds: dict[str, dict[str, int]] = {}
     for d in _kind_dirs(root, sorted(KINDS)):
         entries, size = _tree_bytes(d)
@@ -424,13 +449,14 @@ def info() -> dict[str, Any]:
     return {"root": str(root), "kinds": kinds, "bytes": sum(k["bytes"] for k in kinds.values())}
 
 
-def clear(kind: str | None = None) -> int:
+def clear(kind: str | None = None, root: Path | None = None) -> int:
     """Remove every entry (or every entry of ``kind``, one of :data:`KINDS`); returns bytes
     freed. Only the known kind directories of a root this package tagged are removed:
     anything else in the root, and any root without the tag, is left alone
-    (:class:`UsageError` for an unknown kind or an untagged root holding kind directories)."""
+    (:class:`UsageError` for an unknown kind or an untagged root holding kind directories).
+    ``root``: the cache to clear (default: the environment's)."""
     kinds = list(KINDS) if kind is None else [check_kind(kind)]
-    root = cache_root()
+    root = _root(root)
     targets = _kind_dirs(root, kinds)
     if not targets:
         return 0

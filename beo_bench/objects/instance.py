@@ -50,18 +50,22 @@ class ObjectInstance:
     index: int
     source: str
     """``procedural``, ``shapenet``, ``modelnet`` or ``folder``."""
-    build: Callable[[], Generated] = field(repr=False)
+    build: Callable[[Path | None], Generated] = field(repr=False)
     """Produces the canonical mesh, its convex parts (None: decompose with CoACD) and the
-    symmetry group."""
+    symmetry group, given the cache root to keep what it derives in (:attr:`cache_dir`)."""
     params: Params = field(default_factory=dict)
     """Shape parameters of a procedural instance (empty for meshes from files)."""
     pickable: bool = True
     path: Path | None = None
     """The source file of a loaded mesh."""
+    cache_dir: Path | None = field(default=None, repr=False)
+    """The asset cache this instance's derived data (mesh, voxels, samples, parts, rest pose)
+    is kept in, as its maker was given it (a run's ``RunContext.cache_root``); None: the
+    environment's (:func:`beo_bench.objects.cache.cache_root`, read at each use)."""
 
     @functools.cached_property
     def _generated(self) -> Generated:
-        return self.build()
+        return self.build(self.cache_dir)
 
     @property
     def mesh(self) -> trimesh.Trimesh:
@@ -91,6 +95,7 @@ class ObjectInstance:
             # v2: overlapping parts count once (processing.contains)
             {"D": int(D), "v": 2},
             lambda: {"occ": np.packbits(voxelize(self.mesh, D))},
+            self.cache_dir,
         )
         return np.unpackbits(out["occ"], count=D**3).astype(bool).reshape(D, D, D)
 
@@ -103,6 +108,7 @@ class ObjectInstance:
             lambda: dict(
                 zip(("points", "normals"), surface_samples(self.mesh, n, seed=0), strict=True)
             ),
+            self.cache_dir,
         )
         return out["points"], out["normals"]
 
@@ -122,6 +128,7 @@ class ObjectInstance:
             self.content_hash,
             COACD_CACHE_PARAMS,
             lambda: pack_parts(convex_decomposition(self.mesh)),
+            self.cache_dir,
         )
         return unpack_parts(out)
 

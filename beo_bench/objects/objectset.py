@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -40,8 +41,11 @@ PROCEDURAL_PREFIX = "proc"
 """The source prefix of procedural keys."""
 
 
-def procedural_instance(category: str, split: str, index: int) -> ObjectInstance:
-    """Instance ``index`` of a procedural category in ``split`` (cheap: the mesh is lazy)."""
+def procedural_instance(
+    category: str, split: str, index: int, cache_root: Path | None = None
+) -> ObjectInstance:
+    """Instance ``index`` of a procedural category in ``split`` (cheap: the mesh is lazy),
+    kept in the cache at ``cache_root`` (None: the environment's)."""
     spec = get_category(category)
     check_split(split)
     params = instance_params(category, split, index)
@@ -54,16 +58,18 @@ def procedural_instance(category: str, split: str, index: int) -> ObjectInstance
         build=functools.partial(_generate_cached, category, params),
         params=params,
         pickable=spec.pickable,
+        cache_dir=cache_root,
     )
 
 
 GENERATED_CACHE_VERSION = 1
 
 
-def _generate_cached(category: str, params: Params) -> Generated:
+def _generate_cached(category: str, params: Params, root: Path | None) -> Generated:
     """``generate`` through the asset cache: building a mesh (booleans, ~25 ms) is paid once
     per machine, not once per process; loading it back takes about a millisecond. Keyed by
-    the category, its parameters and the library version, which determine the mesh."""
+    the category, its parameters and the library version, which determine the mesh; kept in
+    the cache at ``root`` (None: the environment's)."""
     import hashlib
     import json
 
@@ -83,7 +89,7 @@ def _generate_cached(category: str, params: Params) -> Generated:
             **packed,
         }
 
-    a = cache.cached("generated", content, {"v": GENERATED_CACHE_VERSION}, compute)
+    a = cache.cached("generated", content, {"v": GENERATED_CACHE_VERSION}, compute, root)
     mesh = trimesh.Trimesh(a["vertices"], a["faces"], process=False)
     parts = unpack_parts({k[5:]: v for k, v in a.items() if k.startswith("part_")})
     return Generated(mesh=mesh, parts=parts, symmetry=json.loads(str(a["symmetry"])))
@@ -94,8 +100,9 @@ def _is_index(s: str) -> bool:
     return s.isascii() and s.isdigit() and (s == "0" or not s.startswith("0"))
 
 
-def resolve_procedural_key(rest: str) -> ObjectInstance:
-    """The procedural instance the key ``proc/<rest>`` names; an
+def resolve_procedural_key(rest: str, cache_root: Path | None = None) -> ObjectInstance:
+    """The procedural instance the key ``proc/<rest>`` names (kept in the cache at
+    ``cache_root``; None: the environment's); an
     :class:`~beo_bench.errors.InvalidKeyError` for a malformed key, one of another library
     version, or an index beyond its split."""
     parts = rest.split("/")
@@ -121,7 +128,7 @@ def resolve_procedural_key(rest: str) -> ObjectInstance:
             f"instances per category (0..{n - 1})"
         )
     # the process-wide instance, so its generated mesh (~25 ms) is built once per process
-    return _cached_procedural(category, int(index), split)
+    return _cached_procedural(category, int(index), split, cache_root)
 
 
 class _InstanceLists:
@@ -141,7 +148,8 @@ class ObjectSet:
     ``ObjectSet(split="test")`` is the procedural library (every registered category,
     ``DEFAULT_SPLIT_SIZES[split]`` instances each unless ``per_category`` says otherwise).
     A real dataset's sets come from :meth:`beo_bench.objects.datasets.Dataset.objects` (or
-    :func:`~beo_bench.objects.datasets.object_set`, which gives either).
+    :func:`~beo_bench.objects.datasets.object_set`, which gives either). ``cache_root``:
+    the cache its instances keep their derived data in (None: the environment's).
     """
 
     def __init__(
@@ -150,6 +158,7 @@ class ObjectSet:
         categories: Sequence[str] | None = None,
         *,
         per_category: int | None = None,
+        cache_root: Path | None = None,
     ) -> None:
         self.split = check_split(split)
         names = tuple(categories) if categories is not None else registered_categories()
@@ -168,7 +177,7 @@ class ObjectSet:
             )
         self._counts = {c: n for c in names}
         self._get: Callable[[str, int], ObjectInstance] = functools.partial(
-            _cached_procedural, split=split
+            _cached_procedural, split=split, cache_root=cache_root
         )
         self.source = "procedural"
 
@@ -250,6 +259,8 @@ class ObjectSet:
 
 
 @functools.lru_cache(maxsize=1024)
-def _cached_procedural(category: str, index: int, split: str) -> ObjectInstance:
-    # one instance object per key in a process, so its built mesh is shared
-    return procedural_instance(category, split, index)
+def _cached_procedural(
+    category: str, index: int, split: str, cache_root: Path | None = None
+) -> ObjectInstance:
+    # one instance object per key and cache in a process, so its built mesh is shared
+    return procedural_instance(category, split, index, cache_root)

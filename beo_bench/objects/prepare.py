@@ -3,9 +3,10 @@ collision parts (CoACD for loaded meshes) land in the cache, and per-instance st
 come back.
 
 Workers receive unbuilt copies of the instances (their recipes: procedural parameters, or a
-file's path and loading options; not meshes) with the cache directory, and build them
-themselves, so nothing large crosses process boundaries and no dataset root has to be
-known there; the cache's atomic writes make concurrent workers safe.
+file's path and loading options; not meshes) that name the cache directory
+(``ObjectInstance.cache_dir``), and build them themselves, so nothing large crosses process
+boundaries, no dataset root has to be known there and no worker reads its environment for
+the cache; the cache's atomic writes make concurrent workers safe.
 """
 
 from __future__ import annotations
@@ -69,9 +70,7 @@ def process(inst: ObjectInstance, D: int = DEFAULT_RESOLUTION) -> InstanceStats:
     )
 
 
-def _process_unbuilt(inst: ObjectInstance, D: int, cache_dir: str) -> dict[str, Any]:
-    # explicit, not inherited: a forkserver keeps the environment of its first use
-    os.environ[cache.CACHE_ENV] = cache_dir
+def _process_unbuilt(inst: ObjectInstance, D: int) -> dict[str, Any]:
     d = asdict(process(inst, D))
     d["extents"] = tuple(d["extents"])
     return d
@@ -90,6 +89,10 @@ def prepare(
     An instance that fails (a corrupt file, a mesh that cannot be repaired) does not stop
     the others: afterwards ``on_error="raise"`` raises the first failure, naming how many
     failed, and ``"skip"`` leaves the failures out of the result.
+
+    The entries go to each instance's cache (``ObjectInstance.cache_dir``; None: the
+    environment's, read here, once): a worker is handed it with the instance, never through
+    its environment (a forkserver keeps the environment of its first use).
     """
     insts = list(instances)
     workers = (os.cpu_count() or 1) if workers is None else workers
@@ -107,10 +110,11 @@ def prepare(
         # forkserver: workers start clean; a forked copy of a process that already runs
         # embree, torch or GL threads can deadlock
         ctx = mp.get_context("forkserver")
-        args = (D, str(cache.cache_root()))
+        root = cache.cache_root()
+        # replace(): a copy without the built mesh, which would otherwise be pickled too
+        unbuilt = [replace(i, cache_dir=i.cache_dir or root) for i in insts]
         with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
-            # replace(): a copy without the built mesh, which would otherwise be pickled too
-            futures = [(i.key, pool.submit(_process_unbuilt, replace(i), *args)) for i in insts]
+            futures = [(i.key, pool.submit(_process_unbuilt, i, D)) for i in unbuilt]
             for key, f in futures:
                 try:
                     out.append(InstanceStats(**f.result()))

@@ -25,6 +25,7 @@ from __future__ import annotations
 import hashlib
 import zlib
 from dataclasses import dataclass, fields, replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import cv2
@@ -259,6 +260,7 @@ class HBEOBackend(Backend):
         if o.threads is not None:
             torch.set_num_threads(max(1, o.threads))
         self._dataset: Dataset | None = None
+        self._cache_root: Path | None = None  # the run's asset cache (prepare's)
         # class list -> (model, decoder A, b, the model's index of each class in the list)
         self._models: dict[
             tuple[str, ...], tuple[HBEOModel, np.ndarray, np.ndarray, np.ndarray]
@@ -280,6 +282,7 @@ class HBEOBackend(Backend):
         """Load the model for the run's classes and dataset (the published default, or one
         ``beo-bench train`` made; progress bars where ``ctx.progress``); with
         ``per_category``, each class's network (never trained here)."""
+        self._cache_root = ctx.cache_root
         if ctx.dataset != self._dataset:  # another dataset's models are not these
             self._dataset = ctx.dataset
             self._models.clear()
@@ -487,7 +490,7 @@ class HBEOBackend(Backend):
             if o.prior_translation == "truth":
                 t = np.asarray(gt.t_cam, dtype=np.float64)
             if o.prior_shape == "truth":
-                inst = instance_from_key(gt.key, self._dataset)
+                inst = instance_from_key(gt.key, self._dataset, self._cache_root)
                 shape, size = inst.voxels(o.prior_grid).astype(np.float32), np.asarray(gt.size)
         if shape.shape[0] != o.prior_grid:  # the decode, resampled (the basis is 32^3)
             grid = torch.from_numpy(np.ascontiguousarray(shape, dtype=np.float32))[None, None]

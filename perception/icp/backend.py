@@ -63,6 +63,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -451,6 +452,7 @@ class ICPBackend(Backend):
         super().__init__(options, **kwargs)
         self._digest: str | None = None
         self._dataset: Dataset | None = None
+        self._cache_root: Path | None = None  # the run's asset cache (prepare's)
         self._means: dict[tuple[str, ...], ClassMeans] = {}
         self._surfaces: dict[tuple[tuple[str, ...], int], MeanSurface] = {}
 
@@ -458,13 +460,19 @@ class ICPBackend(Backend):
     def _class_means(self, cats: tuple[str, ...], progress: bool = False) -> ClassMeans:
         if cats not in self._means:
             self._means[cats] = class_means(
-                cats, self.options.resolution, self.options.mean_instances, progress, self._dataset
+                cats,
+                self.options.resolution,
+                self.options.mean_instances,
+                progress,
+                self._dataset,
+                self._cache_root,
             )
         return self._means[cats]
 
     def prepare(self, ctx: PrepareContext) -> None:
         """Compute (or load) the class means of the run's classes and dataset once (with a
         progress bar where ``ctx.progress``)."""
+        self._cache_root = ctx.cache_root
         if ctx.dataset != self._dataset:  # another dataset's means and surfaces are not these
             self._dataset = ctx.dataset
             self._means.clear()

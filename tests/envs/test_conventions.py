@@ -177,7 +177,7 @@ def test_supported_render_modes_are_not_wrapped(mode) -> None:
 
 def test_keywords_are_the_configs_typed_and_documented_fields() -> None:
     params = [f for f in fields(PickConfig) if f.init]
-    assert tuple(f.name for f in params) == KEYWORDS and len(KEYWORDS) == 13
+    assert tuple(f.name for f in params) == KEYWORDS and len(KEYWORDS) == 14
     assert all(f.type for f in params)
     doc = inspect.getdoc(BEOPickEnv)
     for section in (

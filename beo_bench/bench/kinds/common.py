@@ -6,6 +6,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
@@ -37,9 +38,14 @@ class Items(ABC):
     looked up after the backend has answered (privileged bounds aside), so it is not a
     local of any frame on predict's call stack."""
 
-    def __init__(self, suite: Suite, class_given: bool = False) -> None:
+    def __init__(
+        self, suite: Suite, class_given: bool = False, cache_root: Path | None = None
+    ) -> None:
         self.suite = suite
         self.class_given = class_given
+        self.cache_root = cache_root
+        """The asset cache the items' objects are kept in (the run's
+        ``RunContext.cache_root``; None: the environment's)."""
 
     @abstractmethod
     def views(self, index: int) -> list[View]: ...
@@ -100,6 +106,7 @@ def run_view_item(
             suite.resolution,
             suite.protocol.scores_pose,
             suite.dataset,
+            items.cache_root,
         )
         for j, (v, gt, answer) in enumerate(zip(views, truths, answers, strict=True))
     ]
@@ -204,8 +211,8 @@ class ItemKind:
     kind: Kind
     categories: Callable[[Suite], tuple[str, ...]]
     """The class list the views of a suite carry."""
-    open: Callable[[Suite, bool], Items]
-    """The suite's items without a backend (``open(suite, class_given)``)."""
+    open: Callable[[Suite, bool, Path | None], Items]
+    """The suite's items without a backend (``open(suite, class_given, cache_root)``)."""
     run_item: RunItem = run_view_item
     failed_rows: Callable[[Rows, str], Rows] = failed_view_rows
     view_values: Callable[[Suite, Rows], dict[str, np.ndarray]] = tally.estimate_values

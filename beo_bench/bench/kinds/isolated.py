@@ -3,6 +3,7 @@ rig; one scored view per item (the ``known-pose``, ``pose-1dof`` and ``pose-3dof
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -48,8 +49,10 @@ def world_frame(rng: np.random.Generator, protocol: Protocol) -> np.ndarray:
 class IsolatedItems(Items):
     """The suite's isolated views, rendered with one reused renderer."""
 
-    def __init__(self, suite: Suite, class_given: bool = False) -> None:
-        super().__init__(suite, class_given)
+    def __init__(
+        self, suite: Suite, class_given: bool = False, cache_root: Path | None = None
+    ) -> None:
+        super().__init__(suite, class_given, cache_root)
         self._renderer: Any = None
         self._objects_: ObjectSet | None = None
 
@@ -73,7 +76,9 @@ class IsolatedItems(Items):
     def _objects(self) -> ObjectSet:
         if self._objects_ is None:
             s = self.suite
-            self._objects_ = object_set(s.dataset, s.split, s.categories)
+            self._objects_ = object_set(
+                s.dataset, s.split, s.categories, cache_root=self.cache_root
+            )
         return self._objects_
 
     def close(self) -> None:

@@ -4,6 +4,7 @@ object and executed in simulation (the ``pick`` suite)."""
 from __future__ import annotations
 
 import time
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -118,7 +119,11 @@ def run_item(
     cam_to_world = np.asarray(obs["cam_to_world"], dtype=np.float64)
     # what was wrong with the estimate the grasp is planned on (issue 49: pick's success
     # against each error; the object chosen, the target or not)
-    row.update(pick_errors(best, chosen_truth, cam_to_world, suite.resolution, suite.dataset))
+    row.update(
+        pick_errors(
+            best, chosen_truth, cam_to_world, suite.resolution, suite.dataset, items.cache_root
+        )
+    )
     mesh = estimate_mesh(best, cam_to_world)
     if mesh is None:
         row.update(success=False, reason="empty_shape")
@@ -146,7 +151,9 @@ def run_item(
         return [row]
     _, reward, _, _, info = env.step(grasp.action)
     row.update(success=bool(reward > 0), reason=str(info["reason"]))
-    row.update(grasp_audit(grasp, info, label, chosen_truth, cam_to_world, suite.dataset))
+    row.update(
+        grasp_audit(grasp, info, label, chosen_truth, cam_to_world, suite.dataset, items.cache_root)
+    )
     return [row]
 
 
@@ -167,6 +174,7 @@ def grasp_audit(
     truth: GroundTruth,
     cam_to_world: np.ndarray,
     dataset: Dataset | None,
+    cache_root: Path | None = None,
 ) -> dict[str, Any]:
     """The :data:`AUDIT_FIELDS` of an executed ``grasp`` of object ``label`` whose step
     returned ``info``: the analytic check (:func:`~beo_bench.grasping.closure_friction`)
@@ -186,7 +194,7 @@ def grasp_audit(
         return out  # never executed: nothing to audit
     obj = cam_to_world @ rigid(np.asarray(truth.R_cam), np.asarray(truth.t_cam))
     local = np.linalg.inv(obj) @ grasp.pose
-    mesh = instance_from_key(truth.key, dataset).mesh
+    mesh = instance_from_key(truth.key, dataset, cache_root).mesh
     mu = float(closure_friction(mesh, local[None], np.array([grasp.opening / 2]))[0])
     out["fc_mu"] = round(mu, 4) if np.isfinite(mu) else None
     out["force_closure"] = bool(mu <= AUDIT_FRICTION)

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -27,15 +28,16 @@ def categories(suite: Suite) -> tuple[str, ...]:
     return pickable_categories()  # BEOPick-v0's default class list
 
 
-def pick_config(suite: Suite) -> PickConfig:
+def pick_config(suite: Suite, cache_root: Path | None = None) -> PickConfig:
     """The BEOPick-v0 settings of a tabletop or pick suite's scenes: its split, image and
     sensor (the scenes' depth as the suite's sensor captures it); on a dataset, the user's
-    objects, up to four of distinct classes a scene."""
+    objects, up to four of distinct classes a scene; its objects kept in the cache at
+    ``cache_root`` (None: the environment's)."""
     from beo_bench.scenes.pickconfig import PickConfig
 
     objects, num_objects = None, (1, 4)
     if suite.dataset is not None:
-        objects = suite.dataset.objects(suite.split, suite.categories)
+        objects = suite.dataset.objects(suite.split, suite.categories, cache_root=cache_root)
         num_objects = (1, min(4, len(objects.categories)))
     return PickConfig(
         split=suite.split,
@@ -44,6 +46,7 @@ def pick_config(suite: Suite) -> PickConfig:
         image_size=suite.image_size,
         fovy_deg=suite.fovy_deg,
         sensor=suite.sensor,
+        cache_root=cache_root,
     )
 
 
@@ -55,8 +58,10 @@ def view_label(view: View) -> int:
 class SceneItems(Items):
     """The suite's BEOPick-v0 scenes, from one reused env."""
 
-    def __init__(self, suite: Suite, class_given: bool = False) -> None:
-        super().__init__(suite, class_given)
+    def __init__(
+        self, suite: Suite, class_given: bool = False, cache_root: Path | None = None
+    ) -> None:
+        super().__init__(suite, class_given, cache_root)
         self._env: Any = None
 
     @property
@@ -64,7 +69,7 @@ class SceneItems(Items):
         if self._env is None:
             from beo_bench.envs.pick import BEOPickEnv
 
-            self._env = BEOPickEnv(pick_config(self.suite))
+            self._env = BEOPickEnv(pick_config(self.suite, self.cache_root))
         return self._env
 
     def close(self) -> None:

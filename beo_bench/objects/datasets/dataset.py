@@ -138,13 +138,25 @@ class Dataset:
         return LoadOptions.make(self.repair, size, up, "x", self.units, spec.default_units)
 
     def objects(
-        self, split: str, categories: Sequence[str] | None = None, per_category: int | None = None
+        self,
+        split: str,
+        categories: Sequence[str] | None = None,
+        per_category: int | None = None,
+        cache_root: Path | None = None,
     ) -> ObjectSet:
         """The dataset's ``split`` (or every model: :data:`ALL_SPLIT`) as an object set,
-        without the :attr:`skipped` files."""
+        without the :attr:`skipped` files, its instances kept in the cache at ``cache_root``
+        (None: the environment's)."""
         exclude = frozenset(rel for rel, _ in self.skipped)
         return load_objects(
-            self.layout_spec, self.root, split, categories, per_category, self.options(), exclude
+            self.layout_spec,
+            self.root,
+            split,
+            categories,
+            per_category,
+            self.options(),
+            exclude,
+            cache_root,
         )
 
     def instance(self, key: str) -> ObjectInstance:
@@ -162,12 +174,14 @@ def object_set(
     split: str,
     categories: Sequence[str] | None = None,
     per_category: int | None = None,
+    cache_root: Path | None = None,
 ) -> ObjectSet:
     """The objects of ``split``: the procedural library's (``dataset`` None) or a user's
-    dataset's, of ``categories`` (default: all) and at most ``per_category`` each."""
+    dataset's, of ``categories`` (default: all) and at most ``per_category`` each, kept in
+    the cache at ``cache_root`` (None: the environment's)."""
     if dataset is None:
-        return ObjectSet(split, categories, per_category=per_category)
-    return dataset.objects(split, categories, per_category)
+        return ObjectSet(split, categories, per_category=per_category, cache_root=cache_root)
+    return dataset.objects(split, categories, per_category, cache_root)
 
 
 def open_dataset(
@@ -305,7 +319,9 @@ def reference_split(dataset: Dataset, categories: Sequence[str]) -> str:
     return ALL_SPLIT
 
 
-def instance_from_key(key: str, dataset: Dataset | None = None) -> ObjectInstance:
+def instance_from_key(
+    key: str, dataset: Dataset | None = None, cache_root: Path | None = None
+) -> ObjectInstance:
     """The instance a key names (keys are unique across sets and sources).
 
     A procedural key (``proc/...``) needs nothing else. A dataset's key (``shapenet/...``,
@@ -314,19 +330,21 @@ def instance_from_key(key: str, dataset: Dataset | None = None) -> ObjectInstanc
     (:data:`~beo_bench.objects.datasets.layouts.ROOT_ENV`: ``$BEO_BENCH_SHAPENET``, ...). Raises
     :class:`~beo_bench.errors.InvalidKeyError` for a malformed key, an unknown source, a
     key of another layout than ``dataset``'s, or one with no root to look it up in.
+    ``cache_root``: the cache the instance keeps its derived data in (None: the
+    environment's).
     """
     prefix, sep, rest = key.partition("/")
     if not sep:
         raise InvalidKeyError(f"instance key {key!r} has no '<source>/' prefix")
     if prefix == PROCEDURAL_PREFIX:
-        return resolve_procedural_key(rest)
+        return resolve_procedural_key(rest, cache_root)
     layout = LAYOUTS.get(prefix)
     if layout is None:
         raise InvalidKeyError(
             f"instance key {key!r}: unknown source {prefix!r}; known: "
             f"{', '.join(sorted((PROCEDURAL_PREFIX, *LAYOUTS)))}"
         )
-    return resolve_key(layout, rest, _key_root(layout, key, dataset))
+    return resolve_key(layout, rest, _key_root(layout, key, dataset), cache_root)
 
 
 def _key_root(layout: Layout, key: str, dataset: Dataset | None) -> str:

@@ -450,12 +450,14 @@ def load_objects(
     per_category: int | None,
     opts: LoadOptions,
     exclude: frozenset[str] = frozenset(),
+    cache_root: Path | None = None,
 ) -> ObjectSet:
     """The models of ``split`` (or every model: ``"all"``) of the ``layout`` dataset at
     ``root``, of ``categories`` (default: all; our names or the layout's folder names) and
     at most ``per_category`` each, as lazily built instances loaded with ``opts``; the files
     in ``exclude`` (paths relative to the root: what ``--skip-bad`` skips) are left out
-    before instances are numbered."""
+    before instances are numbered. ``cache_root``: the cache the instances keep their
+    derived data in (None: the environment's)."""
     source = layout.name
     if split != "all":  # "all": every model of the dataset, whatever its hash split
         check_split(split)
@@ -482,7 +484,9 @@ def load_objects(
         if per_category is not None:
             entries = entries[: int(per_category)]
         if entries or categories is not None:
-            instances[c] = [_instance(layout, e, i, opts) for i, e in enumerate(entries)]
+            instances[c] = [
+                _instance(layout, e, i, opts, cache_root) for i, e in enumerate(entries)
+            ]
     return ObjectSet.from_instances(split, instances, source)
 
 
@@ -501,7 +505,9 @@ def _category_names(
     return names
 
 
-def _instance(layout: Layout, entry: Entry, index: int, opts: LoadOptions) -> ObjectInstance:
+def _instance(
+    layout: Layout, entry: Entry, index: int, opts: LoadOptions, cache_root: Path | None
+) -> ObjectInstance:
     """The lazily built instance of ``entry`` (instance ``index`` of its split), loaded with
     ``opts``: its key is the layout's name (the key's prefix), its id and its options."""
     registered = entry.category in registered_categories()
@@ -521,15 +527,19 @@ def _instance(layout: Layout, entry: Entry, index: int, opts: LoadOptions) -> Ob
         ),
         pickable=get_category(entry.category).pickable if registered else True,
         path=entry.path,
+        cache_dir=cache_root,
     )
 
 
 @functools.lru_cache(maxsize=1024)
-def resolve_key(layout: Layout, rest: str, root: str) -> ObjectInstance:
+def resolve_key(
+    layout: Layout, rest: str, root: str, cache_root: Path | None = None
+) -> ObjectInstance:
     """The instance the key ``<layout name>/<rest>`` names in the dataset at ``root`` (an
-    absolute path); one instance object per key and root in a process, so that its loaded
-    mesh is shared. An :class:`~beo_bench.errors.InvalidKeyError` for a malformed key or
-    one of a model the dataset does not have."""
+    absolute path), kept in the cache at ``cache_root``; one instance object per key, root
+    and cache in a process, so that its loaded mesh is shared. An
+    :class:`~beo_bench.errors.InvalidKeyError` for a malformed key or one of a model the
+    dataset does not have."""
     key = f"{layout.name}/{rest}"
     quoted, _, query = rest.partition("?")
     ident = unquote(quoted)
@@ -539,7 +549,7 @@ def resolve_key(layout: Layout, rest: str, root: str) -> ObjectInstance:
     opts = LoadOptions.from_query(key, query, layout.default_units)
     found = category_index(layout, root, layout.category_name(parts[0])).get(ident)
     if found is not None:
-        return _instance(layout, found[0], found[1], opts)
+        return _instance(layout, found[0], found[1], opts, cache_root)
     raise InvalidKeyError(
         f"key {key!r}: no such model under the {layout.name} root {root} (pass the dataset "
         f"the key came from, or set {layout.root_env} to its root)"

@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qsl, urlencode
 
@@ -188,18 +189,20 @@ class _LoadedGenerated(Generated):
     """A loaded mesh whose symmetry is estimated on first use (cached on disk), so that
     only callers that need the symmetry pay for it."""
 
-    def __init__(self, mesh: trimesh.Trimesh) -> None:  # no super(): symmetry is lazy
+    def __init__(self, mesh: trimesh.Trimesh, root: Path | None) -> None:  # lazy symmetry
         self.mesh = mesh
         self.parts = None
+        self.root = root
 
     @functools.cached_property
     def symmetry(self) -> Symmetry:  # type: ignore[override]
-        return loaded_symmetry(self.mesh)
+        return loaded_symmetry(self.mesh, self.root)
 
 
-def loaded_symmetry(mesh: trimesh.Trimesh) -> Symmetry:
+def loaded_symmetry(mesh: trimesh.Trimesh, root: Path | None = None) -> Symmetry:
     """:func:`~beo_bench.objects.symmetry.estimate_symmetry` of a canonical mesh at
-    :data:`SYMMETRY_THRESHOLD`, cached on disk by content hash."""
+    :data:`SYMMETRY_THRESHOLD`, cached on disk by content hash (in the cache at ``root``;
+    default: the environment's)."""
     arrays = cache.cached(
         "symmetry",
         cache.mesh_hash(mesh),
@@ -207,6 +210,7 @@ def loaded_symmetry(mesh: trimesh.Trimesh) -> Symmetry:
         lambda: symmetry.pack_symmetry(
             symmetry.estimate_symmetry(mesh, threshold=SYMMETRY_THRESHOLD)
         ),
+        root,
     )
     return symmetry.unpack_symmetry(arrays)
 
@@ -217,12 +221,14 @@ def build_mesh(
     rotation: tuple[tuple[float, ...], ...],
     opts: LoadOptions,
     units: str = "normalised",
+    root: Path | None = None,
     *,
     max_faces: int | None = None,
     trace: dict[str, Any] | None = None,
 ) -> Generated:
     """Read, rotate, repair, centre, scale and check one file (the lazy part of an
-    instance); ``units`` is the option with the layout's default filled in. ``max_faces``:
+    instance); ``units`` is the option with the layout's default filled in; ``root``: the
+    cache its symmetry is kept in (the instance's ``cache_dir``). ``max_faces``:
     the face budget (None: none; see :func:`~beo_bench.objects.datasets.meshfile.read_mesh`).
     ``trace``, when given, is filled as the steps go (the dataset check,
     :mod:`beo_bench.objects.datasets.checks`, tells from it where a file failed and what it
@@ -267,4 +273,4 @@ def build_mesh(
     t["stage"] = "size"
     check_plausible_size(mesh, path, how_scaled(size, units, bool(t.get("detected"))))
     t["stage"] = "done"
-    return _LoadedGenerated(mesh)
+    return _LoadedGenerated(mesh, root)
