@@ -132,21 +132,23 @@ def test_the_modelnet10_pages_per_class_tables_equal_their_committed_runs() -> N
     leaderboard makes of the page's committed summaries (``<suite>.json``), the
     dissertation's row included: its per-class figures (chapter 4's three classes) are in
     the pages, not only in the code."""
-    from beo_bench.bench import leaderboard as lb
+    from beo_bench.bench.pages.leaderboard import _newest, _parts
+    from beo_bench.bench.pages.rows import DISSERTATION_MODELNET10, MODELNET10_OUR_VIEWS, Row
+    from beo_bench.bench.pages.tables import modelnet10_table
 
     head = "Class accuracy in the form of the dissertation's Tables 3.1 and 4.1"
     # the top-down suites and their twins over our viewpoints, which carry the same row
-    pages = [*lb.DISSERTATION_MODELNET10, *lb.MODELNET10_OUR_VIEWS]
+    pages = [*DISSERTATION_MODELNET10, *MODELNET10_OUR_VIEWS]
     checked = [s for s in pages if (BOARDS / f"{s}.json").is_file()]
     assert len(checked) >= 5, checked  # every one but pose-3dof+modelnet10 has a page
     for suite in checked:
-        rows = [lb.Row(s) for s in json.loads((BOARDS / f"{suite}.json").read_text())]
-        version, newest, _ = lb._newest(rows)
+        rows = [Row(s) for s in json.loads((BOARDS / f"{suite}.json").read_text())]
+        version, newest, _ = _newest(rows)
         fresh = [
             table
-            for tracks in lb._parts(suite, version, newest).values()
+            for tracks in _parts(suite, version, newest).values()
             for secs in tracks.values()
-            if (table := lb.modelnet10_table(suite, secs[0].rows))
+            if (table := modelnet10_table(suite, secs[0].rows))
         ]
         lines = (BOARDS / f"{suite}.md").read_text().split("\n")
         starts = [i for i, ln in enumerate(lines) if ln.startswith(head)]
@@ -227,7 +229,7 @@ def test_results_md_names_beos_weakest_quoted_class_from_the_dissertation_rows()
     with its figure, the class is the lowest of the dissertation row that figure is from
     (of the three classes whose figures this project has); it once named bathtub (48.0%),
     where desk (46.5%) is lower in the same row."""
-    from beo_bench.bench.leaderboard import DISSERTATION_MODELNET10
+    from beo_bench.bench.pages.rows import DISSERTATION_MODELNET10
 
     text = " ".join(_prose_sentences("docs/results.md"))
     named = re.findall(r"BEO misses ([a-z ]+?) most[^(]*\(([\d.]+)%\)", text)

@@ -63,7 +63,7 @@ class Campaign:
     """``--allow-privileged``: plugins that declare ``privileged`` may run (as bounds)."""
     update: bool = False
     """``--update``: keep the current pages of suites this campaign does not run
-    (:func:`~beo_bench.bench.leaderboard.regenerate`)."""
+    (:func:`~beo_bench.bench.pages.leaderboard.regenerate`)."""
     sensors: tuple[str | None, ...] = (None,)
     """``--sensor``: every suite is run under each of these depth sensors (None: the
     suite's own); the leaderboard pairs a backend's runs across them (its robustness
@@ -88,7 +88,7 @@ def run_campaign(c: Campaign) -> list[Path]:
     returns its Markdown files. A backend whose construction fails stops the campaign before
     anything runs."""
     from beo_bench.backend import get_spec, load_plugins
-    from beo_bench.bench.leaderboard import regenerate
+    from beo_bench.bench.pages.leaderboard import regenerate
     from beo_bench.bench.runner import WorkerPool, item_timeout_s, run
     from beo_bench.bench.suites import backend_tracks, get_suite
 

@@ -21,18 +21,15 @@ from typing import Any
 import numpy as np
 
 from beo_bench.bench.columns import markdown_table, spec, verdict_cell
-from beo_bench.bench.leaderboard import (
-    BOUNDS,
-    DISSERTATION_MODELNET10,
+from beo_bench.bench.pages.pick import ROBUST_PAIRS
+from beo_bench.bench.pages.plots import ERROR_BINS, error_bins, found_target_episodes
+from beo_bench.bench.pages.rows import BOUNDS, DISSERTATION_MODELNET10
+from beo_bench.bench.pages.tables import confused_pairs
+from beo_bench.bench.pages.verdicts import (
     DISSERTATION_PROTOCOL,
-    ERROR_BINS,
     NOT_RUN,
     PRIMARY_COMPARISONS,
-    ROBUST_PAIRS,
     Primary,
-    confused_pairs,
-    error_bins,
-    found_target_episodes,
     ordering_verdict,
     primary_comparisons,
 )
@@ -138,7 +135,7 @@ class Boards:
 
     def primary(self, suite: str, pc: Primary) -> dict[str, Any] | None:
         """The page's primary comparison ``pc``, Holm-corrected over the page's family
-        (``"pairing": "primary"``, :func:`beo_bench.bench.leaderboard.primary_results`);
+        (``"pairing": "primary"``, :func:`beo_bench.bench.pages.verdicts.primary_results`);
         None on a page made before pages carried them."""
         for p in self.paired(suite):
             if p.get("pairing") == PRIMARY and "sensor" not in p:
@@ -703,7 +700,7 @@ def _rate(eps: list[dict[str, Any]], key: str = "success") -> float:
 def _audited(b: Boards) -> dict[str, list[dict[str, Any]]]:
     """Every ideal-sensor pick row whose episodes record the grasp audit, by row name: the
     episodes (all of them, as dicts)."""
-    from beo_bench.bench.leaderboard import episodes
+    from beo_bench.bench.pages.pick import episodes
 
     out: dict[str, list[dict[str, Any]]] = {}
     for r in b.rows("pick"):
@@ -815,7 +812,7 @@ def pick_robust(b: Boards) -> str:
     oracle's, the paired change, and the median planning time per decision (from the
     episodes' records: wall time in runs made at different times on a loaded machine, so
     their ratio is not the cost; ``benchmarks/bench_grasp.py`` pairs it)."""
-    from beo_bench.bench.leaderboard import episodes
+    from beo_bench.bench.pages.pick import episodes
 
     oracle = b.metric("pick", "oracle", "pick_success")
     head = ["row", "pick success", "of the oracle's", "- best-sample grasp [95%]",
@@ -1004,7 +1001,7 @@ CHAPTER4_CLASSES: dict[str, tuple[float, float, float]] = {
 """Chapter 4's account of HBEO's gain over BEO on ModelNet10 (Tables 3.1 and 4.1): the
 class accuracy of BEO at a known pose and at 1-DOF (Table 3.1's two rows), then HBEO at
 3-DOF (Table 4.1), on the classes that ModelNet10 confuses (the dissertation rows'
-per-class figures in :data:`beo_bench.bench.leaderboard.DISSERTATION_MODELNET10`)."""
+per-class figures in :data:`beo_bench.bench.pages.rows.DISSERTATION_MODELNET10`)."""
 
 
 def _acc_ci(b: Boards, suite: str, name: str) -> str:
@@ -1234,7 +1231,7 @@ ORDERING_SUITES: tuple[str, ...] = (
     "tabletop",
 )
 """The pages whose primary comparisons hold the dissertation's orderings: the suites of its
-own protocol first (:data:`~beo_bench.bench.leaderboard.DISSERTATION_PROTOCOL`), then ours."""
+own protocol first (:data:`~beo_bench.bench.pages.verdicts.DISSERTATION_PROTOCOL`), then ours."""
 THE_DISSERTATIONS, OURS = "the dissertation's", "ours"
 ORDERINGS_SAID: dict[str, str] = {
     "Table 3.1": "at a known pose BEO reads the class better than 3DShapeNets (here the "
@@ -1309,7 +1306,7 @@ def _protocol(suite: str) -> str:
 
 def ordering_checks(b: Boards) -> list[Check]:
     """Every ordering of :data:`ORDERINGS_SAID` on every page that tests it: the paired ones
-    from the pages' primary comparisons (:data:`~beo_bench.bench.leaderboard.
+    from the pages' primary comparisons (:data:`~beo_bench.bench.pages.verdicts.
     PRIMARY_COMPARISONS`), HBEO at 3-DOF against BEO at 1-DOF (Table 4.1's two rows, other
     views: unpaired) and the time per view (Table 4.2: medians, not resampled); in the
     order of :data:`ORDERINGS_SAID`, the dissertation's protocol first."""
@@ -1381,7 +1378,7 @@ def orderings(b: Boards) -> str:
 
 def primary_declared(boards: Boards) -> str:
     """docs/benchmark.md's table of the primary comparisons each leaderboard page declares
-    (:data:`~beo_bench.bench.leaderboard.PRIMARY_COMPARISONS`; ``boards`` is not read: the
+    (:data:`~beo_bench.bench.pages.verdicts.PRIMARY_COMPARISONS`; ``boards`` is not read: the
     declaration comes before the runs)."""
     head = ["page", "method (B)", "baseline (A)", "metric", "track", "why", "expected"]
     rows = [

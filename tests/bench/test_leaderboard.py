@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 
 from beo_bench.bench.columns import METRICS, board_columns, markdown_table
-from beo_bench.bench.leaderboard import Row, regenerate, suite_table
+from beo_bench.bench.pages.leaderboard import regenerate
+from beo_bench.bench.pages.rows import Row
+from beo_bench.bench.pages.tables import suite_table
 from tests.bench.synthetic_runs import pose_row, write_run
 
 ROT = np.random.default_rng(0).exponential(40, 22)
@@ -223,7 +225,7 @@ def test_confusion_cells_show_their_counts(tmp_path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from beo_bench.bench.leaderboard import confusion_figure
+    from beo_bench.bench.pages.plots import confusion_figure
 
     cats = [f"class{i}" for i in range(11)]
     conf = 2 * np.eye(11, dtype=int)
@@ -562,7 +564,7 @@ def test_the_dissertation_rows_carry_chapter_4s_per_class_figures() -> None:
     quotes (bathtub, desk, night stand); every other per-class cell stays empty. The 1-DOF
     row is Table 3.1's 1-DOF figures, not its known-pose ones (issue 47: it once carried
     48.0 / 46.5 / 55.8%)."""
-    from beo_bench.bench.leaderboard import modelnet10_table
+    from beo_bench.bench.pages.tables import modelnet10_table
 
     def dissertation_row(suite: str) -> list[str]:
         run = {"backend": "hbeo", "metrics": {"class_acc": 0.5}, "per_category": {}}
@@ -582,7 +584,7 @@ def test_our_viewpoint_modelnet10_suites_carry_the_same_dissertation_row() -> No
     set) get the per-class table of the top-down suite of the same protocol, with its
     dissertation row, so the two viewpoints read side by side; another class subset of
     the same suite gets none."""
-    from beo_bench.bench.leaderboard import confusion_counts, modelnet10_table
+    from beo_bench.bench.pages.tables import confusion_counts, modelnet10_table
 
     run = {"backend": "hbeo", "metrics": {"class_acc": 0.5}, "per_category": {}}
     for ours, theirs in (("known-pose+modelnet10", "modelnet10-known-pose"),
@@ -792,7 +794,7 @@ def test_figure_5_3s_curves_follow_one_network_each() -> None:
     through its N = 5, 25 (the row without ``samples``) and 100, never a line joining one
     network's N = 5 to the other's N = 100; variants of other options and bounds are not
     points on them."""
-    from beo_bench.bench.leaderboard import MDN_DEFAULT_SAMPLES, sample_curves
+    from beo_bench.bench.pages.plots import MDN_DEFAULT_SAMPLES, sample_curves
     from beo_bench.perception.hbeo import HBEOOptions
 
     assert HBEOOptions().samples == MDN_DEFAULT_SAMPLES
@@ -829,7 +831,7 @@ def test_a_scored_file_is_marked_and_never_a_baseline_or_a_bound(tmp_path) -> No
     now refuses those names, an older one did not) is a method's row marked as a scored file:
     beside the real icp run both are listed, and it is neither the baseline nor the upper
     bound (issue 50)."""
-    from beo_bench.bench.leaderboard import is_bound, label
+    from beo_bench.bench.pages.rows import is_bound, label
 
     runs = tmp_path / "runs"
     write_run(runs / "icp", "icp", _rows(0.5))
@@ -857,7 +859,7 @@ def test_a_second_regeneration_into_the_same_directory_is_refused(tmp_path) -> N
     import os
 
     from beo_bench import outdir
-    from beo_bench.bench.leaderboard import LOCK_NAME
+    from beo_bench.bench.pages.leaderboard import LOCK_NAME
     from beo_bench.bench.runs import RunError
 
     out = tmp_path / "board"

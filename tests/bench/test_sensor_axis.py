@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from beo_bench.bench import rundir
-from beo_bench.bench.leaderboard import regenerate
+from beo_bench.bench.pages.leaderboard import regenerate
 from beo_bench.bench.runs import RunConfig, RunContext, RunUsageError, run_name
 from beo_bench.bench.suites import SUITES, get_suite
 from beo_bench.cli import build_parser, main
