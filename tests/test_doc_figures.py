@@ -18,7 +18,8 @@ from pathlib import Path
 
 import pytest
 
-from beo_bench.bench.doctables import MARK, TABLES, Boards, render
+from beo_bench.bench.doctables.boards import MARK, Boards
+from beo_bench.bench.doctables.render import TABLES, render
 from beo_bench.bench.suites import get_suite
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -115,7 +116,8 @@ def test_the_committed_modelnet10_3dof_leaves_headroom() -> None:
     more than 97% of ``modelnet10-3dof``'s views (docs/results.md's headroom table shows the
     figures; the dissertation's orderings are reported, holding or not, in its orderings
     table). Waits while the suite is not in the leaderboards."""
-    from beo_bench.bench.doctables import PendingSuiteError, modelnet10_headroom
+    from beo_bench.bench.doctables.boards import PendingSuiteError
+    from beo_bench.bench.doctables.dissertation import modelnet10_headroom
 
     try:
         table = modelnet10_headroom(Boards(BOARDS))
@@ -191,7 +193,7 @@ def test_results_md_says_an_ordering_holds_only_where_it_holds_on_the_dissertati
     that says it does not hold (or fails) needs one that does not (the page once said
     Figure 3.6's ordering held, citing only our slanted views, where on its own top-down
     views it fails)."""
-    from beo_bench.bench.doctables import THE_DISSERTATIONS, ordering_checks
+    from beo_bench.bench.doctables.orderings import THE_DISSERTATIONS, ordering_checks
 
     checks = [c for c in ordering_checks(Boards(BOARDS)) if c.protocol == THE_DISSERTATIONS]
     verdicts: dict[str, list[str]] = {}
@@ -263,7 +265,7 @@ def _pick_board(
 
 
 def test_a_swap_not_run_at_this_version_is_a_dash_not_an_error(tmp_path) -> None:
-    from beo_bench.bench import doctables
+    from beo_bench.bench.doctables.pose import swap
 
     rows = [("hbeo", {}, 0.6), ("hbeo-mdn-posterior", {}, 0.62), ("icp", {}, 0.5),
             ("oracle", {"mesh": False}, 0.9)]  # fmt: skip
@@ -274,29 +276,30 @@ def test_a_swap_not_run_at_this_version_is_a_dash_not_an_error(tmp_path) -> None
             paired.append({"method": f'swap (base="{base}", truth="{t}")', "baseline": base,
                            "metric": "pick_success", "track": None, "diff": 0.1,
                            "ci95": [0.02, 0.18], "pairing": "ablation"})  # fmt: skip
-    table = doctables.swap(_pick_board(tmp_path / "lb", rows, paired))
+    table = swap(_pick_board(tmp_path / "lb", rows, paired))
     assert "| `icp` | 50.0% | - | - | - | 90.0% |" in table
     cell = "70.0% (+10.0 [+2.0, +18.0])"  # each swap's paired change beside its rate
     assert f"| `hbeo` | 60.0% | {cell} | {cell} | {cell} | 90.0% |" in table
 
 
 def test_a_page_without_its_sensor_sections_says_so_in_the_robustness_table(tmp_path) -> None:
-    from beo_bench.bench import doctables
+    from beo_bench.bench.doctables.boards import MissingFigureError
+    from beo_bench.bench.doctables.sensors import NOT_RUN_SENSORS, robustness_table
 
     cells = (("pick", None, "pick_success", "`pick` success"),)
     b = _pick_board(tmp_path / "lb", [("hbeo", {}, 0.6)])
-    table = doctables.robustness_table(cells)(b)
-    assert f"| `hbeo` | {doctables.NOT_RUN_SENSORS} |" in table
+    table = robustness_table(cells)(b)
+    assert f"| `hbeo` | {NOT_RUN_SENSORS} |" in table
     # a page that has them for some backends but not all is still an error
     entry = {"baseline_sensor": "ideal", "metric": "pick_success", "track": None,
              "method": "hbeo", "sensor": "kinect-v1"}  # fmt: skip
     b = _pick_board(tmp_path / "lb2", [("hbeo", {}, 0.6)], [entry])
-    with pytest.raises(doctables.MissingFigureError, match="under every sensor"):
-        doctables.robustness_table(cells)(b)
+    with pytest.raises(MissingFigureError, match="under every sensor"):
+        robustness_table(cells)(b)
 
 
 def test_pick_pairs_shows_the_primary_verdicts_holm_corrected_and_the_controls(tmp_path) -> None:
-    from beo_bench.bench import doctables
+    from beo_bench.bench.doctables.pick import pick_pairs
 
     rows = [("hbeo", {}, 0.6), ("icp", {}, 0.5), ("beo", {}, 0.55),
             ("beo", {"pose_prior": False}, 0.3)]  # fmt: skip
@@ -306,7 +309,7 @@ def test_pick_pairs_shows_the_primary_verdicts_holm_corrected_and_the_controls(t
     control = {"method": "beo (pose_prior=false)", "baseline": "beo", "metric": "pick_success",
                "track": None, "diff": -0.25, "ci95": [-0.4, -0.1], "items": 60,
                "pairing": "ablation", "verdict": "worse"}  # fmt: skip
-    table = doctables.pick_pairs(_pick_board(tmp_path / "lb", rows, [primary, control]))
+    table = pick_pairs(_pick_board(tmp_path / "lb", rows, [primary, control]))
     # the corrected verdict, not the interval's own
     assert "| `icp` | `hbeo` | 500 | -10.0 [-15.0, -1.0] pts | no difference (Holm) |" in table
     assert "| `beo (pose_prior=false)` | `beo` | 60 | -25.0 [-40.0, -10.0] pts | worse (un" in table
@@ -314,7 +317,7 @@ def test_pick_pairs_shows_the_primary_verdicts_holm_corrected_and_the_controls(t
 
 
 def test_rest_prior_reads_the_ideal_part_and_gives_with_minus_without(tmp_path) -> None:
-    from beo_bench.bench import doctables
+    from beo_bench.bench.doctables.pose import rest_prior
 
     root = tmp_path / "lb"
     root.mkdir()
@@ -330,6 +333,6 @@ def test_rest_prior_reads_the_ideal_part_and_gives_with_minus_without(tmp_path) 
             # the same pair under another sensor must not be read
             paired.append({**entry, "sensor": "d435", "baseline_value": 0.0})
     (root / "tabletop_paired.json").write_text(json.dumps(paired))
-    table = doctables.rest_prior(Boards(root))
+    table = rest_prior(Boards(root))
     row = "| `beo` | 228 | 60.0 deg -> 110.0 deg | 50.0% -> 90.0% | 45.0% -> 15.0% | "
     assert row + "-50.0 deg [-58.0, -41.0] |" in table

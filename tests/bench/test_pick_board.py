@@ -253,7 +253,8 @@ def test_success_against_error_bins_the_episodes_that_found_their_target(tmp_pat
     """Issue 49's curve from the committed records: each backend's episodes that chose
     their target, binned by the grasped estimate's error, success (episodes) per bin, and
     every backend pooled; episodes without records (older runs) and bounds are left out."""
-    from beo_bench.bench.doctables import Boards, pick_vs_error
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.pick import pick_vs_error
 
     def rec(item: int, ok: bool, rot: float | None, found: bool = True) -> list:
         errs = [rot, 0.3, 1.0, 0.9, 0.8, 0.2] if rot is not None else [None] * 6
@@ -310,7 +311,8 @@ def _audit_page(tmp_path):
 
 
 def test_the_audit_table_counts_agreement_and_the_shake_from_the_records(tmp_path) -> None:
-    from beo_bench.bench.doctables import Boards, pick_audit
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.pick import pick_audit
 
     audit, shake = pick_audit(Boards(_audit_page(tmp_path))).split("\n\n")
     lines = audit.splitlines()
@@ -325,7 +327,8 @@ def test_the_audit_table_counts_agreement_and_the_shake_from_the_records(tmp_pat
 
 
 def test_each_backends_tolerance_comes_from_its_own_binned_episodes(tmp_path) -> None:
-    from beo_bench.bench.doctables import Boards, half_success_tolerance, pick_tolerance
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.pick import half_success_tolerance, pick_tolerance
 
     text = pick_tolerance(Boards(_audit_page(tmp_path)))
     # hbeo: every episode that found its target sits in the 0-5 deg bin: success never
@@ -340,7 +343,8 @@ def test_each_backends_tolerance_comes_from_its_own_binned_episodes(tmp_path) ->
 def test_the_sensitivity_tolerance_per_category_reads_each_rows_categories(tmp_path) -> None:
     """Issue 49, per category where n allows: the mug loses half of the oracle's success
     between 15 and 30 deg of rotation; the can's oracle picks under a third (no curve)."""
-    from beo_bench.bench.doctables import Boards, _sensitivity_per_category
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.pick import _sensitivity_per_category
     from beo_bench.bench.suites import get_suite
 
     seed = get_suite("pick").seed
