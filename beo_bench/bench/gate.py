@@ -65,14 +65,13 @@ import numpy as np
 from beo_bench.atomic import atomic_write_bytes
 from beo_bench.bench import compare
 from beo_bench.bench.columns import BY_KEY, METRICS, MetricSpec, value_range
+from beo_bench.bench.rows import scan_rows, span
 from beo_bench.bench.rundir import (
     RESULTS_NAME,
     SUMMARY_NAME,
     ItemsIdentity,
     load_summary,
-    scan_rows,
     sensor_tag_of,
-    span,
     summary_size,
     track_of,
 )
