@@ -70,7 +70,7 @@ class Campaign:
     table)."""
     max_failure_rate: float | None = None
     """``--max-failure-rate``: after every run and the leaderboard are written, a
-    :class:`~beo_bench.bench.gate.FailureRateError` (exit status 3) names each run whose
+    :class:`~beo_bench.bench.gate.spec.FailureRateError` (exit status 3) names each run whose
     share of failed views is above it (None: no limit)."""
     report_views: int = 0
     """``--report-views``: each run's ``report.html`` shows that many worst views (0: no
@@ -135,7 +135,7 @@ def run_campaign(c: Campaign) -> list[Path]:
                 c.after_run(ctx, out)
     written = regenerate(c.runs, c.leaderboards, update=c.update)
     if c.max_failure_rate is not None:
-        from beo_bench.bench.gate import check_failure_rate
+        from beo_bench.bench.gate.check import check_failure_rate
 
         # every run finished first: one broken suite does not hide how the others did
         check_failure_rate(finished, c.max_failure_rate)
