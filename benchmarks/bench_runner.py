@@ -17,7 +17,7 @@ from harness import report
 
 from beo_bench.backend import Backend, Capabilities, list_backends, register
 from beo_bench.bench.evaluate import Evaluator
-from beo_bench.bench.rundir import read_rows
+from beo_bench.bench.rows import read_rows
 from beo_bench.bench.runner import RunConfig, WorkerPool, run
 from beo_bench.bench.suites import get_suite
 from beo_bench.objects import ObjectSet

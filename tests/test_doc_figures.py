@@ -18,7 +18,8 @@ from pathlib import Path
 
 import pytest
 
-from beo_bench.bench.doctables import MARK, TABLES, Boards, render
+from beo_bench.bench.doctables.boards import MARK, Boards
+from beo_bench.bench.doctables.render import TABLES, render
 from beo_bench.bench.suites import get_suite
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -115,7 +116,8 @@ def test_the_committed_modelnet10_3dof_leaves_headroom() -> None:
     more than 97% of ``modelnet10-3dof``'s views (docs/results.md's headroom table shows the
     figures; the dissertation's orderings are reported, holding or not, in its orderings
     table). Waits while the suite is not in the leaderboards."""
-    from beo_bench.bench.doctables import PendingSuiteError, modelnet10_headroom
+    from beo_bench.bench.doctables.boards import PendingSuiteError
+    from beo_bench.bench.doctables.dissertation import modelnet10_headroom
 
     try:
         table = modelnet10_headroom(Boards(BOARDS))
@@ -132,21 +134,23 @@ def test_the_modelnet10_pages_per_class_tables_equal_their_committed_runs() -> N
     leaderboard makes of the page's committed summaries (``<suite>.json``), the
     dissertation's row included: its per-class figures (chapter 4's three classes) are in
     the pages, not only in the code."""
-    from beo_bench.bench import leaderboard as lb
+    from beo_bench.bench.pages.entries import DISSERTATION_MODELNET10, MODELNET10_OUR_VIEWS, Row
+    from beo_bench.bench.pages.leaderboard import _newest, _parts
+    from beo_bench.bench.pages.tables import modelnet10_table
 
     head = "Class accuracy in the form of the dissertation's Tables 3.1 and 4.1"
     # the top-down suites and their twins over our viewpoints, which carry the same row
-    pages = [*lb.DISSERTATION_MODELNET10, *lb.MODELNET10_OUR_VIEWS]
+    pages = [*DISSERTATION_MODELNET10, *MODELNET10_OUR_VIEWS]
     checked = [s for s in pages if (BOARDS / f"{s}.json").is_file()]
     assert len(checked) >= 5, checked  # every one but pose-3dof+modelnet10 has a page
     for suite in checked:
-        rows = [lb.Row(s) for s in json.loads((BOARDS / f"{suite}.json").read_text())]
-        version, newest, _ = lb._newest(rows)
+        rows = [Row(s) for s in json.loads((BOARDS / f"{suite}.json").read_text())]
+        version, newest, _ = _newest(rows)
         fresh = [
             table
-            for tracks in lb._parts(suite, version, newest).values()
+            for tracks in _parts(suite, version, newest).values()
             for secs in tracks.values()
-            if (table := lb.modelnet10_table(suite, secs[0].rows))
+            if (table := modelnet10_table(suite, secs[0].rows))
         ]
         lines = (BOARDS / f"{suite}.md").read_text().split("\n")
         starts = [i for i, ln in enumerate(lines) if ln.startswith(head)]
@@ -189,7 +193,7 @@ def test_results_md_says_an_ordering_holds_only_where_it_holds_on_the_dissertati
     that says it does not hold (or fails) needs one that does not (the page once said
     Figure 3.6's ordering held, citing only our slanted views, where on its own top-down
     views it fails)."""
-    from beo_bench.bench.doctables import THE_DISSERTATIONS, ordering_checks
+    from beo_bench.bench.doctables.orderings import THE_DISSERTATIONS, ordering_checks
 
     checks = [c for c in ordering_checks(Boards(BOARDS)) if c.protocol == THE_DISSERTATIONS]
     verdicts: dict[str, list[str]] = {}
@@ -227,7 +231,7 @@ def test_results_md_names_beos_weakest_quoted_class_from_the_dissertation_rows()
     with its figure, the class is the lowest of the dissertation row that figure is from
     (of the three classes whose figures this project has); it once named bathtub (48.0%),
     where desk (46.5%) is lower in the same row."""
-    from beo_bench.bench.leaderboard import DISSERTATION_MODELNET10
+    from beo_bench.bench.pages.entries import DISSERTATION_MODELNET10
 
     text = " ".join(_prose_sentences("docs/results.md"))
     named = re.findall(r"BEO misses ([a-z ]+?) most[^(]*\(([\d.]+)%\)", text)
@@ -261,7 +265,7 @@ def _pick_board(
 
 
 def test_a_swap_not_run_at_this_version_is_a_dash_not_an_error(tmp_path) -> None:
-    from beo_bench.bench import doctables
+    from beo_bench.bench.doctables.pose import swap
 
     rows = [("hbeo", {}, 0.6), ("hbeo-mdn-posterior", {}, 0.62), ("icp", {}, 0.5),
             ("oracle", {"mesh": False}, 0.9)]  # fmt: skip
@@ -272,29 +276,30 @@ def test_a_swap_not_run_at_this_version_is_a_dash_not_an_error(tmp_path) -> None
             paired.append({"method": f'swap (base="{base}", truth="{t}")', "baseline": base,
                            "metric": "pick_success", "track": None, "diff": 0.1,
                            "ci95": [0.02, 0.18], "pairing": "ablation"})  # fmt: skip
-    table = doctables.swap(_pick_board(tmp_path / "lb", rows, paired))
+    table = swap(_pick_board(tmp_path / "lb", rows, paired))
     assert "| `icp` | 50.0% | - | - | - | 90.0% |" in table
     cell = "70.0% (+10.0 [+2.0, +18.0])"  # each swap's paired change beside its rate
     assert f"| `hbeo` | 60.0% | {cell} | {cell} | {cell} | 90.0% |" in table
 
 
 def test_a_page_without_its_sensor_sections_says_so_in_the_robustness_table(tmp_path) -> None:
-    from beo_bench.bench import doctables
+    from beo_bench.bench.doctables.boards import MissingFigureError
+    from beo_bench.bench.doctables.sensors import NOT_RUN_SENSORS, robustness_table
 
     cells = (("pick", None, "pick_success", "`pick` success"),)
     b = _pick_board(tmp_path / "lb", [("hbeo", {}, 0.6)])
-    table = doctables.robustness_table(cells)(b)
-    assert f"| `hbeo` | {doctables.NOT_RUN_SENSORS} |" in table
+    table = robustness_table(cells)(b)
+    assert f"| `hbeo` | {NOT_RUN_SENSORS} |" in table
     # a page that has them for some backends but not all is still an error
     entry = {"baseline_sensor": "ideal", "metric": "pick_success", "track": None,
              "method": "hbeo", "sensor": "kinect-v1"}  # fmt: skip
     b = _pick_board(tmp_path / "lb2", [("hbeo", {}, 0.6)], [entry])
-    with pytest.raises(doctables.MissingFigureError, match="under every sensor"):
-        doctables.robustness_table(cells)(b)
+    with pytest.raises(MissingFigureError, match="under every sensor"):
+        robustness_table(cells)(b)
 
 
 def test_pick_pairs_shows_the_primary_verdicts_holm_corrected_and_the_controls(tmp_path) -> None:
-    from beo_bench.bench import doctables
+    from beo_bench.bench.doctables.pick import pick_pairs
 
     rows = [("hbeo", {}, 0.6), ("icp", {}, 0.5), ("beo", {}, 0.55),
             ("beo", {"pose_prior": False}, 0.3)]  # fmt: skip
@@ -304,7 +309,7 @@ def test_pick_pairs_shows_the_primary_verdicts_holm_corrected_and_the_controls(t
     control = {"method": "beo (pose_prior=false)", "baseline": "beo", "metric": "pick_success",
                "track": None, "diff": -0.25, "ci95": [-0.4, -0.1], "items": 60,
                "pairing": "ablation", "verdict": "worse"}  # fmt: skip
-    table = doctables.pick_pairs(_pick_board(tmp_path / "lb", rows, [primary, control]))
+    table = pick_pairs(_pick_board(tmp_path / "lb", rows, [primary, control]))
     # the corrected verdict, not the interval's own
     assert "| `icp` | `hbeo` | 500 | -10.0 [-15.0, -1.0] pts | no difference (Holm) |" in table
     assert "| `beo (pose_prior=false)` | `beo` | 60 | -25.0 [-40.0, -10.0] pts | worse (un" in table
@@ -312,7 +317,7 @@ def test_pick_pairs_shows_the_primary_verdicts_holm_corrected_and_the_controls(t
 
 
 def test_rest_prior_reads_the_ideal_part_and_gives_with_minus_without(tmp_path) -> None:
-    from beo_bench.bench import doctables
+    from beo_bench.bench.doctables.pose import rest_prior
 
     root = tmp_path / "lb"
     root.mkdir()
@@ -328,6 +333,6 @@ def test_rest_prior_reads_the_ideal_part_and_gives_with_minus_without(tmp_path) 
             # the same pair under another sensor must not be read
             paired.append({**entry, "sensor": "d435", "baseline_value": 0.0})
     (root / "tabletop_paired.json").write_text(json.dumps(paired))
-    table = doctables.rest_prior(Boards(root))
+    table = rest_prior(Boards(root))
     row = "| `beo` | 228 | 60.0 deg -> 110.0 deg | 50.0% -> 90.0% | 45.0% -> 15.0% | "
     assert row + "-50.0 deg [-58.0, -41.0] |" in table

@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from beo_bench.bench import leaderboard, rundir
+from beo_bench.bench import rundir
+from beo_bench.bench.pages import leaderboard
 from beo_bench.bench.runs import RunUsageError
 from beo_bench.cli import main
 from beo_bench.errors import CheckpointError, InvalidKeyError

@@ -11,6 +11,8 @@ leaderboards").
 - :mod:`.summary`: a run's metrics with bootstrap intervals;
 - :mod:`.columns`: the metric specs every table reads (label, scale, direction);
 - :mod:`.compare`: ``beo-bench compare`` (paired differences and verdicts);
-- :mod:`.leaderboard`: ``beo-bench leaderboard`` (Markdown, JSON, plots);
+- :mod:`.pages`: ``beo-bench leaderboard`` (Markdown, JSON, plots);
+- :mod:`.doctables`: the documentation's generated tables;
+- :mod:`.gate`: ``beo-bench gate`` and ``baseline``;
 - :mod:`.recording`: ``beo-bench run --rerun`` recordings.
 """

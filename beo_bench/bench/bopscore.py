@@ -41,6 +41,7 @@ import numpy as np
 
 from beo_bench.bench import rundir
 from beo_bench.bench.export import image_of, object_ids, open_items
+from beo_bench.bench.rows import rows_of
 from beo_bench.bench.rundir import (
     RECORD_NAME,
     REPORT_NAME,
@@ -327,7 +328,7 @@ def score_results(
             summary = summarise(
                 suite,
                 name,
-                rundir.rows_of(rows),
+                rows_of(rows),
                 uses_class_hint=False,
                 model_digest=digest,
                 provenance={

@@ -63,14 +63,14 @@ class Campaign:
     """``--allow-privileged``: plugins that declare ``privileged`` may run (as bounds)."""
     update: bool = False
     """``--update``: keep the current pages of suites this campaign does not run
-    (:func:`~beo_bench.bench.leaderboard.regenerate`)."""
+    (:func:`~beo_bench.bench.pages.leaderboard.regenerate`)."""
     sensors: tuple[str | None, ...] = (None,)
     """``--sensor``: every suite is run under each of these depth sensors (None: the
     suite's own); the leaderboard pairs a backend's runs across them (its robustness
     table)."""
     max_failure_rate: float | None = None
     """``--max-failure-rate``: after every run and the leaderboard are written, a
-    :class:`~beo_bench.bench.gate.FailureRateError` (exit status 3) names each run whose
+    :class:`~beo_bench.bench.gate.spec.FailureRateError` (exit status 3) names each run whose
     share of failed views is above it (None: no limit)."""
     report_views: int = 0
     """``--report-views``: each run's ``report.html`` shows that many worst views (0: no
@@ -88,7 +88,7 @@ def run_campaign(c: Campaign) -> list[Path]:
     returns its Markdown files. A backend whose construction fails stops the campaign before
     anything runs."""
     from beo_bench.backend import get_spec, load_plugins
-    from beo_bench.bench.leaderboard import regenerate
+    from beo_bench.bench.pages.leaderboard import regenerate
     from beo_bench.bench.runner import WorkerPool, item_timeout_s, run
     from beo_bench.bench.suites import backend_tracks, get_suite
 
@@ -135,7 +135,7 @@ def run_campaign(c: Campaign) -> list[Path]:
                 c.after_run(ctx, out)
     written = regenerate(c.runs, c.leaderboards, update=c.update)
     if c.max_failure_rate is not None:
-        from beo_bench.bench.gate import check_failure_rate
+        from beo_bench.bench.gate.check import check_failure_rate
 
         # every run finished first: one broken suite does not hide how the others did
         check_failure_rate(finished, c.max_failure_rate)

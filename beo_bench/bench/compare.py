@@ -32,15 +32,8 @@ from pathlib import Path
 from typing import Any
 
 from beo_bench.bench.columns import METRICS, MetricSpec, spec
-from beo_bench.bench.rundir import (
-    RESULTS_NAME,
-    ItemsIdentity,
-    load_summary,
-    read_rows,
-    span,
-    summary_size,
-    track_of,
-)
+from beo_bench.bench.rows import read_rows, span
+from beo_bench.bench.rundir import RESULTS_NAME, ItemsIdentity, load_summary, summary_size, track_of
 from beo_bench.errors import UsageError
 from beo_bench.stats import per_item_sums, ratio_interval
 

@@ -46,16 +46,13 @@ from beo_bench.bench.pool import (
     in_process_results,
     ray_results,
 )
+from beo_bench.bench.rows import ResultsWriter, io_error, json_rows, scan_rows, scan_run
 from beo_bench.bench.rundir import (
     RECORD_NAME,
     REPORT_NAME,
     RESULTS_NAME,
     SUMMARY_NAME,
-    ResultsWriter,
     Summary,
-    json_rows,
-    scan_rows,
-    scan_run,
     write_json,
 )
 from beo_bench.bench.runs import RunConfig, RunContext, RunError, RunUsageError
@@ -328,7 +325,7 @@ def _open_run(
     try:
         has_results = results.exists() and results.stat().st_size > 0
     except OSError as e:
-        raise rundir.io_error(e, results, "reading the results") from e
+        raise io_error(e, results, "reading the results") from e
     if has_results:
         if not resume:
             raise RunUsageError(

@@ -47,7 +47,8 @@ import numpy as np
 from beo_bench import metrics
 from beo_bench.bench.columns import SUMMARY_PER_CATEGORY
 from beo_bench.bench.kinds import get_kind
-from beo_bench.bench.rundir import Row, Summary, json_rows
+from beo_bench.bench.rows import Row, json_rows
+from beo_bench.bench.rundir import Summary
 from beo_bench.bench.suites import Suite
 from beo_bench.bench.tally import (
     CHAMFER_CAP,

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from beo_bench.bench import gate
+from beo_bench.bench.gate.baseline import load_runs, write_baseline
 
 
 def add(sub: Any, help: str) -> None:
@@ -28,8 +28,8 @@ def add(sub: Any, help: str) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Write the baseline file of the runs given."""
-    runs = gate.load_runs(args.runs)
-    path = gate.write_baseline(runs, args.out)
+    runs = load_runs(args.runs)
+    path = write_baseline(runs, args.out)
     held = ", ".join(f"{r.label} ({r.backend})" for r in runs)
     print(f"wrote {path} ({path.stat().st_size / 1024:.1f} kB): {held}")
     return 0

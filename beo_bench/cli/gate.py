@@ -7,15 +7,26 @@ from pathlib import Path
 from typing import Any
 
 from beo_bench.argparsing import open_fraction, positive_int, seed_int
-from beo_bench.bench import gate
+from beo_bench.bench.gate.baseline import load_baseline, load_runs
+from beo_bench.bench.gate.check import gate
+from beo_bench.bench.gate.report import write_reports
+from beo_bench.bench.gate.spec import (
+    DEFAULT_ALPHA,
+    GateFailure,
+    GateUsageError,
+    metric_spec,
+    primary_keys,
+)
+from beo_bench.bench.gate.verdicts import GateOptions
 from beo_bench.cli import show_warning
+from beo_bench.stats import DEFAULT_PERMUTATIONS
 
 
 def gate_metric(text: str) -> str:
     """An argparse ``type`` for ``gate --metrics``: a metric that is a mean over views."""
     try:
-        return gate.metric_spec(text).key
-    except gate.GateUsageError as e:
+        return metric_spec(text).key
+    except GateUsageError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
@@ -55,20 +66,20 @@ def add(sub: Any, help: str) -> None:
         metavar="METRIC",
         help="summary metrics to gate, each pooled over the suites that measure it (a suite "
         "that does not is skipped, and the reports say so), e.g. gross_err_rate iou_mean "
-        f"(default: {' '.join(gate.primary_keys())})",
+        f"(default: {' '.join(primary_keys())})",
     )
     g.add_argument(
         "--alpha",
         type=open_fraction,
-        default=gate.DEFAULT_ALPHA,
-        help=f"the gate's family-wise error rate (default {gate.DEFAULT_ALPHA})",
+        default=DEFAULT_ALPHA,
+        help=f"the gate's family-wise error rate (default {DEFAULT_ALPHA})",
     )
     g.add_argument(
         "--permutations",
         type=positive_int,
-        default=gate.DEFAULT_PERMUTATIONS,
+        default=DEFAULT_PERMUTATIONS,
         help="random sign patterns when more than 16 items differ (default "
-        f"{gate.DEFAULT_PERMUTATIONS}; fewer are enumerated exactly)",
+        f"{DEFAULT_PERMUTATIONS}; fewer are enumerated exactly)",
     )
     g.add_argument(
         "--seed", type=seed_int, default=0, help="seeds the permutations and the bootstrap"
@@ -92,21 +103,21 @@ def add(sub: Any, help: str) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Each run against its baseline run; the reports; exit 3 on a regression."""
-    options = gate.GateOptions(
+    options = GateOptions(
         metrics=tuple(args.metrics) if args.metrics else None,
         alpha=args.alpha,
         permutations=args.permutations,
         seed=args.seed,
     )
-    baseline = gate.load_baseline(args.baseline)  # refused before the runs are read
-    report = gate.gate(gate.load_runs(args.runs), baseline, options, str(args.baseline))
+    baseline = load_baseline(args.baseline)  # refused before the runs are read
+    report = gate(load_runs(args.runs), baseline, options, str(args.baseline))
     print(report.text())
-    written = gate.write_reports(report, args.json, args.junit, args.markdown)
+    written = write_reports(report, args.json, args.junit, args.markdown)
     for path in written:
         print(f"wrote {path}")
     for blind in report.cannot_fail:  # loud, also where stdout is not read: a pass of these
         show_warning(f"gate cannot fail: {blind.line()}", UserWarning, "", 0)  # means nothing
     if not report.passed:
         worst = "; ".join(v.line() for v in report.regressions)
-        raise gate.GateFailure(f"gate failed: regression in {worst}")
+        raise GateFailure(f"gate failed: regression in {worst}")
     return 0

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from beo_bench.bench.leaderboard import regenerate
+from beo_bench.bench.pages.leaderboard import regenerate
 from beo_bench.cli.options import out_parent, runs_parent, update_parent
 from beo_bench.errors import BeoBenchError, UsageError
 

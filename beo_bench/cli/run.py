@@ -7,7 +7,8 @@ from pathlib import Path
 from typing import Any
 
 from beo_bench.argparsing import rate
-from beo_bench.bench import gate, recording, runner
+from beo_bench.bench import recording, runner
+from beo_bench.bench.gate.check import check_failure_rate
 from beo_bench.bench.runs import RunConfig, RunContext, parse_option_pairs, run_name
 from beo_bench.bench.suites import TRACKS
 from beo_bench.cli.common import format_runs, print_run_end, print_skipped, run_suite
@@ -118,5 +119,5 @@ def run(args: argparse.Namespace) -> int:
         print(f"recording of the first views: {path}  (open with `rerun {path}`)")
     print_run_end(ctx, out, label=False)
     if args.max_failure_rate is not None:
-        gate.check_failure_rate([(out, summary)], args.max_failure_rate)
+        check_failure_rate([(out, summary)], args.max_failure_rate)
     return 0

@@ -9,7 +9,7 @@ from typing import Any
 
 from beo_bench.argparsing import rate
 from beo_bench.bench import campaign
-from beo_bench.bench.leaderboard import check_out
+from beo_bench.bench.pages.leaderboard import check_out
 from beo_bench.bench.runs import parse_backend_spec
 from beo_bench.bench.suites import UnknownSuiteError, expand_suites, list_suites
 from beo_bench.cli.common import (

@@ -10,7 +10,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from beo_bench.bench.rundir import rows_of
+from beo_bench.bench.rows import rows_of
 from beo_bench.bench.suites import Suite, get_suite
 from beo_bench.bench.summary import summarise
 

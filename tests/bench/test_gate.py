@@ -14,8 +14,16 @@ import numpy as np
 import pytest
 
 from beo_bench import stats
-from beo_bench.bench import gate
-from beo_bench.bench.gate import GateOptions, GateUsageError
+from beo_bench.bench.gate.baseline import load_baseline, load_runs, write_baseline
+from beo_bench.bench.gate.check import check_failure_rate, gate
+from beo_bench.bench.gate.spec import (
+    FailureRateError,
+    GateUsageError,
+    margin,
+    primary_keys,
+    primary_metric,
+)
+from beo_bench.bench.gate.verdicts import GateOptions
 from beo_bench.cli import main
 from tests.bench.synthetic_runs import pose_row, write_run
 
@@ -39,11 +47,11 @@ def test_holm_keeps_a_metric_that_alone_would_fail_from_failing_among_three(tmp_
     b = [pose_row(i, rot_err_deg=16.0, trans_err_cm=2.5, size_err_pct=11.0) for i in range(5)]
     write_run(tmp_path / "a", "beo", a, track="class-free")
     write_run(tmp_path / "b", "beo", b, track="class-free")
-    runs, base = gate.load_runs([tmp_path / "b"]), gate.load_baseline(tmp_path / "a")
-    alone = gate.gate(runs, base, GateOptions(metrics=keys[:1]))
+    runs, base = load_runs([tmp_path / "b"]), load_baseline(tmp_path / "a")
+    alone = gate(runs, base, GateOptions(metrics=keys[:1]))
     assert [v.outcome for v in alone.verdicts] == ["regression"]
     assert alone.verdicts[0].p == pytest.approx(1 / 32) == alone.verdicts[0].p_holm
-    three = gate.gate(runs, base, GateOptions(metrics=keys))
+    three = gate(runs, base, GateOptions(metrics=keys))
     assert three.passed and {v.outcome for v in three.verdicts} == {"worse, within the margin"}
     assert all(v.p_holm == pytest.approx(3 / 32) for v in three.verdicts)
 
@@ -57,13 +65,13 @@ def test_direction_comes_from_the_metric_spec(tmp_path) -> None:
     write_run(tmp_path / "a", "beo", a, track="class-free")
     write_run(tmp_path / "b", "beo", b, track="class-free")
     opts = GateOptions(metrics=("rot_err_deg_mean", "iou_mean"))
-    r = gate.gate(gate.load_runs([tmp_path / "b"]), gate.load_baseline(tmp_path / "a"), opts)
+    r = gate(load_runs([tmp_path / "b"]), load_baseline(tmp_path / "a"), opts)
     by = {v.metric: v for v in r.verdicts}
     assert by["rot_err_deg_mean"].outcome == "regression" and by["rot_err_deg_mean"].diff == 8
     assert by["iou_mean"].outcome == "improvement"
     assert not r.passed and r.regressions == (by["rot_err_deg_mean"],)
     # the other way round the rotation improves and IoU regresses
-    back = gate.gate(gate.load_runs([tmp_path / "a"]), gate.load_baseline(tmp_path / "b"), opts)
+    back = gate(load_runs([tmp_path / "a"]), load_baseline(tmp_path / "b"), opts)
     assert {v.metric: v.outcome for v in back.verdicts} == {
         "rot_err_deg_mean": "improvement",
         "iou_mean": "regression",
@@ -74,23 +82,21 @@ def test_the_primary_metrics_are_the_default(tmp_path) -> None:
     """Rotation (its mean and the > 15 deg rate), translation and class for a pose run
     (pick where a suite measures it): a translation-only regression fails the default gate,
     as a rotation one does."""
-    r = gate.gate(
-        gate.load_runs([_run(tmp_path / "b", 30)]), gate.load_baseline(_run(tmp_path / "a"))
-    )
+    r = gate(load_runs([_run(tmp_path / "b", 30)]), load_baseline(_run(tmp_path / "a")))
     assert [v.metric for v in r.verdicts] == [
         "rot_err_deg_mean", "gross_err_rate", "trans_err_cm_mean", "class_acc",
     ]  # fmt: skip
     assert [v.outcome for v in r.verdicts] == ["regression"] * 2 + ["no difference"] * 2
-    assert gate.primary_keys() == ("rot_err_deg_mean", "gross_err_rate", "trans_err_cm_mean",
+    assert primary_keys() == ("rot_err_deg_mean", "gross_err_rate", "trans_err_cm_mean",
                                    "class_acc", "pick_success")  # fmt: skip
     shifted = [pose_row(i, rot_err_deg=ROT[i], trans_err_cm=6.0) for i in range(30)]
     write_run(tmp_path / "t", "beo", shifted, track="class-free")
-    t = gate.gate(gate.load_runs([tmp_path / "t"]), gate.load_baseline(tmp_path / "a"))
+    t = gate(load_runs([tmp_path / "t"]), load_baseline(tmp_path / "a"))
     assert [v.metric for v in t.regressions] == ["trans_err_cm_mean"]
     assert t.regressions[0].diff == pytest.approx(5.0) and t.regressions[0].margin == 1.0
-    assert gate.primary_metric("known-pose") == "class_acc"  # a suite's headline metric
-    assert gate.primary_metric("pose-3dof+modelnet10") == "gross_err_rate"
-    assert gate.primary_metric("pick") == "pick_success"
+    assert primary_metric("known-pose") == "class_acc"  # a suite's headline metric
+    assert primary_metric("pose-3dof+modelnet10") == "gross_err_rate"
+    assert primary_metric("pick") == "pick_success"
 
 
 def test_each_rotation_metric_sees_what_the_other_misses(tmp_path) -> None:
@@ -103,9 +109,7 @@ def test_each_rotation_metric_sees_what_the_other_misses(tmp_path) -> None:
                   for i in range(20)], track="class-free")  # fmt: skip
         write_run(tmp_path / name / "b", "beo", [pose_row(i, rot_err_deg=after)
                   for i in range(20)], track="class-free")  # fmt: skip
-        r = gate.gate(
-            gate.load_runs([tmp_path / name / "b"]), gate.load_baseline(tmp_path / name / "a")
-        )
+        r = gate(load_runs([tmp_path / name / "b"]), load_baseline(tmp_path / name / "a"))
         found[name] = [v.metric for v in r.regressions]
     assert found == {"bias": ["gross_err_rate"], "far": ["rot_err_deg_mean"]}
 
@@ -119,10 +123,10 @@ def test_a_worsening_within_the_margin_passes_however_many_items(tmp_path) -> No
     for shift, outcome in ((4.0, "worse, within the margin"), (6.0, "regression")):
         b = [pose_row(i, rot_err_deg=ROT[i] + shift) for i in range(30)]
         write_run(tmp_path / f"b{shift}", "beo", b, track="class-free")
-        runs = gate.load_runs([tmp_path / f"b{shift}"])
-        (v,) = gate.gate(runs, gate.load_baseline(tmp_path / "a"), opts).verdicts
+        runs = load_runs([tmp_path / f"b{shift}"])
+        (v,) = gate(runs, load_baseline(tmp_path / "a"), opts).verdicts
         assert (v.outcome, v.margin, v.diff) == (outcome, 5.0, pytest.approx(shift))
-    assert gate.margin("rot_err_deg_mean") == 5.0 and gate.margin("edt_err_mean") == 0.0
+    assert margin("rot_err_deg_mean") == 5.0 and margin("edt_err_mean") == 0.0
 
 
 def test_pooled_over_suites_the_gate_finds_what_no_suite_alone_shows(tmp_path) -> None:
@@ -136,15 +140,13 @@ def test_pooled_over_suites_the_gate_finds_what_no_suite_alone_shows(tmp_path) -
         b = [pose_row(i, rot_err_deg=ROT[i] + (-10.0 if i % 4 == 0 else 14.0)) for i in range(20)]
         write_run(tmp_path / "base" / suite, "beo", a, suite, track="class-free")
         write_run(tmp_path / "runs" / suite, "beo", b, suite, track="class-free")
-        alone = gate.gate(
-            gate.load_runs([tmp_path / "runs" / suite]),
-            gate.load_baseline(tmp_path / "base" / suite),
+        alone = gate(
+            load_runs([tmp_path / "runs" / suite]),
+            load_baseline(tmp_path / "base" / suite),
             opts,
         )
         assert alone.passed and alone.verdicts[0].p > 0.05, suite
-    pooled = gate.gate(
-        gate.load_runs([tmp_path / "runs"]), gate.load_baseline(tmp_path / "base"), opts
-    )
+    pooled = gate(load_runs([tmp_path / "runs"]), load_baseline(tmp_path / "base"), opts)
     (v,) = pooled.verdicts
     assert v.regression and v.p < 0.05 and v.diff == pytest.approx(8.0)
     assert (v.n_items, v.n_views, v.suites) == (60, 60, tuple(f"{s}@class-free" for s in suites))
@@ -153,14 +155,12 @@ def test_pooled_over_suites_the_gate_finds_what_no_suite_alone_shows(tmp_path) -
     # the class-given track of pose-1dof too: the same 20 items, so still 60 units
     write_run(tmp_path / "base" / "given", "beo", [pose_row(i) for i in range(20)])
     write_run(tmp_path / "runs" / "given", "beo", [pose_row(i) for i in range(20)])
-    both = gate.gate(
-        gate.load_runs([tmp_path / "runs"]), gate.load_baseline(tmp_path / "base"), opts
-    )
+    both = gate(load_runs([tmp_path / "runs"]), load_baseline(tmp_path / "base"), opts)
     assert (both.verdicts[0].n_items, both.verdicts[0].n_views) == (60, 80)
 
 
 def test_identical_runs_pass_with_p_one(tmp_path) -> None:
-    r = gate.gate(gate.load_runs([_run(tmp_path / "b")]), gate.load_baseline(_run(tmp_path / "a")))
+    r = gate(load_runs([_run(tmp_path / "b")]), load_baseline(_run(tmp_path / "a")))
     assert r.passed and r.verdicts[0].p == 1.0 and r.verdicts[0].diff == 0.0
 
 
@@ -172,7 +172,7 @@ def test_a_baseline_file_gates_as_its_run_does(tmp_path) -> None:
     b = [pose_row(i, rot_err_deg=ROT[i] + 3 * (i % 2)) for i in range(30)]
     write_run(tmp_path / "a", "beo", a)  # class-given: class_acc is NaN on every view
     write_run(tmp_path / "b", "beo", b)
-    gate.write_baseline(gate.load_runs([tmp_path / "a"]), tmp_path / "base.json")
+    write_baseline(load_runs([tmp_path / "a"]), tmp_path / "base.json")
     obj = json.loads((tmp_path / "base.json").read_text())
     assert (obj["format"], obj["version"]) == ("beo-bench-baseline", 1)
     entry = obj["runs"][0]
@@ -180,27 +180,27 @@ def test_a_baseline_file_gates_as_its_run_does(tmp_path) -> None:
     assert entry["values"]["class_acc"]["0"] == [None]
     assert entry["values"]["rot_err_deg_mean"]["4"] == [ROT[4]]
     opts = GateOptions(metrics=("rot_err_deg_mean", "gross_err_rate", "iou_mean"))
-    runs = gate.load_runs([tmp_path / "b"])
-    from_file = gate.gate(runs, gate.load_baseline(tmp_path / "base.json"), opts)
-    from_dir = gate.gate(runs, gate.load_baseline(tmp_path / "a"), opts)
+    runs = load_runs([tmp_path / "b"])
+    from_file = gate(runs, load_baseline(tmp_path / "base.json"), opts)
+    from_dir = gate(runs, load_baseline(tmp_path / "a"), opts)
     assert [v.to_json() for v in from_file.verdicts] == [v.to_json() for v in from_dir.verdicts]
     with pytest.raises(GateUsageError, match=r"nothing to gate.*no view scored on it in both"):
-        gate.gate(runs, gate.load_baseline(tmp_path / "base.json"), GateOptions(("class_acc",)))
+        gate(runs, load_baseline(tmp_path / "base.json"), GateOptions(("class_acc",)))
 
 
 def test_a_baseline_of_another_format_version_or_damaged_is_refused(tmp_path) -> None:
-    gate.write_baseline(gate.load_runs([_run(tmp_path / "a")]), tmp_path / "base.json")
+    write_baseline(load_runs([_run(tmp_path / "a")]), tmp_path / "base.json")
     obj = json.loads((tmp_path / "base.json").read_text())
     (tmp_path / "v2.json").write_text(json.dumps({**obj, "version": 2}))
     with pytest.raises(GateUsageError, match="format version 2; this beo-bench reads version 1"):
-        gate.load_baseline(tmp_path / "v2.json")
+        load_baseline(tmp_path / "v2.json")
     obj["runs"][0]["values"]["iou_mean"]["0"] = [0.5, 0.5]  # two values for one view
     (tmp_path / "bad.json").write_text(json.dumps(obj))
     with pytest.raises(GateUsageError, match=r"not a readable beo-bench baseline.*--out"):
-        gate.load_baseline(tmp_path / "bad.json")
+        load_baseline(tmp_path / "bad.json")
     (tmp_path / "other.json").write_text('{"format": "something-else"}')
     with pytest.raises(GateUsageError, match="not a readable beo-bench baseline"):
-        gate.load_baseline(tmp_path / "other.json")
+        load_baseline(tmp_path / "other.json")
 
 
 # -- refusals --------------------------------------------------------------------------------
@@ -218,7 +218,7 @@ def test_runs_that_do_not_pair_are_refused_with_exit_2(tmp_path, capsys, kw, why
     base = _run(tmp_path / "a")
     other = _run(tmp_path / "b", **kw)
     with pytest.raises(GateUsageError, match="cannot gate") as e:
-        gate.gate(gate.load_runs([other]), gate.load_baseline(base))
+        gate(load_runs([other]), load_baseline(base))
     assert why in str(e.value)
     assert main(["gate", str(other), "--baseline", str(base), "--junit", str(tmp_path / "j")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -313,21 +313,21 @@ def test_runs_pair_with_their_suites_baseline_and_the_reports_say_it(
 
 
 def test_two_runs_of_one_baseline_suite_are_refused(tmp_path) -> None:
-    base = gate.load_baseline(_run(tmp_path / "a"))
-    runs = gate.load_runs([_run(tmp_path / "b"), _run(tmp_path / "c")])
+    base = load_baseline(_run(tmp_path / "a"))
+    runs = load_runs([_run(tmp_path / "b"), _run(tmp_path / "c")])
     with pytest.raises(GateUsageError, match="both gated against"):
-        gate.gate(runs, base)
+        gate(runs, base)
 
 
 # -- --max-failure-rate ------------------------------------------------------------------------
 def test_failure_rate_check_names_each_run_above_the_limit(tmp_path) -> None:
     ok = {"n": 10, "failures": 1}
     bad = {"n": 10, "failures": 4}
-    gate.check_failure_rate([(tmp_path / "ok", ok)], 0.1)  # 10% is not above 10%
-    with pytest.raises(gate.FailureRateError, match=r"bad \(4 of 10 views failed, 40.0%\)") as e:
-        gate.check_failure_rate([(tmp_path / "ok", ok), (tmp_path / "bad", bad)], 0.3)
+    check_failure_rate([(tmp_path / "ok", ok)], 0.1)  # 10% is not above 10%
+    with pytest.raises(FailureRateError, match=r"bad \(4 of 10 views failed, 40.0%\)") as e:
+        check_failure_rate([(tmp_path / "ok", ok), (tmp_path / "bad", bad)], 0.3)
     assert "ok (" not in str(e.value) and e.value.exit_code == 3
-    gate.check_failure_rate([(tmp_path / "empty", {"n": 0, "failures": 0})], 0.0)
+    check_failure_rate([(tmp_path / "empty", {"n": 0, "failures": 0})], 0.0)
 
 
 # -- what n items can tell (docs/benchmark.md's table) --------------------------------------------
@@ -406,7 +406,7 @@ def test_each_backend_is_tested_apart(tmp_path) -> None:
         _run(tmp_path / "base" / backend, backend=backend)
         _run(tmp_path / "runs" / backend, shift, backend=backend)
     opts = GateOptions(metrics=("rot_err_deg_mean",))
-    r = gate.gate(gate.load_runs([tmp_path / "runs"]), gate.load_baseline(tmp_path / "base"), opts)
+    r = gate(load_runs([tmp_path / "runs"]), load_baseline(tmp_path / "base"), opts)
     assert [(v.backend, v.outcome, v.n_items) for v in r.verdicts] == [
         ("beo", "regression", 30),
         ("icp", "no difference", 30),
@@ -433,7 +433,7 @@ def test_a_gate_whose_items_cannot_reach_the_corrected_threshold_says_so(tmp_pat
     assert main(["gate", str(b6), "--baseline", str(a6), *two]) == 3
     out = capsys.readouterr()
     assert "CANNOT FAIL" not in out.out and "cannot fail" not in out.err
-    r6 = gate.gate(gate.load_runs([b6]), gate.load_baseline(a6), GateOptions(("iou_mean",
+    r6 = gate(load_runs([b6]), load_baseline(a6), GateOptions(("iou_mean",
                    "fscore_mean")))  # fmt: skip
     assert r6.cannot_fail == ()
 
@@ -467,7 +467,7 @@ def test_a_small_suite_pooled_with_large_ones_is_named_as_unable_to_fail(tmp_pat
                   track="class-free")  # fmt: skip
         write_run(tmp_path / "runs" / suite, "beo", [pose_row(i) for i in range(n)], suite,
                   track="class-free")  # fmt: skip
-    r = gate.gate(gate.load_runs([tmp_path / "runs"]), gate.load_baseline(tmp_path / "base"))
+    r = gate(load_runs([tmp_path / "runs"]), load_baseline(tmp_path / "base"))
     assert len(r.verdicts) == 4 and r.passed
     assert {(c.suite, c.n_items) for c in r.cannot_fail} == {("pose-3dof@class-free", 6)}
     assert len(r.cannot_fail) == 4  # once per test it joins
@@ -477,7 +477,7 @@ def test_a_small_suite_pooled_with_large_ones_is_named_as_unable_to_fail(tmp_pat
 def _collapsed_baseline(tmp_path: Path) -> tuple[Path, Path, dict]:
     """A baseline file of 6 items and a run whose IoU collapsed on every item (exit 3)."""
     a, b = _collapse(tmp_path, 6)
-    gate.write_baseline(gate.load_runs([a]), tmp_path / "base.json")
+    write_baseline(load_runs([a]), tmp_path / "base.json")
     return b, tmp_path / "base.json", json.loads((tmp_path / "base.json").read_text())
 
 

@@ -176,7 +176,7 @@ def test_max_failure_rate_exits_3_after_writing_the_results(repo, capsys) -> Non
 
 def test_a_campaign_finishes_then_exits_3_on_its_failure_rate(repo) -> None:
     from beo_bench.bench.campaign import Campaign, run_campaign
-    from beo_bench.bench.gate import FailureRateError
+    from beo_bench.bench.gate.spec import FailureRateError
 
     c = Campaign(
         {"known-pose": 2},

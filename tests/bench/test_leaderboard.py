@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 
 from beo_bench.bench.columns import METRICS, board_columns, markdown_table
-from beo_bench.bench.leaderboard import Row, regenerate, suite_table
+from beo_bench.bench.pages.entries import Row
+from beo_bench.bench.pages.leaderboard import regenerate
+from beo_bench.bench.pages.tables import suite_table
 from tests.bench.synthetic_runs import pose_row, write_run
 
 ROT = np.random.default_rng(0).exponential(40, 22)
@@ -223,7 +225,7 @@ def test_confusion_cells_show_their_counts(tmp_path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from beo_bench.bench.leaderboard import confusion_figure
+    from beo_bench.bench.pages.plots import confusion_figure
 
     cats = [f"class{i}" for i in range(11)]
     conf = 2 * np.eye(11, dtype=int)
@@ -371,7 +373,8 @@ def test_modelnet10_suites_have_tables_3_1_and_4_1_and_the_confused_pairs(tmp_pa
 def test_a_suite_not_in_the_leaderboards_yet_makes_a_pending_table(tmp_path) -> None:
     """A generated table that needs a suite the leaderboards lack says so; one that needs
     a row missing from a suite that is there is still an error."""
-    from beo_bench.bench.doctables import PENDING, Boards, MissingFigureError, render
+    from beo_bench.bench.doctables.boards import Boards, MissingFigureError
+    from beo_bench.bench.doctables.render import PENDING, render
 
     text = "<!-- table: headline -->\nold\n<!-- /table -->\n"
     out = render(text, Boards(tmp_path))
@@ -392,7 +395,8 @@ def test_the_silhouette_prior_table_pairs_the_rank_of_the_best_sample(tmp_path) 
     """docs/results.md's prior table per 3-DOF suite: posterior against likelihood on the
     error and on where each ranks the best of the (shared) samples, from the ablations the
     leaderboard pairs; a suite without the runs waits for them."""
-    from beo_bench.bench.doctables import PENDING, TABLES, Boards, render
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.render import PENDING, TABLES, render
 
     runs = tmp_path / "runs"
     for name, rank in (("hbeo-mdn-likelihood", 6), ("hbeo-mdn-posterior", 2)):
@@ -455,7 +459,8 @@ def test_the_modelnet10_headroom_checks_read_the_cap(tmp_path) -> None:
     97% cap, and nothing else (the dissertation's orderings are reported, not required, in
     the orderings table); chapter 4's per-class table sets the classes it discusses beside
     ours, BEO at a known pose and at 1-DOF against HBEO at 3-DOF."""
-    from beo_bench.bench.doctables import TABLES, Boards
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.render import TABLES
 
     boards = Boards(_orderings_board(tmp_path))
     by_check = {c[0]: (c[1], c[2]) for c in _cells(TABLES["modelnet10-headroom"](boards))}
@@ -481,7 +486,9 @@ def test_every_dissertation_ordering_is_shown_and_no_difference_does_not_hold(tm
     interval that holds 0 does not count as holding), from the pages' Holm-corrected
     primary comparisons where a page has them and its paired intervals otherwise; and the
     counts per protocol."""
-    from beo_bench.bench.doctables import TABLES, Boards, ordering_checks, ordering_counts
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.orderings import ordering_checks, ordering_counts
+    from beo_bench.bench.doctables.render import TABLES
 
     board = _orderings_board(tmp_path)
     boards = Boards(board)
@@ -536,7 +543,8 @@ def test_hbeo_is_paired_with_beo_on_class_at_a_known_pose(tmp_path) -> None:
     """Chapter 4's comparison at a known pose: the leaderboard pairs ``hbeo`` with ``beo``
     on class (same views; a known-pose suite has no pose metric, the other ablations skip
     it), and docs/results.md's ModelNet10 table shows the paired difference per suite."""
-    from beo_bench.bench.doctables import TABLES, Boards
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.render import TABLES
 
     runs = tmp_path / "runs"
     for name, wrong, iou in (("beo", {"desk": "table", "dresser": "night_stand"}, 0.5),
@@ -562,7 +570,7 @@ def test_the_dissertation_rows_carry_chapter_4s_per_class_figures() -> None:
     quotes (bathtub, desk, night stand); every other per-class cell stays empty. The 1-DOF
     row is Table 3.1's 1-DOF figures, not its known-pose ones (issue 47: it once carried
     48.0 / 46.5 / 55.8%)."""
-    from beo_bench.bench.leaderboard import modelnet10_table
+    from beo_bench.bench.pages.tables import modelnet10_table
 
     def dissertation_row(suite: str) -> list[str]:
         run = {"backend": "hbeo", "metrics": {"class_acc": 0.5}, "per_category": {}}
@@ -582,7 +590,7 @@ def test_our_viewpoint_modelnet10_suites_carry_the_same_dissertation_row() -> No
     set) get the per-class table of the top-down suite of the same protocol, with its
     dissertation row, so the two viewpoints read side by side; another class subset of
     the same suite gets none."""
-    from beo_bench.bench.leaderboard import confusion_counts, modelnet10_table
+    from beo_bench.bench.pages.tables import confusion_counts, modelnet10_table
 
     run = {"backend": "hbeo", "metrics": {"class_acc": 0.5}, "per_category": {}}
     for ours, theirs in (("known-pose+modelnet10", "modelnet10-known-pose"),
@@ -600,7 +608,8 @@ def test_the_modelnet10_viewpoints_table_sets_top_down_beside_our_views(tmp_path
     """docs/results.md's ``modelnet10-viewpoints`` table: each backend's class accuracy on
     the top-down suites beside the same protocol over our viewpoints (class-free track),
     column for column; it waits while one of the four suites is missing."""
-    from beo_bench.bench.doctables import PENDING, TABLES, Boards, render
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.render import PENDING, TABLES, render
 
     runs = tmp_path / "runs"
     suites = ("modelnet10-known-pose", "known-pose+modelnet10", "modelnet10-1dof",
@@ -701,7 +710,8 @@ def test_the_headline_names_an_uncorrected_mode_difference_as_no_finding(tmp_pat
     carries its Holm-corrected primary comparison reads as that says (here no difference);
     on a page without it, an uncorrected interval that excludes 0 is named uncorrected and
     not a finding, never *worse* as a finding."""
-    from beo_bench.bench.doctables import Boards, modes_note
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.pose import modes_note
 
     board = _mdn_modes_board(tmp_path)
     note = modes_note(Boards(board))
@@ -792,7 +802,7 @@ def test_figure_5_3s_curves_follow_one_network_each() -> None:
     through its N = 5, 25 (the row without ``samples``) and 100, never a line joining one
     network's N = 5 to the other's N = 100; variants of other options and bounds are not
     points on them."""
-    from beo_bench.bench.leaderboard import MDN_DEFAULT_SAMPLES, sample_curves
+    from beo_bench.bench.pages.plots import MDN_DEFAULT_SAMPLES, sample_curves
     from beo_bench.perception.hbeo.backend import HBEOOptions
 
     assert HBEOOptions().samples == MDN_DEFAULT_SAMPLES
@@ -817,7 +827,7 @@ def test_figure_5_3s_curves_follow_one_network_each() -> None:
 def test_pick_tolerance_is_where_success_falls_to_half() -> None:
     """Issue 49's tolerance: the error at which pick success falls to half its value at
     zero error, interpolated between the measured levels; None when it never does."""
-    from beo_bench.bench.doctables import half_success_tolerance
+    from beo_bench.bench.doctables.pick import half_success_tolerance
 
     assert half_success_tolerance([0, 15, 30], [0.9, 0.6, 0.3]) == pytest.approx(22.5)
     assert half_success_tolerance([0, 1, 2], [0.9, 0.45, 0.1]) == pytest.approx(1.0)
@@ -829,7 +839,7 @@ def test_a_scored_file_is_marked_and_never_a_baseline_or_a_bound(tmp_path) -> No
     now refuses those names, an older one did not) is a method's row marked as a scored file:
     beside the real icp run both are listed, and it is neither the baseline nor the upper
     bound (issue 50)."""
-    from beo_bench.bench.leaderboard import is_bound, label
+    from beo_bench.bench.pages.entries import is_bound, label
 
     runs = tmp_path / "runs"
     write_run(runs / "icp", "icp", _rows(0.5))
@@ -857,7 +867,7 @@ def test_a_second_regeneration_into_the_same_directory_is_refused(tmp_path) -> N
     import os
 
     from beo_bench import outdir
-    from beo_bench.bench.leaderboard import LOCK_NAME
+    from beo_bench.bench.pages.leaderboard import LOCK_NAME
     from beo_bench.bench.runs import RunError
 
     out = tmp_path / "board"

@@ -12,18 +12,18 @@ import numpy as np
 import pytest
 from scipy.stats import binomtest
 
-from beo_bench.bench.leaderboard import (
+from beo_bench.bench.pages.entries import Row
+from beo_bench.bench.pages.leaderboard import regenerate
+from beo_bench.bench.pages.pick import (
     EPISODE_AUDIT,
     EPISODE_FIELDS,
-    Row,
-    Section,
     episodes,
     mcnemar_p,
     page_json,
     pick_category_table,
     pick_comparisons,
-    regenerate,
 )
+from beo_bench.bench.pages.verdicts import Section
 from beo_bench.bench.scoring import PICK_ERRORS
 from tests.bench.synthetic_runs import write_run
 
@@ -230,7 +230,7 @@ def test_seed_replicates_give_each_learned_row_its_spread_and_judge_the_gap(tmp_
 def test_an_episode_record_carries_the_grasped_estimates_errors() -> None:
     """Issue 49: the page's JSON holds each episode's estimate errors (to 3 decimals), so
     that anyone can draw success against them from the committed file alone."""
-    from beo_bench.bench.leaderboard import episode_records
+    from beo_bench.bench.pages.pick import episode_records
 
     errs = dict(zip(PICK_ERRORS, (31.41592, 2.71828, 5.0, 0.5, 0.25, 1.23456), strict=True))
     audit = {"lifted_chosen": True, "shake_held": False, "slip_cm": 12.34567,
@@ -253,7 +253,8 @@ def test_success_against_error_bins_the_episodes_that_found_their_target(tmp_pat
     """Issue 49's curve from the committed records: each backend's episodes that chose
     their target, binned by the grasped estimate's error, success (episodes) per bin, and
     every backend pooled; episodes without records (older runs) and bounds are left out."""
-    from beo_bench.bench.doctables import Boards, pick_vs_error
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.pick import pick_vs_error
 
     def rec(item: int, ok: bool, rot: float | None, found: bool = True) -> list:
         errs = [rot, 0.3, 1.0, 0.9, 0.8, 0.2] if rot is not None else [None] * 6
@@ -310,7 +311,8 @@ def _audit_page(tmp_path):
 
 
 def test_the_audit_table_counts_agreement_and_the_shake_from_the_records(tmp_path) -> None:
-    from beo_bench.bench.doctables import Boards, pick_audit
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.pick import pick_audit
 
     audit, shake = pick_audit(Boards(_audit_page(tmp_path))).split("\n\n")
     lines = audit.splitlines()
@@ -325,7 +327,8 @@ def test_the_audit_table_counts_agreement_and_the_shake_from_the_records(tmp_pat
 
 
 def test_each_backends_tolerance_comes_from_its_own_binned_episodes(tmp_path) -> None:
-    from beo_bench.bench.doctables import Boards, half_success_tolerance, pick_tolerance
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.pick import half_success_tolerance, pick_tolerance
 
     text = pick_tolerance(Boards(_audit_page(tmp_path)))
     # hbeo: every episode that found its target sits in the 0-5 deg bin: success never
@@ -340,7 +343,8 @@ def test_each_backends_tolerance_comes_from_its_own_binned_episodes(tmp_path) ->
 def test_the_sensitivity_tolerance_per_category_reads_each_rows_categories(tmp_path) -> None:
     """Issue 49, per category where n allows: the mug loses half of the oracle's success
     between 15 and 30 deg of rotation; the can's oracle picks under a third (no curve)."""
-    from beo_bench.bench.doctables import Boards, _sensitivity_per_category
+    from beo_bench.bench.doctables.boards import Boards
+    from beo_bench.bench.doctables.pick import _sensitivity_per_category
     from beo_bench.bench.suites import get_suite
 
     seed = get_suite("pick").seed
@@ -368,7 +372,7 @@ def test_the_sensitivity_tolerance_per_category_reads_each_rows_categories(tmp_p
 def test_the_pick_page_plots_success_against_error_from_the_records(tmp_path) -> None:
     """The page's plot reads the same records as results.md's tables: a PNG of three
     panels, drawn only from episodes that chose their target and record their errors."""
-    from beo_bench.bench.leaderboard import _pick_error_plot, error_bins, found_target_episodes
+    from beo_bench.bench.pages.plots import _pick_error_plot, error_bins, found_target_episodes
 
     rows = json.loads((_audit_page(tmp_path) / "pick.json").read_text())
     hbeo = found_target_episodes(rows[0])
@@ -382,7 +386,7 @@ def test_the_pick_page_plots_success_against_error_from_the_records(tmp_path) ->
 def test_the_robust_planners_primary_names_the_rows_label() -> None:
     """The primary declared for the robust planner must name the row as the page labels
     it (``grasp="robust"``, quoted), or the page says "not run" beside the very row."""
-    from beo_bench.bench.leaderboard import primary_comparisons
+    from beo_bench.bench.pages.verdicts import primary_comparisons
     from beo_bench.bench.runs import backend_label
 
     robust = backend_label("hbeo-mdn-posterior", {"grasp": "robust"})

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import json
 
-from beo_bench.bench.rundir import ItemsIdentity, Row, Summary, row_line, scan_rows
+from beo_bench.bench.rows import Row, row_line, scan_rows
+from beo_bench.bench.rundir import ItemsIdentity, Summary
 from beo_bench.bench.suites import get_suite
 
 

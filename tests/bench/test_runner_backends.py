@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from beo_bench import backend as B
-from beo_bench.bench.rundir import read_rows
+from beo_bench.bench.rows import read_rows
 from beo_bench.bench.runner import RunError
 from tests.bench.runs import FAST_RANDOM, short_run
 

@@ -61,7 +61,7 @@ def test_all_runs_every_pair_and_writes_the_leaderboard(tmp_path) -> None:
 def test_ood_suite_gets_a_degradation_table(tmp_path) -> None:
     """Runs of ``pose-3dof`` and ``pose-3dof-ood`` (the ood split) are compared backend by
     backend in the ood suite's leaderboard."""
-    from beo_bench.bench.leaderboard import regenerate
+    from beo_bench.bench.pages.leaderboard import regenerate
 
     runs = tmp_path / "runs"
     for suite in ("pose-3dof", "pose-3dof-ood"):
@@ -81,7 +81,7 @@ def test_ood_suite_gets_a_degradation_table(tmp_path) -> None:
 
 
 def test_pick_gap_table_reads_the_swap_runs() -> None:
-    from beo_bench.bench.leaderboard import gap_table
+    from beo_bench.bench.pages.verdicts import gap_table
 
     def row(backend: str, success: float, **kw) -> dict:
         return {"backend": backend, "metrics": {"pick_success": success},

@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from beo_bench.bench.rundir import read_rows
+from beo_bench.bench.rows import read_rows
 from beo_bench.bench.runner import RunConfig, RunError, WorkerPool, run
 from beo_bench.bench.suites import get_suite
 from tests.bench.runs import FAST_RANDOM, metrics_without_time, short_run

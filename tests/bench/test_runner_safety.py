@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from beo_bench import backend as B
-from beo_bench.bench.rundir import ResultsWarning, read_rows, scan_rows
+from beo_bench.bench.rows import ResultsWarning, read_rows, scan_rows
 from beo_bench.bench.runner import RunConfig, RunError, WorkerPool, run
 from beo_bench.bench.runs import CorruptRunError, RunUsageError
 from beo_bench.bench.suites import get_suite

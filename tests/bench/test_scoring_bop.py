@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from beo_bench.bench.rundir import read_rows
+from beo_bench.bench.rows import read_rows
 from beo_bench.bench.scoring import BOP_FIELDS
 from beo_bench.bench.suites import get_suite
 from beo_bench.bench.tally import estimate_values, recall_values

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from beo_bench.bench import rundir
-from beo_bench.bench.leaderboard import regenerate
+from beo_bench.bench.pages.leaderboard import regenerate
 from beo_bench.bench.runs import RunConfig, RunContext, RunUsageError, run_name
 from beo_bench.bench.suites import SUITES, get_suite
 from beo_bench.cli import build_parser, main
@@ -254,7 +254,7 @@ def test_a_tiny_campaign_under_two_sensors_pairs_its_runs(tmp_path) -> None:
 def test_the_doc_tables_read_the_suite_own_sensor(tmp_path) -> None:
     """docs/results.md's tables quote a suite's own sensor: a run under another one, even
     of more items, is not the row they read, nor are its pairings."""
-    from beo_bench.bench.doctables import Boards, MissingFigureError
+    from beo_bench.bench.doctables.boards import Boards, MissingFigureError
 
     runs = tmp_path / "runs"
     write_run(runs / "icp", "icp", _rows(1.0)[:8], size=16)

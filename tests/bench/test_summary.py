@@ -11,7 +11,8 @@ import pytest
 
 from beo_bench import metrics, stats
 from beo_bench.bench import summary as S
-from beo_bench.bench.rundir import Summary, rows_of
+from beo_bench.bench.rows import rows_of
+from beo_bench.bench.rundir import Summary
 from beo_bench.bench.suites import Suite, get_suite
 
 POSE = get_suite("pose-3dof")

@@ -14,7 +14,7 @@ import pytest
 
 from beo_bench import backend as B
 from beo_bench.bench.campaign import run_name
-from beo_bench.bench.rundir import read_rows
+from beo_bench.bench.rows import read_rows
 from beo_bench.bench.runner import RunConfig, RunError, run
 from beo_bench.bench.suites import TRACKS, backend_tracks, get_suite, list_suites
 from beo_bench.errors import UsageError

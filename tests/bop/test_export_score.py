@@ -16,7 +16,7 @@ import pytest
 from beo_bench.bench import compare
 from beo_bench.bench.bopscore import NO_ESTIMATE, method_name, score_results
 from beo_bench.bench.export import export_bop, open_items, training_suite
-from beo_bench.bench.rundir import read_rows
+from beo_bench.bench.rows import read_rows
 from beo_bench.bench.suites import get_suite
 from beo_bench.bench.tally import recall_values
 from beo_bench.bop.files import (

@@ -1,0 +1,166 @@
+"""What every generated doc table reads: the committed leaderboards (:class:`Boards`), the
+methods a table lists, and the cell formats.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from beo_bench.backend import in_tree
+from beo_bench.bench.columns import markdown_table, verdict_cell
+from beo_bench.bench.pages.verdicts import (
+    Primary,
+)
+from beo_bench.bench.rundir import sensor_tag_of
+from beo_bench.bench.runs import backend_label
+from beo_bench.bench.suites import get_suite
+
+MARK = re.compile(r"(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- /table -->)", re.S)
+PRIMARY = "primary"
+"""The ``pairing`` of a page's primary comparisons in ``<suite>_paired.json``."""
+
+
+class MissingFigureError(LookupError):
+    """A table asks for a row or metric the leaderboards do not have."""
+
+
+class PendingSuiteError(MissingFigureError):
+    """A table asks for a suite the leaderboards do not hold yet (a campaign run suite by
+    suite, ``all --update``): the table says so instead of failing. A row missing from a
+    suite that is there stays an error."""
+
+
+@dataclass(frozen=True)
+class Boards:
+    """The committed leaderboards: each suite's run summaries and paired results."""
+
+    root: Path
+
+    def rows(self, suite: str) -> list[dict[str, Any]]:
+        path = self.root / f"{suite}.json"
+        if not path.is_file():
+            raise PendingSuiteError(f"leaderboards/{suite}.json is not there")
+        return json.loads(path.read_text())
+
+    def paired(self, suite: str) -> list[dict[str, Any]]:
+        if not (self.root / f"{suite}.json").is_file():
+            raise PendingSuiteError(f"leaderboards/{suite}.json is not there")
+        path = self.root / f"{suite}_paired.json"
+        return json.loads(path.read_text()) if path.exists() else []
+
+    def row(self, suite: str, name: str, track: str | None = None) -> dict[str, Any]:
+        """The row labelled ``name`` (``hbeo``, ``beo (pose_prior=false)``) of the suite's own
+        seed and track (default: ``class-free`` where the suite has tracks), with the most
+        items."""
+        s = get_suite(suite)
+        if track is None and s.class_hint:
+            track = "class-free"
+        found = [
+            r
+            for r in self.rows(suite)
+            if backend_label(r["backend"], r["provenance"].get("backend_kwargs") or {}) == name
+            and r.get("track") == track
+            and r.get("seed") == s.seed
+            and sensor_tag_of(r) is None  # the suite's own sensor: its robustness is apart
+        ]
+        if not found:
+            raise MissingFigureError(f"leaderboards/{suite}.json has no row {name!r} ({track})")
+        return max(found, key=lambda r: r["n"])
+
+    def has(self, suite: str, name: str, track: str | None = None) -> bool:
+        """Whether the leaderboards have the row (tables leave out rows of runs this
+        version's leaderboards do not hold)."""
+        try:
+            self.row(suite, name, track)
+        except MissingFigureError:
+            return False
+        return True
+
+    def metric(self, suite: str, name: str, key: str, track: str | None = None) -> float:
+        v = self.row(suite, name, track)["metrics"].get(key)
+        if v is None:
+            raise MissingFigureError(f"leaderboards/{suite}.json: {name!r} has no {key}")
+        return float(v)
+
+    def pair(
+        self,
+        suite: str,
+        method: str,
+        baseline: str,
+        metric: str,
+        track: str | None,
+        sensor: str | None = None,
+    ) -> dict[str, Any]:
+        """The paired entry of ``method`` against ``baseline``; ``sensor``: in the part of
+        that sensor (not the suite's own), else the suite's own sensor's."""
+        for p in self.paired(suite):
+            if p.get("sensor") != sensor:  # another sensor's part, or a pair across sensors
+                continue
+            if p.get("pairing") == "sensor":
+                continue
+            if p.get("pairing") == PRIMARY:  # the same pair, Holm-corrected: self.primary
+                continue
+            if (p["method"], p["baseline"], p["metric"], p["track"]) == (
+                method,
+                baseline,
+                metric,
+                track,
+            ):
+                return p
+        raise MissingFigureError(
+            f"leaderboards/{suite}_paired.json has no {method} - {baseline} on {metric} ({track})"
+        )
+
+    def primary(self, suite: str, pc: Primary) -> dict[str, Any] | None:
+        """The page's primary comparison ``pc``, Holm-corrected over the page's family
+        (``"pairing": "primary"``, :func:`beo_bench.bench.pages.verdicts.primary_results`);
+        None on a page made before pages carried them."""
+        for p in self.paired(suite):
+            if p.get("pairing") == PRIMARY and "sensor" not in p:
+                key = (p["method"], p["baseline"], p["metric"], p["track"])
+                if key == (pc.method, pc.baseline, pc.metric, pc.track):
+                    return p
+        return None
+
+
+# -- formats ---------------------------------------------------------------------------------
+def pct(v: float) -> str:
+    return f"{100 * v:.1f}%"
+
+
+def deg(v: float) -> str:
+    return f"{v:.1f} deg"
+
+
+def num(v: float, digits: int = 3) -> str:
+    return f"{v:.{digits}f}"
+
+
+def _diff(p: dict[str, Any], unit: str, digits: int = 1) -> str:
+    """A paired difference with its interval and verdict; ``unit`` `` pts`` for a rate
+    (shown in percentage points), else the value's own unit (`` deg``, or ``""``)."""
+    scale = 100.0 if unit == " pts" else 1.0
+    d, lo, hi = (f"{scale * x:+.{digits}f}" for x in (p["diff"], *p["ci95"]))
+    return f"{d}{unit} [{lo}, {hi}] {verdict_cell(p['verdict'])}"
+
+
+def _table(head: list[str], rows: list[list[str]]) -> str:
+    """A doc table: every column left-aligned, a line break after it."""
+    return markdown_table(head, rows, "l") + "\n"
+
+
+METHODS = (*in_tree("method"), *sorted(in_tree("baseline")))
+
+
+# a paired difference's format and unit, per metric
+_DIFF_FORMATS: dict[str, tuple[Callable[[float], str], str]] = {
+    "rot_err_deg_mean": (deg, " deg"),
+    "gross_err_rate": (pct, " pts"),
+    "class_acc": (pct, " pts"),
+    "pick_success": (pct, " pts"),
+}
