@@ -43,7 +43,7 @@ def main() -> None:
     # rest pose and collision parts (disk-cached) is the library's cost, paid once per
     # instance per process, not the scene's; reported separately.
     t0 = time.perf_counter()
-    insts = [i for i in u.objects if i.category in u.categories]
+    insts = [i for i in u.config.object_set if i.category in u.categories]
     for inst in insts:
         rest_pose(inst)
         inst.collision_parts()

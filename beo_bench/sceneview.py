@@ -151,8 +151,8 @@ def _record(tmp: Path, env: Any, obs: dict[str, Any], grasp: Any) -> None:
         mesh = u.object_mesh_world(g.label)
         colour = colour_segmentation(np.array([g.label]))[0]
         rec.log(f"world/objects/{g.label}_{g.category}", rerun_mesh(mesh, np.append(colour, 255)))
-    half = np.array(u.table.table_half)
-    th = u.table.table_height
+    half = np.array(u.config.table.table_half)
+    th = u.config.table.table_height
     rec.log(
         "world/table",
         rr.Boxes3D(

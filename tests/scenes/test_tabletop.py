@@ -164,5 +164,5 @@ def test_scenes_never_import_the_envs() -> None:
     """Data flows objects -> scenes -> envs (docs/design.md): what lies below the envs,
     the perception backends included, draws its tabletop scenes from here."""
     root = Path(__file__).resolve().parents[2]
-    for path in [*sorted((root / "scenes").glob("*.py")), root / "perception" / "hbeo_data.py"]:
+    for path in [*sorted((root / "scenes").glob("*.py")), root / "perception" / "hbeo" / "data.py"]:
         assert "beo_bench.envs" not in path.read_text(), path
