@@ -210,7 +210,8 @@ def diagnose(cats: tuple[str, ...]) -> None:
 
     from beo_bench.metrics import rotation_error
     from beo_bench.objects import instance_from_key
-    from beo_bench.perception.hbeo.backend import PRIOR_EPS, sdf_errors, silhouettes
+    from beo_bench.perception.hbeo.backend import PRIOR_EPS
+    from beo_bench.perception.hbeo.silhouette import sdf_errors, silhouettes
 
     backend = get_backend("hbeo-mdn-posterior", samples=DIAG_SAMPLES)
     ev = Evaluator.of(get_suite("pose-3dof"), "oracle")

@@ -58,7 +58,6 @@ classification and completion.
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
@@ -75,18 +74,17 @@ from beo_bench.perception.beo.observe import (
     Observation,
     distance_transform,
     grid_centres,
+    prior_rotations,
+    so3_spacing,
     voxelise,
 )
 from beo_bench.perception.beo.project import Subspace, project
 from beo_bench.perception.digest import state_digest
-from beo_bench.types import Estimate, PosePrior, RestPrior, View
+from beo_bench.types import Estimate, PosePrior, View
 
 if TYPE_CHECKING:
     from beo_bench.objects.datasets import Dataset
 
-PRIOR_MARGIN_DEG = 5.0
-"""How far beyond the prior's elevation range (and its 3-sigma roll) the coarse 3-DOF
-candidates reach: about half their spacing, so a pose at the edge has a candidate near."""
 PRIOR_SOFT_DEG = 5.0
 """Width of the Gaussian fall-off that replaces the elevation range's hard edges in the
 fine step (a hypothesis a few degrees outside is unlikely, not impossible)."""
@@ -616,44 +614,6 @@ class BEOBackend(Backend):
             shape=np.asarray(grid, dtype=np.float32),
             info=info,
         )
-
-
-def so3_spacing(n: int) -> float:
-    """The mean spacing (rad) of ``n`` rotations spread evenly over SO(3) (volume pi^2 in
-    angle units)."""
-    return (math.pi**2 / n) ** (1 / 3) * 2
-
-
-@functools.lru_cache(maxsize=16)
-def prior_rotations(
-    prior: PosePrior, n: int, yaw_step_deg: float = 10.0
-) -> tuple[np.ndarray, float]:
-    """The coarse candidates of a prior in its reference frame, and their spacing (rad),
-    deterministic and cached (do not modify the array).
-
-    - A :class:`ViewpointPrior`: about ``n`` rotations spread evenly over its support (see
-      :meth:`ViewpointPrior.support`, widened by ``PRIOR_MARGIN_DEG``), the super-Fibonacci
-      set whose members in the support number at least ``n``.
-    - A :class:`RestPrior`: ``n`` rotations drawn from it (a fixed generator): its mass is
-      nearly all upright, a cap of a degree or two that an even cover of its support (which
-      reaches the few objects resting on their sides) would leave with a handful of
-      candidates. Their yaws are dense, so the spacing is the 1-DOF search's,
-      ``yaw_step_deg``: what the survivors are kept apart by and the fine step starts at."""
-    if isinstance(prior, RestPrior):
-        R = prior.sample(n, np.random.default_rng(0))
-        R.setflags(write=False)
-        return R, math.radians(yaw_step_deg)
-    m = n
-    for _ in range(20):  # the support's share is found in two or three rounds
-        R = super_fibonacci(m)
-        inside = prior.support(R, margin_deg=PRIOR_MARGIN_DEG)
-        k = int(inside.sum())
-        if k >= n:
-            break
-        m = int(m * n / max(k, 1) * 1.02) + 1
-    R = R[inside]
-    R.setflags(write=False)
-    return R, so3_spacing(m)
 
 
 def _occupied_box(grids: torch.Tensor, D: int) -> tuple[torch.Tensor, torch.Tensor]:

@@ -1,5 +1,6 @@
 """BEO's view of one segmented depth image: the observation voxelised into the hypothesised
-canonical frame, for many pose hypotheses at once (dissertation section 3.2.3).
+canonical frame, for many pose hypotheses at once (dissertation section 3.2.3), and the coarse
+rotation hypotheses a pose prior allows (:func:`prior_rotations`).
 
 For a hypothesis (R, t, e) (canonical -> camera rotation, the cube's centre in the camera
 frame, the cube's edge in metres) each voxel of the D^3 grid is
@@ -17,6 +18,8 @@ Euclidean distance transform of eq. 3.20-3.21 is a batched exact separable trans
 
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -24,7 +27,8 @@ import numpy as np
 import torch
 
 from beo_bench.errors import ViewError
-from beo_bench.types import View
+from beo_bench.geometry import super_fibonacci
+from beo_bench.types import PosePrior, RestPrior, View
 
 CARVE_MARGIN = 0.87
 """A voxel is carved only if its centre lies this many voxel edges (half the diagonal) in
@@ -132,3 +136,46 @@ def distance_transform(mask: torch.Tensor, chunk: int = 16) -> torch.Tensor:
             f = g.movedim(-1, axis)
         out[s : s + chunk] = torch.sqrt(torch.clamp(f, max=big))
     return out
+
+
+PRIOR_MARGIN_DEG = 5.0
+"""How far beyond the prior's elevation range (and its 3-sigma roll) the coarse 3-DOF
+candidates reach: about half their spacing, so a pose at the edge has a candidate near."""
+
+
+def so3_spacing(n: int) -> float:
+    """The mean spacing (rad) of ``n`` rotations spread evenly over SO(3) (volume pi^2 in
+    angle units)."""
+    return (math.pi**2 / n) ** (1 / 3) * 2
+
+
+@functools.lru_cache(maxsize=16)
+def prior_rotations(
+    prior: PosePrior, n: int, yaw_step_deg: float = 10.0
+) -> tuple[np.ndarray, float]:
+    """The coarse candidates of a prior in its reference frame, and their spacing (rad),
+    deterministic and cached (do not modify the array).
+
+    - A :class:`ViewpointPrior`: about ``n`` rotations spread evenly over its support (see
+      :meth:`ViewpointPrior.support`, widened by ``PRIOR_MARGIN_DEG``), the super-Fibonacci
+      set whose members in the support number at least ``n``.
+    - A :class:`RestPrior`: ``n`` rotations drawn from it (a fixed generator): its mass is
+      nearly all upright, a cap of a degree or two that an even cover of its support (which
+      reaches the few objects resting on their sides) would leave with a handful of
+      candidates. Their yaws are dense, so the spacing is the 1-DOF search's,
+      ``yaw_step_deg``: what the survivors are kept apart by and the fine step starts at."""
+    if isinstance(prior, RestPrior):
+        R = prior.sample(n, np.random.default_rng(0))
+        R.setflags(write=False)
+        return R, math.radians(yaw_step_deg)
+    m = n
+    for _ in range(20):  # the support's share is found in two or three rounds
+        R = super_fibonacci(m)
+        inside = prior.support(R, margin_deg=PRIOR_MARGIN_DEG)
+        k = int(inside.sum())
+        if k >= n:
+            break
+        m = int(m * n / max(k, 1) * 1.02) + 1
+    R = R[inside]
+    R.setflags(write=False)
+    return R, so3_spacing(m)

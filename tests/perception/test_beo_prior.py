@@ -17,13 +17,9 @@ from beo_bench.bench.evaluate import ItemViews
 from beo_bench.bench.suites import get_suite
 from beo_bench.geometry import super_fibonacci
 from beo_bench.metrics import rotation_error
-from beo_bench.perception.beo.backend import (
-    PRIOR_MARGIN_DEG,
-    BEOBackend,
-    prior_rotations,
-    so3_spacing,
-)
+from beo_bench.perception.beo.backend import BEOBackend
 from beo_bench.perception.beo.model import BEOConfig, model_path, train_beo
+from beo_bench.perception.beo.observe import PRIOR_MARGIN_DEG, prior_rotations, so3_spacing
 from beo_bench.scenes.camera import OBJECT_RIG, look_at
 from beo_bench.types import View, ViewpointPrior
 

@@ -21,14 +21,7 @@ from beo_bench.objects import ObjectSet
 from beo_bench.perception.beo.model import BEOConfig, train_beo
 from beo_bench.perception.beo.model import model_path as beo_model_path
 from beo_bench.perception.digest import model_digest
-from beo_bench.perception.hbeo.backend import (
-    BY_MODE,
-    HBEOBackend,
-    MDNLikelihoodBackend,
-    sdf_errors,
-    signed_distance,
-    silhouettes,
-)
+from beo_bench.perception.hbeo.backend import BY_MODE, HBEOBackend, MDNLikelihoodBackend
 from beo_bench.perception.hbeo.crop import make_crop
 from beo_bench.perception.hbeo.data import (
     DatasetConfig,
@@ -47,6 +40,7 @@ from beo_bench.perception.hbeo.net import (
     rotvec_to_matrix,
     sixd_to_matrix,
 )
+from beo_bench.perception.hbeo.silhouette import sdf_errors, signed_distance, silhouettes
 from beo_bench.perception.hbeo.train import load_hbeo, train_hbeo
 from tests.perception.contexts import run_context
 

@@ -25,11 +25,10 @@ from beo_bench.perception.hbeo.backend import (
     Forward,
     MDNLikelihoodBackend,
     MDNPosteriorBackend,
-    sdf_errors,
-    silhouettes,
 )
 from beo_bench.perception.hbeo.crop import make_crop
 from beo_bench.perception.hbeo.net import Mixture
+from beo_bench.perception.hbeo.silhouette import sdf_errors, silhouettes
 
 EPS = 1e-6
 """eps of eq. 5.8's prior 1 / (e^4 + eps): a guard against e = 0 (e is in pixels, e^4 is

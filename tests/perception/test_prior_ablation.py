@@ -25,14 +25,16 @@ from beo_bench.perception.hbeo.backend import (
     HBEOOptions,
     MDNLikelihoodBackend,
     MDNPosteriorBackend,
-    align_centroids,
     companion_model,
+)
+from beo_bench.perception.hbeo.crop import make_crop
+from beo_bench.perception.hbeo.silhouette import (
+    align_centroids,
     project_masks,
     sdf_errors,
     silhouettes,
     view_window,
 )
-from beo_bench.perception.hbeo.crop import make_crop
 
 
 @pytest.fixture(scope="module")

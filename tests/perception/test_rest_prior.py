@@ -16,7 +16,8 @@ import pytest
 from beo_bench.errors import ViewError
 from beo_bench.geometry import axis_angle, super_fibonacci, up_rotation
 from beo_bench.perception import published
-from beo_bench.perception.beo.backend import BEOBackend, prior_rotations
+from beo_bench.perception.beo.backend import BEOBackend
+from beo_bench.perception.beo.observe import prior_rotations
 from beo_bench.perception.digest import state_digest
 from beo_bench.perception.icp.backend import ICPBackend, PlainICPBackend
 from beo_bench.perception.means import (
