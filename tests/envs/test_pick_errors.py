@@ -138,3 +138,31 @@ def test_num_points_is_bounded_at_make() -> None:
         with pytest.raises(EnvConfigError, match=r"give at most 1,048,576 points \(MAX_NUM_POINTS"):
             gym.make("BEOPick-v0", obs_mode="pointcloud", num_points=n, **SMALL)
     gym.make("BEOPick-v0", obs_mode="pointcloud", num_points=MAX_NUM_POINTS, **SMALL).close()
+
+
+def test_grasp_judges_as_step_does_and_ends_the_episode_without_looking_again(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``grasp``: step's success and info for the same grasp of the same scene, and the
+    episode ends even on a miss, with no settling or new observation (the pick items' one
+    grasp an episode)."""
+    env = gym.make("BEOPick-v0", image_size=(96, 72), max_episode_steps=3).unwrapped
+    try:
+        miss = [*AIR, *DOWN, MAX_OPENING]
+        env.reset(seed=3)
+        _, reward, _, _, by_step = env.step(miss)
+        env.reset(seed=3)
+        looks = []
+        real = env._observe
+        monkeypatch.setattr(env, "_observe", lambda *a: looks.append(1) or real(*a))
+        success, by_grasp = env.grasp(miss)
+        assert success is (reward > 0) is False and by_grasp == by_step
+        assert looks == []  # a miss is not seen again
+        with pytest.raises(EnvStateError, match=r"grasp\(\) after the episode terminated"):
+            env.grasp(miss)
+        with pytest.raises(EnvStateError, match=r"call reset\(\)"):
+            env.step(miss)
+        env.reset(seed=3)
+        assert env.grasp(env.ground_truth_grasps()[0].action)[0] is True
+    finally:
+        env.close()

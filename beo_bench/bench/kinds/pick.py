@@ -149,8 +149,9 @@ def run_item(
     if grasp is None:
         row.update(success=False, reason="no_grasp")
         return [row]
-    _, reward, _, _, info = env.step(grasp.action)
-    row.update(success=bool(reward > 0), reason=str(info["reason"]))
+    # one grasp an episode: the env does not settle and look again after a miss
+    success, info = env.grasp(grasp.action)
+    row.update(success=success, reason=str(info["reason"]))
     row.update(
         grasp_audit(grasp, info, label, chosen_truth, cam_to_world, suite.dataset, items.cache_root)
     )
