@@ -67,3 +67,35 @@ def test_a_context_resolves_the_environments_root_once(
     monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path / "b"))
     assert ctx.cache_root == tmp_path / "a"
     assert cache.cache_root() == tmp_path / "b"  # a root given none: read at each call
+
+
+@pytest.mark.parametrize("backend", ["beo", "hbeo"])
+def test_a_backends_model_store_is_its_contexts_cache(
+    roots: tuple[Path, Path], backend: str
+) -> None:
+    """A named model is looked up in the run's cache, not the environment's: the error for a
+    missing one names the path under the context's root."""
+    from beo_bench.backend import get_backend
+    from beo_bench.errors import CheckpointError
+
+    given, env = roots
+    ctx = RunContext.of(
+        RunConfig(get_suite("pose-3dof"), backend, {"model": "absent"}), cache_root=given
+    )
+    b = get_backend(backend, model="absent")
+    with pytest.raises(CheckpointError) as e:
+        b.prepare(ctx)
+    assert str(given / "models") in str(e.value) and str(env) not in str(e.value)
+
+
+def test_the_model_and_training_stores_resolve_a_given_root(roots: tuple[Path, Path]) -> None:
+    from beo_bench.perception.beo.model import model_dir
+    from beo_bench.perception.hbeo.data import DatasetConfig, dataset_dir
+    from beo_bench.perception.hbeo.model import model_path
+
+    given, env = roots
+    assert model_dir(None, ("mug",), cache_root=given).is_relative_to(given / "models" / "beo")
+    assert model_path("m", given) == given / "models" / "hbeo" / "m"
+    cfg = DatasetConfig(categories=("mug",))
+    assert dataset_dir(cfg, given).parent == given / "datasets" / "hbeo"
+    assert dataset_dir(cfg).is_relative_to(env)  # given none: the environment's

@@ -88,7 +88,7 @@ def cache_root() -> Path:
     return Path(os.environ.get(CACHE_ENV) or default_root())
 
 
-def _root(root: Path | str | None) -> Path:
+def resolve_root(root: Path | str | None) -> Path:
     """``root``, or the environment's (:func:`cache_root`) when none is given."""
     return cache_root() if root is None else Path(root)
 
@@ -111,7 +111,7 @@ def check_root(
     ``writable``, accept a new file and have ``min_free`` bytes free.
     :class:`~beo_bench.errors.CacheDirError` (exit status 2) says which and how to fix it.
     ``root``: the cache to check (default: the environment's)."""
-    root = _root(root)
+    root = resolve_root(root)
     named = os.environ.get(CACHE_ENV)  # only to say where the root came from
     where = (
         f"the asset cache {root} (${CACHE_ENV})"
@@ -172,7 +172,7 @@ def entry_path(kind: str, content: str, settings: dict[str, Any], root: Path | N
     at ``root`` (default: the environment's)."""
     check_name(content, "cache content key")
     s = hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
-    return _root(root) / check_kind(kind) / content[:2] / f"{content}-{s}.npz"
+    return resolve_root(root) / check_kind(kind) / content[:2] / f"{content}-{s}.npz"
 
 
 # -- the root's tag: what the cache may delete ------------------------------------------------
@@ -197,7 +197,7 @@ def claim_root(root: Path | None = None) -> bool:
     directory that ``$BEO_BENCH_CACHE`` points at is left untagged: entries are still
     written there on request, but :func:`clear` will not delete anything in it. Returns
     whether the root is tagged."""
-    root = _root(root)
+    root = resolve_root(root)
     if str(root) in _claimed:
         return True
     if not is_tagged(root):
@@ -219,7 +219,7 @@ def claim_for(path: Path, root: Path | None = None) -> None:
     """Call before writing ``path``: tags the cache ``root`` (default: the environment's)
     first when ``path`` lies in it (a model saved elsewhere, e.g. a test's temporary
     directory, claims nothing)."""
-    root = _root(root).absolute()
+    root = resolve_root(root).absolute()
     if Path(path).absolute().is_relative_to(root):
         claim_root(root)
 
@@ -389,7 +389,7 @@ def cached(
     store it. An entry that cannot be read or does not match its checksum or its kind's
     arrays (a disk error, a tampered or an older file) is recomputed and atomically replaced
     rather than trusted."""
-    root = _root(root)
+    root = resolve_root(root)
     path = entry_path(kind, content, settings, root)
     found = _read_entry(path, kind, settings)
     if found is not None:
@@ -441,7 +441,7 @@ def _tree_bytes(top: Path) -> tuple[int, int]:
 def info(root: Path | None = None) -> dict[str, Any]:
     """Per-kind entry counts and sizes (known kinds only) of the cache at ``root`` (default:
     the environment's)."""
-    root = _root(root)
+    root = resolve_root(root)
     kinds: dict[str, dict[str, int]] = {}
     for d in _kind_dirs(root, sorted(KINDS)):
         entries, size = _tree_bytes(d)
@@ -456,7 +456,7 @@ def clear(kind: str | None = None, root: Path | None = None) -> int:
     (:class:`UsageError` for an unknown kind or an untagged root holding kind directories).
     ``root``: the cache to clear (default: the environment's)."""
     kinds = list(KINDS) if kind is None else [check_kind(kind)]
-    root = _root(root)
+    root = resolve_root(root)
     targets = _kind_dirs(root, kinds)
     if not targets:
         return 0

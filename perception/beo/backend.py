@@ -60,6 +60,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
@@ -199,6 +200,7 @@ class BEOBackend(Backend):
     def __init__(self, options: BEOOptions | None = None, **kwargs: Any) -> None:
         super().__init__(options, **kwargs)
         self._dataset: Dataset | None = None
+        self._cache_root: Path | None = None  # the run's asset cache (prepare's)
         self._models: dict[tuple[str, ...], tuple[BEOModel, Subspace, Subspace]] = {}
         self._digest: str | None = None
         self._digests: dict[tuple[int, bool], str] = {}
@@ -208,8 +210,10 @@ class BEOBackend(Backend):
         """Load the model for the run's classes and dataset (the published default, or one
         ``beo-bench train beo`` made; a default model of the library's for other settings
         trains on first use, with progress bars where ``ctx.progress``)."""
-        if ctx.dataset != self._dataset:  # another dataset's models are not these
+        # another dataset's models, or another cache's, are not these
+        if ctx.dataset != self._dataset or ctx.cache_root != self._cache_root:
             self._dataset = ctx.dataset
+            self._cache_root = ctx.cache_root
             self._models.clear()
         cats = tuple(ctx.categories)
         m = self._model(cats, progress=ctx.progress)[0]
@@ -245,6 +249,7 @@ class BEOBackend(Backend):
                 train_default=not self._training_options(),
                 per_category=self.options.instances,
                 dataset=self._dataset,
+                cache_root=self._cache_root,
             )
             self._models[cats] = (
                 m,
@@ -274,7 +279,14 @@ class BEOBackend(Backend):
         if not given or self.options.model is not None or self._dataset is not None:
             return
         if (
-            model_dir(None, cats, self.options.resolution, self.options.instances) / "config.json"
+            model_dir(
+                None,
+                cats,
+                self.options.resolution,
+                self.options.instances,
+                cache_root=self._cache_root,
+            )
+            / "config.json"
         ).exists():
             return
         how = train_command(

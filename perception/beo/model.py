@@ -136,7 +136,7 @@ class BEOModel:
         """The stored arrays, by name (:data:`ARRAYS`)."""
         return {name: getattr(self, name) for name in ARRAYS}
 
-    def save(self, path: Path) -> Path:
+    def save(self, path: Path, cache_root: Path | None = None) -> Path:
         """Write the model to the directory ``path`` atomically. An existing ``path`` is
         replaced only when it is a BEO model this package wrote (:class:`CheckpointError`
         otherwise, leaving it untouched), and only after the new model is complete."""
@@ -144,7 +144,7 @@ class BEOModel:
 
         path = Path(path)
         modeldir.check_replaceable(path, FILES, ("beo",))  # fail before writing anything
-        cache.claim_for(path)
+        cache.claim_for(path, cache_root)  # tags the asset cache it lies in (None: the env's)
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_dir(path, lambda tmp, to: modeldir.install(tmp, to, FILES, ("beo",))) as tmp:
             meta = self.stored_meta()
@@ -255,18 +255,19 @@ def _array_problem(arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> str |
     return None
 
 
-def models_root() -> Path:
-    """Where named BEO models live: ``<asset cache>/models/beo``."""
-    from beo_bench.objects.cache import cache_root
+def models_root(cache_root: Path | None = None) -> Path:
+    """Where named BEO models live: ``<asset cache>/models/beo``, in the run's asset cache
+    (``PrepareContext.cache_root``; None: the environment's)."""
+    from beo_bench.objects import cache
 
-    return cache_root() / "models" / "beo"
+    return cache.resolve_root(cache_root) / "models" / "beo"
 
 
-def model_path(name: str) -> Path:
+def model_path(name: str, cache_root: Path | None = None) -> Path:
     """The directory of the BEO model called ``name``: a plain name under
     :func:`models_root` (:class:`~beo_bench.errors.InvalidNameError` for a path, ``..``
     or a leading dot)."""
-    return inside(models_root(), name, "BEO model name")
+    return inside(models_root(cache_root), name, "BEO model name")
 
 
 def model_dir(
@@ -275,12 +276,14 @@ def model_dir(
     resolution: int = 32,
     per_category: int | None = None,
     dataset: Dataset | None = None,
+    cache_root: Path | None = None,
 ) -> Path:
     """Where :func:`load_model` looks: the named model's directory, or with ``name=None``
-    the default model's for these settings (and ``dataset``)."""
+    the default model's for these settings (and ``dataset``), in the asset cache
+    ``cache_root`` (None: the environment's)."""
     if name is None:
-        return model_path(default_name(categories, resolution, per_category, dataset))
-    return model_path(name)
+        name = default_name(categories, resolution, per_category, dataset)
+    return model_path(name, cache_root)
 
 
 def default_name(
@@ -305,10 +308,12 @@ def train_beo(
     progress: bool = False,
     dataset: Dataset | None = None,
     split: str = "train",
+    cache_root: Path | None = None,
 ) -> BEOModel:
     """Train a BEO model (section 3.2) on the ``train`` split (or ``split``) of the
     procedural library, or of a user's ``dataset`` (``beo-bench train beo --objects``; its
-    digest and the split are recorded in ``info``).
+    digest and the split are recorded in ``info``); the instances are kept in the asset
+    cache ``cache_root`` (None: the environment's).
 
     The fit runs on one BLAS thread, so its float reductions happen in the same order on
     every machine and a retrained default model is bitwise the published one. With the
@@ -321,7 +326,13 @@ def train_beo(
 
     t0 = time.perf_counter()
     grids, size_rows = training_voxels(
-        config.categories, config.resolution, config.per_category, progress, dataset, split
+        config.categories,
+        config.resolution,
+        config.per_category,
+        progress,
+        dataset,
+        split,
+        cache_root,
     )
     sizes = {c: size_rows[c].mean(axis=0) for c in config.categories}
     t_data = time.perf_counter() - t0
@@ -421,6 +432,7 @@ def load_model(
     train_default: bool = True,
     per_category: int | None = None,
     dataset: Dataset | None = None,
+    cache_root: Path | None = None,
 ) -> BEOModel:
     """The model called ``name`` (a plain name under :func:`models_root`; a path is refused
     with :class:`~beo_bench.errors.InvalidNameError`), or with ``name=None`` the default
@@ -429,15 +441,16 @@ def load_model(
     first ``per_category`` training instances of each class, or all of them). On a user's
     ``dataset`` (None: the procedural library) the default model is the one ``beo-bench
     train beo --objects ROOT`` stored, never trained here (a :class:`CheckpointError` names
-    that command). Raises :class:`CheckpointError` for a missing, damaged or mismatched
-    model."""
+    that command). Models, and the instances a default one trains on, are kept in the asset
+    cache ``cache_root`` (None: the environment's). Raises :class:`CheckpointError` for a
+    missing, damaged or mismatched model."""
     from beo_bench.objects import LIBRARY_VERSION
 
     if name is None and dataset is None:
         model = published_for(tuple(categories), int(resolution), per_category)
         if model is not None:  # the published default: nothing to train
             return model
-    path = model_dir(name, categories, resolution, per_category, dataset)
+    path = model_dir(name, categories, resolution, per_category, dataset, cache_root)
     if name is None and not (path / "config.json").exists():
         if dataset is not None:
             how = train_command(
@@ -457,7 +470,7 @@ def load_model(
         cfg = BEOConfig(
             categories=tuple(categories), resolution=int(resolution), per_category=per_category
         )
-        train_beo(cfg, progress=progress).save(path)
+        train_beo(cfg, progress=progress, cache_root=cache_root).save(path, cache_root)
     model = BEOModel.load(path)
     model.check_matches(tuple(categories), resolution, f"at {path}")
     if model.info.get("library_version") != LIBRARY_VERSION:

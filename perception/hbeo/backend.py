@@ -287,10 +287,11 @@ class HBEOBackend(Backend):
         """Load the model for the run's classes and dataset (the published default, or one
         ``beo-bench train`` made; progress bars where ``ctx.progress``); with
         ``per_category``, each class's network (never trained here)."""
-        self._cache_root = ctx.cache_root
-        if ctx.dataset != self._dataset:  # another dataset's models are not these
+        # another dataset's models, or another cache's, are not these
+        if ctx.dataset != self._dataset or ctx.cache_root != self._cache_root:
             self._dataset = ctx.dataset
             self._models.clear()
+        self._cache_root = ctx.cache_root
         categories = tuple(ctx.categories)
         groups = [(c,) for c in categories] if self.options.per_category else [categories]
         digests = []
@@ -329,6 +330,7 @@ class HBEOBackend(Backend):
                 size=self.options.size,
                 recipe="per-category" if self.options.per_category else "default",
                 dataset=self._dataset,
+                cache_root=self._cache_root,
                 **self.small,
             )
             m.net.to(self.device)
@@ -368,7 +370,7 @@ class HBEOBackend(Backend):
             self.kind(), cats, small["instances"], small["images"], small["epochs"]
         )
         cfg = with_overrides(base, size=self.options.size)
-        if (model_path(default_name(cfg)) / "weights.pt").exists():
+        if (model_path(default_name(cfg), self._cache_root) / "weights.pt").exists():
             return
         big = self.options.size != "small"
         how = train_command(

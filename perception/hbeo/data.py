@@ -99,11 +99,12 @@ class DatasetConfig:
     rest rendered ideal; ``noise_share=1`` captures every crop by it. Part of the shards'
     digest (and so of the model's default name) only when set."""
 
-    def object_set(self, split: str) -> ObjectSet:
-        """The instances of ``split`` the crops of that split are rendered from."""
+    def object_set(self, split: str, cache_root: Path | None = None) -> ObjectSet:
+        """The instances of ``split`` the crops of that split are rendered from, kept in the
+        asset cache ``cache_root`` (None: the environment's)."""
         from beo_bench.objects.datasets import object_set
 
-        return object_set(self.objects, split, self.categories, self.per_category)
+        return object_set(self.objects, split, self.categories, self.per_category, cache_root)
 
     def __post_init__(self) -> None:
         if not self.categories:
@@ -163,14 +164,16 @@ class DatasetConfig:
         return hashlib.sha256(key.encode()).hexdigest()[:12]
 
 
-def datasets_root() -> Path:
-    from beo_bench.objects.cache import cache_root
+def datasets_root(cache_root: Path | None = None) -> Path:
+    """Where rendered training sets live: ``<asset cache>/datasets/hbeo`` (None: the
+    environment's cache)."""
+    from beo_bench.objects import cache
 
-    return cache_root() / "datasets" / "hbeo"
+    return cache.resolve_root(cache_root) / "datasets" / "hbeo"
 
 
-def dataset_dir(config: DatasetConfig) -> Path:
-    return datasets_root() / config.digest()
+def dataset_dir(config: DatasetConfig, cache_root: Path | None = None) -> Path:
+    return datasets_root(cache_root) / config.digest()
 
 
 def canonical_rotation(R_rel: Mat3, symmetry: Symmetry | None) -> Mat3:
@@ -350,7 +353,9 @@ class _Collector:
 _WORKER: dict[str, Any] = {}
 
 
-def _isolated_shard(config: DatasetConfig, split: str, rng: np.random.Generator, n: int) -> Shard:
+def _isolated_shard(
+    config: DatasetConfig, split: str, rng: np.random.Generator, n: int, cache_root: Path | None
+) -> Shard:
     from beo_bench.scenes.camera import TOP_DOWN_RIG
     from beo_bench.scenes.isolated import IsolatedRenderer
     from beo_bench.scenes.noise import DepthNoise, apply_noise
@@ -358,7 +363,7 @@ def _isolated_shard(config: DatasetConfig, split: str, rng: np.random.Generator,
     if "isolated" not in _WORKER:
         _WORKER["isolated"] = IsolatedRenderer(cache_models=2)
     r = _WORKER["isolated"]
-    objects = config.object_set(split)
+    objects = config.object_set(split, cache_root)
     col = _Collector(config.categories, config.crop)
     noisy: list[bool] = []
     if config.sensor is not None:
@@ -412,7 +417,9 @@ def _isolated_sensor_shard(
     return col.shard(noisy)
 
 
-def _tabletop_shard(config: DatasetConfig, split: str, rng: np.random.Generator, n: int) -> Shard:
+def _tabletop_shard(
+    config: DatasetConfig, split: str, rng: np.random.Generator, n: int, cache_root: Path | None
+) -> Shard:
     from beo_bench.scenes.noise import DepthNoise, apply_noise
     from beo_bench.scenes.pickconfig import PickConfig
     from beo_bench.scenes.renderer import Frame
@@ -421,12 +428,12 @@ def _tabletop_shard(config: DatasetConfig, split: str, rng: np.random.Generator,
     # the dataset's content and loading options (the same files loaded another way are
     # other objects)
     digest = config.objects.short if config.objects is not None else ""
-    key = f"tabletop-{split}-{config.categories}-{config.per_category}-{digest}"
+    key = f"tabletop-{split}-{config.categories}-{config.per_category}-{digest}-{cache_root}"
     if key not in _WORKER:
         # BEOPick-v0's scenes (640x480, its camera rig and table), without sensor noise
         _WORKER[key] = TabletopScenes(
             PickConfig(
-                objects=config.object_set(split),
+                objects=config.object_set(split, cache_root),
                 categories=tuple(config.categories),
                 num_objects=(1, min(4, len(config.categories))),
             )
@@ -461,15 +468,22 @@ def _tabletop_shard(config: DatasetConfig, split: str, rng: np.random.Generator,
 
 
 def render_shard(
-    config: DatasetConfig, split: str, index: int, kind: str, n: int, path: Path
+    config: DatasetConfig,
+    split: str,
+    index: int,
+    kind: str,
+    n: int,
+    path: Path,
+    cache_root: Path | None = None,
 ) -> int:
     """Render the ``n`` crops of shard ``index`` of ``split`` to ``path``; returns ``n``.
-    The first m crops of a shard are the same for any n >= m."""
+    The first m crops of a shard are the same for any n >= m. ``cache_root``: the asset
+    cache the objects are kept in (None: the environment's)."""
     os.environ.setdefault("MUJOCO_GL", "egl")
     tag = 0 if split == config.split else 1
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, tag, index]))
     make = _tabletop_shard if kind == "tabletop" else _isolated_shard
-    shard = make(config, split, rng, n)
+    shard = make(config, split, rng, n, cache_root)
     shard.save(path)
     return len(shard)
 
@@ -479,18 +493,23 @@ def shard_path(root: Path, split: str, index: int, n: int) -> Path:
 
 
 def render_dataset(
-    config: DatasetConfig, workers: int | None = None, progress: bool = True
+    config: DatasetConfig,
+    workers: int | None = None,
+    progress: bool = True,
+    cache_root: Path | None = None,
 ) -> tuple[Path, dict[str, float]]:
     """Render the shards of ``config`` that are not on disk yet or are damaged (in
     ``workers`` processes, default one per core) and return the dataset's directory and
     figures: ``images``, ``seconds``, ``images_per_s`` over the shards rendered now, and
-    ``repaired``, how many of them were on disk but damaged (or from an older version)."""
+    ``repaired``, how many of them were on disk but damaged (or from an older version).
+    The shards and their objects are kept in the asset cache ``cache_root`` (None: the
+    environment's)."""
     from tqdm import tqdm
 
     from beo_bench.objects.prepare import prepare
 
-    root = dataset_dir(config)
-    cache.claim_for(root)
+    root = dataset_dir(config, cache_root)
+    cache.claim_for(root, cache_root)
     root.mkdir(parents=True, exist_ok=True)
     meta = root / "config.json"
     if not meta.exists():
@@ -512,7 +531,7 @@ def render_dataset(
         return root, stats
     # the objects' meshes and collision parts first, in parallel (cached on disk)
     for split in {config.split, config.val_split}:
-        prepare(config.object_set(split), workers=workers, progress=progress)
+        prepare(config.object_set(split, cache_root), workers=workers, progress=progress)
     workers = (os.cpu_count() or 1) if workers is None else max(1, workers)
     if mp.current_process().daemon:
         workers = 1
@@ -523,14 +542,15 @@ def render_dataset(
     )
     if workers == 1:
         for split, i, kind, n in todo:
-            images += render_shard(config, split, i, kind, n, shard_path(root, split, i, n))
+            path = shard_path(root, split, i, n)
+            images += render_shard(config, split, i, kind, n, path, cache_root)
             bar.update()
             bar.set_postfix(img_s=f"{images / (time.perf_counter() - t0):.0f}")
     else:
         ctx = mp.get_context("forkserver")
         with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_worker_init) as ex:
             futs = [
-                ex.submit(render_shard, config, s, i, k, n, shard_path(root, s, i, n))
+                ex.submit(render_shard, config, s, i, k, n, shard_path(root, s, i, n), cache_root)
                 for s, i, k, n in todo
             ]
             for f in as_completed(futs):
@@ -558,10 +578,11 @@ def _worker_init() -> None:
     os.environ["OMP_NUM_THREADS"] = "1"
 
 
-def load_split(config: DatasetConfig, split: str) -> Shard:
+def load_split(config: DatasetConfig, split: str, cache_root: Path | None = None) -> Shard:
     """Every shard of ``split`` concatenated into one (call :func:`render_dataset` first);
-    the float16 crops stay compact in memory. :class:`CorruptDataError` for a damaged shard."""
-    root = dataset_dir(config)
+    the float16 crops stay compact in memory. :class:`CorruptDataError` for a damaged shard.
+    ``cache_root``: the asset cache the shards are in (None: the environment's)."""
+    root = dataset_dir(config, cache_root)
     shards = [
         Shard.load(shard_path(root, s, i, n), n) for s, i, _, n in config.shards() if s == split
     ]

@@ -160,7 +160,7 @@ class HBEOModel:
             "coef_std": torch.from_numpy(self.coef_std),
         }
 
-    def save(self, path: Path) -> Path:
+    def save(self, path: Path, cache_root: Path | None = None) -> Path:
         """Write the model to the directory ``path`` atomically (a temporary sibling renamed
         into place). An existing ``path`` is replaced only when it is an HBEO model (or a
         training of one) this package wrote: :class:`CheckpointError` otherwise, leaving it
@@ -169,7 +169,7 @@ class HBEOModel:
 
         path = Path(path)
         modeldir.check_replaceable(path, FILES, KINDS)  # fail before writing anything
-        cache.claim_for(path)
+        cache.claim_for(path, cache_root)  # tags the asset cache it lies in (None: the env's)
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_dir(path, lambda tmp, to: modeldir.install(tmp, to, FILES, KINDS)) as tmp:
             state = self.state()
@@ -311,18 +311,19 @@ def _state_problem(state: Any, meta: dict[str, Any]) -> str | None:
     return None
 
 
-def models_root() -> Path:
-    """Where named HBEO and HBEO-MDN models live: ``<asset cache>/models/hbeo``."""
-    from beo_bench.objects.cache import cache_root
+def models_root(cache_root: Path | None = None) -> Path:
+    """Where named HBEO and HBEO-MDN models live: ``<asset cache>/models/hbeo``, in the
+    run's asset cache (``PrepareContext.cache_root``; None: the environment's)."""
+    from beo_bench.objects import cache
 
-    return cache_root() / "models" / "hbeo"
+    return cache.resolve_root(cache_root) / "models" / "hbeo"
 
 
-def model_path(name: str) -> Path:
+def model_path(name: str, cache_root: Path | None = None) -> Path:
     """The directory of the HBEO / HBEO-MDN model called ``name``: a plain name under
     :func:`models_root` (:class:`~beo_bench.errors.InvalidNameError` for a path, ``..``
     or a leading dot)."""
-    return inside(models_root(), name, "HBEO model name")
+    return inside(models_root(cache_root), name, "HBEO model name")
 
 
 RECIPES: dict[str, dict[str, Any]] = {

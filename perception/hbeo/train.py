@@ -78,12 +78,17 @@ default ``hbeo`` model on 2 cores reproduced every weight exactly.)"""
 
 
 # -- training ---------------------------------------------------------------------------------
-def _coefficients(beo: BEOModel, keys: list[str], dataset: Dataset | None = None) -> np.ndarray:
+def _coefficients(
+    beo: BEOModel, keys: list[str], dataset: Dataset | None = None, cache_root: Path | None = None
+) -> np.ndarray:
     """(n, k) o' = W^T (o - mu) of each instance's voxels (eq. 4.1); ``dataset``: where
-    the keys of a user's dataset are looked up (None: the procedural library)."""
+    the keys of a user's dataset are looked up (None: the procedural library), kept in the
+    asset cache ``cache_root`` (None: the environment's)."""
     from beo_bench.objects import instance_from_key
 
-    grids = np.stack([instance_from_key(k, dataset).voxels(beo.D).reshape(-1) for k in keys])
+    grids = np.stack(
+        [instance_from_key(k, dataset, cache_root).voxels(beo.D).reshape(-1) for k in keys]
+    )
     return (grids.astype(np.float32) - beo.mean) @ beo.basis
 
 
@@ -199,6 +204,7 @@ def train_hbeo(
     log: Any = print,
     resume: bool = True,
     device: str = "cpu",
+    cache_root: Path | None = None,
 ) -> HBEOModel:
     """Train (or, with ``resume``, resume training) the model ``config`` describes into the
     model directory ``path``, with torch and BLAS on ``TRAIN_THREADS`` threads (the caller's
@@ -209,7 +215,9 @@ def train_hbeo(
     ``path`` must be missing or a model directory this package wrote (checked before any
     work: :class:`CheckpointError` otherwise). A checkpoint that does not match its
     ``checkpoint.json`` or cannot be read as plain tensors raises :class:`CheckpointError`
-    (it is never run as code); one for other settings is ignored and training starts over."""
+    (it is never run as code); one for other settings is ignored and training starts over.
+    ``cache_root``: the asset cache its BEO model, training crops and objects are kept in
+    (None: the environment's)."""
     from threadpoolctl import threadpool_limits
 
     check_steps(config)  # before anything is rendered or trained
@@ -222,7 +230,7 @@ def train_hbeo(
     torch.set_num_threads(TRAIN_THREADS)
     try:
         with threadpool_limits(limits=TRAIN_THREADS):
-            return _train(config, path, progress, workers, log, resolve_device(device))
+            return _train(config, path, progress, workers, log, resolve_device(device), cache_root)
     finally:
         torch.set_num_threads(threads)
 
@@ -360,18 +368,20 @@ class _Run:
     start: int = 0  # the first epoch still to train
 
 
-def _load_data(config: HBEOConfig, beo: BEOModel, device: torch.device) -> _Data:
+def _load_data(
+    config: HBEOConfig, beo: BEOModel, device: torch.device, cache_root: Path | None
+) -> _Data:
     """The rendered dataset's splits as tensors, with subspace coefficients standardised by
     the training split's mean and spread."""
-    train = load_split(config.dataset, config.dataset.split)
-    val = load_split(config.dataset, config.dataset.val_split)
+    train = load_split(config.dataset, config.dataset.split, cache_root)
+    val = load_split(config.dataset, config.dataset.val_split, cache_root)
     objects = config.dataset.objects
-    codes_tr = _coefficients(beo, train.keys, objects)
+    codes_tr = _coefficients(beo, train.keys, objects, cache_root)
     mean, std = codes_tr.mean(0), codes_tr.std(0) + 1e-3
     w = config.projection_weighting
     tr = _tensors(train, codes_tr, mean, std, w, device)
     va = (
-        _tensors(val, _coefficients(beo, val.keys, objects), mean, std, w, device)
+        _tensors(val, _coefficients(beo, val.keys, objects, cache_root), mean, std, w, device)
         if len(val)
         else None
     )
@@ -473,6 +483,7 @@ def _train(
     workers: int | None,
     log: Any,
     device: torch.device,
+    cache_root: Path | None,
 ) -> HBEOModel:
     """Load (render first, if needed) the data, resume from the checkpoint in ``path`` or
     start afresh, train the remaining epochs with a checkpoint after each, and save the
@@ -487,15 +498,16 @@ def _train(
         progress=progress,
         per_category=config.beo_instances,
         dataset=config.dataset.objects,
+        cache_root=cache_root,
     )
     # the checkpoint is checked before the minutes of rendering: a bad one fails fast
     subspace = fingerprint(beo)
     resumed = _read_checkpoint(path, config, subspace, log)
-    _, render_stats = render_dataset(config.dataset, workers=workers, progress=progress)
+    _, render_stats = render_dataset(config.dataset, workers, progress, cache_root)
     t_render = time.perf_counter() - t0
-    data = _load_data(config, beo, device)
+    data = _load_data(config, beo, device, cache_root)
     run = _new_run(config, data, device)
-    cache.claim_for(path)
+    cache.claim_for(path, cache_root)
     path.mkdir(parents=True, exist_ok=True)
     if resumed is not None:
         _resume(run, resumed, path)
@@ -536,7 +548,7 @@ def _train(
             "total_s": round(time.perf_counter() - t0, 1),
         },
     )
-    model.save(path)  # replacing the training directory drops its checkpoint
+    model.save(path, cache_root)  # replacing the training directory drops its checkpoint
     return model
 
 
@@ -554,6 +566,7 @@ def load_hbeo(
     size: str = "small",
     recipe: str = "default",
     dataset: Dataset | None = None,
+    cache_root: Path | None = None,
     **small: int | None,
 ) -> HBEOModel:
     """The model called ``name`` (a plain name under :func:`models_root`; a path is refused
@@ -565,7 +578,8 @@ def load_hbeo(
     the trained one (:class:`CheckpointError` naming the ``beo-bench train`` command that
     makes it when there is none). On a user's ``dataset`` (None: the procedural library)
     the default model is the one ``beo-bench train ... --objects ROOT`` stored, never
-    trained here."""
+    trained here. Models (and what a default one trains on) are kept in the asset cache
+    ``cache_root`` (None: the environment's)."""
     from beo_bench.objects import LIBRARY_VERSION
 
     quick = any(v is not None for v in small.values())
@@ -587,7 +601,7 @@ def load_hbeo(
     if name is None:
         base = default_config(kind, categories, recipe=recipe, dataset=dataset, **small)
         cfg = with_overrides(base, size=size)
-    path = model_path(default_name(cfg) if cfg is not None else str(name))
+    path = model_path(default_name(cfg) if cfg is not None else str(name), cache_root)
     from beo_bench.objects.datasets import train_command
 
     if cfg is not None and not (path / "weights.pt").exists():
@@ -615,7 +629,7 @@ def load_hbeo(
                 f"{where} at {path}: train it first with `{how}`"
                 + (" (models for a dataset are never trained implicitly)" if dataset else "")
             )
-        train_hbeo(cfg, path, progress=progress)
+        train_hbeo(cfg, path, progress=progress, cache_root=cache_root)
     model = HBEOModel.load(path)
     if model.config.kind != kind:
         raise CheckpointError(
