@@ -296,3 +296,37 @@ def test_version_and_help_say_what_the_command_is(capsys) -> None:
         main(["--help"])
     out = capsys.readouterr().out
     assert "Benchmark object-centric perception" in out and "Exit status" in out
+
+
+def test_all_takes_categories_as_run_does(monkeypatch, tmp_path, capsys) -> None:
+    """`all --categories` makes each suite SUITE+SET as `run --categories` names it (by
+    default the isolated suites of every class), and refuses what `run` refuses with the
+    same line, before any run."""
+    import beo_bench.bench.campaign as campaign
+    from beo_bench.bench.suites import SUITES, Kind
+
+    seen = {}
+
+    def fake_campaign(c):
+        seen["suites"] = c.suites
+        return []
+
+    monkeypatch.setattr(campaign, "run_campaign", fake_campaign)
+    where = ["--runs", str(tmp_path / "runs"), "--out", str(tmp_path / "boards")]
+    argv = ["all", "--backends", "random", "--categories", "mug", "car", *where]
+    assert main(argv) == 0
+    every_class = [n for n, s in SUITES.items() if s.kind is Kind.ISOLATED and not s.categories]
+    assert "pose-3dof" in every_class and "tabletop" not in every_class
+    assert sorted(seen["suites"]) == sorted(f"{n}+mug+car" for n in every_class)
+    argv = ["all", "--suites", "pose-1dof", "known-pose", "--categories", "modelnet10"]
+    assert main([*argv, "--episodes", "3", "--backends", "random", *where]) == 0
+    assert seen["suites"] == {"pose-1dof+modelnet10": 3, "known-pose+modelnet10": 3}
+    capsys.readouterr()
+    for suite, cats in (("tabletop", "mug"), ("pose-1dof", "spaceship"),
+                        ("pose-3dof-percat", "mug")):  # fmt: skip
+        assert main(["run", "--suite", suite, "--backend", "random", "--categories", cats]) == 2
+        refused = _one_error_line(capsys)
+        seen.clear()
+        argv = ["all", "--suites", suite, "--backends", "random", "--categories", cats, *where]
+        assert main(argv) == 2
+        assert _one_error_line(capsys) == refused and not seen

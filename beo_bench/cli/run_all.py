@@ -10,7 +10,7 @@ from typing import Any
 from beo_bench.argparsing import rate
 from beo_bench.bench import campaign
 from beo_bench.bench.pages.leaderboard import check_out
-from beo_bench.bench.runs import parse_backend_spec
+from beo_bench.bench.runs import parse_backend_spec, suite_categories
 from beo_bench.bench.suites import Kind as SuiteKind
 from beo_bench.bench.suites import UnknownSuiteError, expand_suites, list_suites
 from beo_bench.cli.common import (
@@ -142,7 +142,10 @@ def run(args: argparse.Namespace) -> int:
     for s in sizes:
         suite = suite_named(s)  # an unknown name fails before any run starts
         if dataset is not None:
-            suite.with_dataset(dataset, args.split)  # so does a scene suite on a dataset
+            # so does a scene suite on a dataset
+            suite = suite.with_dataset(dataset, args.split)
+        if args.categories:
+            suite_categories(suite)  # and an unknown class, as `run` refuses it
     specs = args.backends or every_backend()
     check_out(args.out)  # a refused --out fails now, not after every run
     c = campaign.Campaign(
