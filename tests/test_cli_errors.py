@@ -330,3 +330,49 @@ def test_all_takes_categories_as_run_does(monkeypatch, tmp_path, capsys) -> None
         argv = ["all", "--suites", suite, "--backends", "random", "--categories", cats, *where]
         assert main(argv) == 2
         assert _one_error_line(capsys) == refused and not seen
+
+
+@pytest.mark.parametrize(
+    "backend, opt, used_by",
+    [
+        ("hbeo", "samples=3", "hbeo-mdn-likelihood and hbeo-mdn-posterior"),
+        ("hbeo", "seed=1", "hbeo-mdn-likelihood and hbeo-mdn-posterior"),
+        ("hbeo", "grasp=best", "hbeo-mdn-likelihood and hbeo-mdn-posterior"),
+        ("hbeo-mdn-likelihood", "prior_grid=32", "hbeo-mdn-posterior"),
+    ],
+)
+def test_an_option_the_backend_mode_does_not_use_is_refused(
+    capsys, tmp_path, backend, opt, used_by
+) -> None:
+    """`--backend hbeo --opt samples=3` would change nothing but the run's name (a run
+    `hbeo__samples=3` beside `hbeo`): refused in one line naming the modes that use it and
+    the options this one takes, even at the option's default value, before any run."""
+    from beo_bench.backend import get_spec
+    from beo_bench.errors import UsageError
+    from beo_bench.perception.hbeo.backend import mode_options
+
+    key, value = opt.split("=")
+    with pytest.raises(UsageError, match=f"does not use {key} "):  # before any run starts
+        get_spec(backend).parse({key: int(value) if value.isdigit() else value})
+    out = tmp_path / "run"
+    argv = ["run", "--suite", "pose-1dof", "--backend", backend, "--opt", opt, "--out", str(out)]
+    assert main(argv) == 2
+    mode = {"hbeo": "hbeo", "hbeo-mdn-likelihood": "likelihood"}[backend]
+    line = _one_error_line(capsys)
+    assert line == (
+        f"beo-bench: error: backend {backend!r} does not use {key} (an option of {used_by}); "
+        f"{backend} takes {', '.join(mode_options(mode))}"
+    )
+    assert key not in mode_options(mode) and "model" in mode_options(mode)
+    assert not out.exists()
+    argv = ["all", "--suites", "pose-1dof", "--backends", f"{backend}:{opt}"]
+    assert main([*argv, "--runs", str(tmp_path / "runs"), "--out", str(tmp_path / "b")]) == 2
+    assert _one_error_line(capsys) == line
+
+
+def test_the_modes_that_use_an_option_take_it() -> None:
+    from beo_bench.backend import get_spec
+
+    assert get_spec("hbeo-mdn-likelihood").parse({"samples": 3, "seed": 2}).samples == 3
+    assert get_spec("hbeo-mdn-posterior").parse({"prior_grid": 64}).prior_grid == 64
+    assert get_spec("hbeo").parse({"threads": 2, "size": "small"}).threads == 2
