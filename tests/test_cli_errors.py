@@ -56,6 +56,9 @@ def _usage_error(capsys, argv: list[str]) -> str:
         (["objects", "--resolution", "100000"], "--resolution: 100000 is out of range: .*8 to 128"),
         (["objects", "--resolution", "4"], "--resolution: 4 is out of range"),
         (["objects", "--workers", "0"], "--workers: 0 is out of range"),
+        # the dataset is --objects on every command; --root, objects' older spelling, says so
+        (["objects", "--root", "data/m"], "--root: `objects` takes the dataset as every command"
+         r" does: --objects data/m \(--root was its older spelling\)$"),
         (["view", "--seed", "-1"], "--seed: -1 is out of range"),
         (["view", "--image-size", "0", "48"], "--image-size: 0 is out of range"),
         (["view", "--image-size", "20000", "100"], "--image-size: 20000 is out of range"),
@@ -376,3 +379,15 @@ def test_the_modes_that_use_an_option_take_it() -> None:
     assert get_spec("hbeo-mdn-likelihood").parse({"samples": 3, "seed": 2}).samples == 3
     assert get_spec("hbeo-mdn-posterior").parse({"prior_grid": 64}).prior_grid == 64
     assert get_spec("hbeo").parse({"threads": 2, "size": "small"}).threads == 2
+
+
+def test_objects_takes_its_dataset_as_objects_only() -> None:
+    """One spelling of the dataset: `--objects`, as every command; `--root` is in no help."""
+    from beo_bench.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a.choices, dict))
+    for name, parser in sub.choices.items():
+        assert "--root" not in parser.format_help(), name
+    objects = sub.choices["objects"]
+    assert "--objects" in objects.format_help()
+    assert objects.parse_args(["--objects", "data/m"]).objects == "data/m"
