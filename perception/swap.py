@@ -40,8 +40,9 @@ OWN = ("base", "truth")
 
 @dataclass(frozen=True)
 class SwapOptions:
-    """The options of ``swap`` (``--opt base=hbeo-mdn-posterior --opt truth=class --opt samples=100``):
-    its own two, and the base backend's, parsed by the base's spec (:func:`parse_swap`)."""
+    """The options of ``swap`` (``--opt base=hbeo-mdn-posterior --opt truth=class --opt
+    samples=100``): its own two, and the base backend's, parsed by the base's spec
+    (:func:`parse_swap`)."""
 
     base: str = option("icp", "the backend whose estimate is swapped (not swap itself)")
     truth: str = option(

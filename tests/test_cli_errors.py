@@ -57,8 +57,11 @@ def _usage_error(capsys, argv: list[str]) -> str:
         (["objects", "--resolution", "4"], "--resolution: 4 is out of range"),
         (["objects", "--workers", "0"], "--workers: 0 is out of range"),
         # the dataset is --objects on every command; --root, objects' older spelling, says so
-        (["objects", "--root", "data/m"], "--root: `objects` takes the dataset as every command"
-         r" does: --objects data/m \(--root was its older spelling\)$"),
+        (
+            ["objects", "--root", "data/m"],
+            "--root: `objects` takes the dataset as every command"
+            r" does: --objects data/m \(--root was its older spelling\)$",
+        ),
         (["view", "--seed", "-1"], "--seed: -1 is out of range"),
         (["view", "--image-size", "0", "48"], "--image-size: 0 is out of range"),
         (["view", "--image-size", "20000", "100"], "--image-size: 20000 is out of range"),

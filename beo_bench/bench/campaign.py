@@ -156,12 +156,13 @@ def _work_left(ctx: RunContext, out: Path) -> bool:
 
 
 def check_prepared(contexts: list[tuple[RunContext, Path]], force_rerun: bool = False) -> None:
-    """Prepare each backend once for each set of runs that prepare it alike (its options,
-    the class list, the dataset, the suite's frame) among those with work left (every run
-    with ``force_rerun``), as its runs will: a model, a trained default or a dataset that is
-    missing or unusable raises one :class:`~beo_bench.errors.CheckpointError` naming every
-    such backend and suite with the command that fixes it, before any run starts. What
-    preparing builds is kept in the cache, so the runs find it there."""
+    """Prepare each backend that loads a trained model (``Capabilities.model``) once for
+    each set of runs that prepare it alike (its options, the class list, the dataset, the
+    suite's frame) among those with work left (every run with ``force_rerun``), as its runs
+    will: a model, a trained default or a dataset's model that is missing or unusable
+    raises one :class:`~beo_bench.errors.CheckpointError` naming every such backend and
+    suite with the command that fixes it, before any run starts. A default model trained on
+    first use is trained here, in the cache, where the runs then find it."""
     from beo_bench.backend import get_spec
     from beo_bench.errors import CheckpointError, TrainingInRunError, UserDataError
 
@@ -175,6 +176,8 @@ def check_prepared(contexts: list[tuple[RunContext, Path]], force_rerun: bool = 
             None if ctx.dataset is None else ctx.dataset.root,
             ctx.suite.protocol.world_frame,
         )
+        if ctx.backend.capabilities.model is None:
+            continue  # no trained model to miss (nothing but caches is built in prepare)
         if key in seen or not (force_rerun or _work_left(ctx, out)):
             continue
         seen.add(key)

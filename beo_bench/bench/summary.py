@@ -95,9 +95,7 @@ def view_values(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, np.ndarra
     return get_kind(suite.kind).view_values(suite, rows)
 
 
-def _collect(
-    suite: Suite, rows: Sequence[Row], classes: int, intervals: bool = True
-) -> Tally:
+def _collect(suite: Suite, rows: Sequence[Row], classes: int, intervals: bool = True) -> Tally:
     """The metrics a suite measures, over ``rows`` (of a suite of ``classes`` classes)."""
     M = Tally(np.array([r.item for r in rows]), intervals, classes)
     data = json_rows(rows)
@@ -110,9 +108,7 @@ def _collect(
     return M
 
 
-def _per_category(
-    suite: Suite, rows: Sequence[Row], classes: int
-) -> dict[str, dict[str, Any]]:
+def _per_category(suite: Suite, rows: Sequence[Row], classes: int) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
     for cat in sorted({r.category for r in rows}):
         sub = [r for r in rows if r.category == cat]
