@@ -292,3 +292,19 @@ def test_all_checks_every_backends_model_before_any_run(
     assert "oracle" not in last and "icp" not in last
     assert not runs.exists() or not any(runs.iterdir())  # no run started
     assert not boards.exists()
+
+
+def test_the_model_check_skips_finished_runs(tmp_path: Path) -> None:
+    """`all` checks the models of the runs with items left only: a finished run resumes
+    without preparing its backend, so re-running a finished campaign loads nothing."""
+    from beo_bench.bench.campaign import _work_left
+    from beo_bench.bench.runs import RunConfig, RunContext
+
+    out = tmp_path / "run"
+    argv = ["run", "--suite", "pose-1dof", "--backend", "oracle", "--episodes", "2"]
+    assert main([*argv, "--workers", "1", "--out", str(out)]) == 0
+    for size, left in ((2, False), (1, False), (3, True)):
+        suite = get_suite("pose-1dof").with_overrides(size=size, track="class-free")
+        ctx = RunContext.of(RunConfig(suite, "oracle", {}, False))
+        assert _work_left(ctx, out) is left, size
+        assert _work_left(ctx, tmp_path / "none")

@@ -264,7 +264,7 @@ class HBEOBackend(Backend):
                 f"backend {cls.name!r} does not use {', '.join(unused)} (an option of "
                 f"{' and '.join(users)}); {cls.name} takes {', '.join(mode_options(cls.mode))}"
             )
-        return super().parse(raw)  # type: ignore[no-any-return]
+        return super().parse(raw)
 
     @classmethod
     def kind(cls) -> Literal["hbeo", "hbeo-mdn"]:
