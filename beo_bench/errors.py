@@ -133,7 +133,7 @@ class EnvConfigError(BeoBenchError, ValueError):
 
 
 class ActionError(BeoBenchError, ValueError):
-    """An action of the wrong shape, with NaN/inf, or with a zero quaternion."""
+    """An action of the wrong shape, with NaN/inf, or out of reach or range."""
 
 
 class ViewError(BeoBenchError, ValueError):

@@ -78,14 +78,15 @@ class BEOPickEnv(gym.Env):
     | index | meaning | unit / range |
     |---|---|---|
     | 0-2 | TCP position x y z | metres; x, y within the table, z in [0, 2] |
-    | 3-6 | gripper orientation, quaternion **w x y z** | any non-zero norm (normalised) |
+    | 3-6 | gripper orientation, quaternion **w x y z** | any (normalised; zero: identity) |
     | 7 | finger opening | metres, [0, 0.08] |
 
     The gripper frame approaches along its +z axis and closes along +y (see
     ``beo_bench.scenes.gripper``). The space is not normalised to [-1, 1]: positions are in
-    metres so that a planner's grasp (``Grasp.action``) is an action as it is. A wrong
-    shape, NaN/inf, a zero quaternion or an opening outside [0, 0.08] raises
-    :class:`~beo_bench.errors.ActionError`.
+    metres so that a planner's grasp (``Grasp.action``) is an action as it is. A zero
+    quaternion is the identity orientation, so that the zero action of an agent behind
+    ``RescaleAction`` (the space's centre) is valid. A wrong shape, NaN/inf or an opening
+    outside [0, 0.08] raises :class:`~beo_bench.errors.ActionError`.
 
     ## Observation Space
 
@@ -617,8 +618,8 @@ def _target_category(value: Any, categories: tuple[str, ...]) -> str:
 
 def parse_action(action: Any) -> tuple[np.ndarray, float]:
     """The gripper pose (4x4, world) and opening of an action; raises :class:`ActionError`
-    on a non-numeric action (strings, dicts), a wrong shape, NaN/inf, a zero quaternion or
-    a finger opening outside [0, ``MAX_OPENING``], and normalises the quaternion."""
+    on a non-numeric action (strings, dicts), a wrong shape, NaN/inf or a finger opening
+    outside [0, ``MAX_OPENING``]; normalises the quaternion (zero: the identity)."""
     a = _numeric(action)
     if a.shape != (8,):
         raise ActionError(
@@ -641,20 +642,18 @@ def parse_action(action: Any) -> tuple[np.ndarray, float]:
             "grasp position in metres in the world frame"
         )
     q = a[3:7]
-    # scaled by its largest entry first: the norm of a finite quaternion with an entry
-    # near 1e155 overflows to inf, and q / inf would reach scipy as a zero quaternion
-    big = float(np.abs(q).max())
-    norm = float(np.linalg.norm(q / big)) * big if big > 0 else 0.0
-    if norm < 1e-9:
-        raise ActionError(
-            "the action's quaternion (entries 3-6) is zero; give the gripper orientation as a "
-            "unit quaternion w x y z (it is normalised for you)"
-        )
-    from scipy.spatial.transform import Rotation
-
-    w, x, y, z = (q / big) / (norm / big)
     T = np.eye(4)
-    T[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix()
+    # a zero quaternion is the identity orientation: the centre of the action space, which
+    # an agent's zero action is through RescaleAction (a policy starts there), is an action
+    big = float(np.abs(q).max())
+    if big > 0:
+        from scipy.spatial.transform import Rotation
+
+        # scaled by its largest entry first: the norm of a finite quaternion with an entry
+        # near 1e155 overflows to inf, and one near 1e-170 underflows to zero
+        u = q / big
+        w, x, y, z = u / np.linalg.norm(u)
+        T[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix()
     T[:3, 3] = a[:3]
     return T, min(max(opening, 0.0), MAX_OPENING)
 

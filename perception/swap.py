@@ -40,8 +40,9 @@ OWN = ("base", "truth")
 
 @dataclass(frozen=True)
 class SwapOptions:
-    """The options of ``swap`` (``--opt base=hbeo --opt truth=class --opt samples=100``):
-    its own two, and the base backend's, parsed by the base's spec (:func:`parse_swap`)."""
+    """The options of ``swap`` (``--opt base=hbeo-mdn-posterior --opt truth=class --opt
+    samples=100``): its own two, and the base backend's, parsed by the base's spec
+    (:func:`parse_swap`)."""
 
     base: str = option("icp", "the backend whose estimate is swapped (not swap itself)")
     truth: str = option(
@@ -73,7 +74,7 @@ def parse_swap(raw: Mapping[str, Any]) -> SwapOptions:
     if "base_options" in raw:
         raise UsageError(
             "swap has no option 'base_options': give the base backend's options as they are "
-            "(--opt base=hbeo --opt samples=100)"
+            "(--opt base=hbeo-mdn-posterior --opt samples=100)"
         )
     own = parse_options(SwapOptions, {k: v for k, v in raw.items() if k in OWN}, "swap")
     rest = {k: v for k, v in raw.items() if k not in OWN}

@@ -54,7 +54,6 @@ CHECK_ONLY = {
 CHECK_ONLY_FLAGS = {
     "--ray": "needs a Ray cluster",
     "--objects": "needs a dataset the test does not have",
-    "--root": "needs a dataset the test does not have",
 }
 
 

@@ -56,6 +56,12 @@ def _usage_error(capsys, argv: list[str]) -> str:
         (["objects", "--resolution", "100000"], "--resolution: 100000 is out of range: .*8 to 128"),
         (["objects", "--resolution", "4"], "--resolution: 4 is out of range"),
         (["objects", "--workers", "0"], "--workers: 0 is out of range"),
+        # the dataset is --objects on every command; --root, objects' older spelling, says so
+        (
+            ["objects", "--root", "data/m"],
+            "--root: `objects` takes the dataset as every command"
+            r" does: --objects data/m \(--root was its older spelling\)$",
+        ),
         (["view", "--seed", "-1"], "--seed: -1 is out of range"),
         (["view", "--image-size", "0", "48"], "--image-size: 0 is out of range"),
         (["view", "--image-size", "20000", "100"], "--image-size: 20000 is out of range"),
@@ -296,3 +302,95 @@ def test_version_and_help_say_what_the_command_is(capsys) -> None:
         main(["--help"])
     out = capsys.readouterr().out
     assert "Benchmark object-centric perception" in out and "Exit status" in out
+
+
+def test_all_takes_categories_as_run_does(monkeypatch, tmp_path, capsys) -> None:
+    """`all --categories` makes each suite SUITE+SET as `run --categories` names it (by
+    default the isolated suites of every class), and refuses what `run` refuses with the
+    same line, before any run."""
+    import beo_bench.bench.campaign as campaign
+    from beo_bench.bench.suites import SUITES, Kind
+
+    seen = {}
+
+    def fake_campaign(c):
+        seen["suites"] = c.suites
+        return []
+
+    monkeypatch.setattr(campaign, "run_campaign", fake_campaign)
+    where = ["--runs", str(tmp_path / "runs"), "--out", str(tmp_path / "boards")]
+    argv = ["all", "--backends", "random", "--categories", "mug", "car", *where]
+    assert main(argv) == 0
+    every_class = [n for n, s in SUITES.items() if s.kind is Kind.ISOLATED and not s.categories]
+    assert "pose-3dof" in every_class and "tabletop" not in every_class
+    assert sorted(seen["suites"]) == sorted(f"{n}+mug+car" for n in every_class)
+    argv = ["all", "--suites", "pose-1dof", "known-pose", "--categories", "modelnet10"]
+    assert main([*argv, "--episodes", "3", "--backends", "random", *where]) == 0
+    assert seen["suites"] == {"pose-1dof+modelnet10": 3, "known-pose+modelnet10": 3}
+    capsys.readouterr()
+    for suite, cats in (("tabletop", "mug"), ("pose-1dof", "spaceship"),
+                        ("pose-3dof-percat", "mug")):  # fmt: skip
+        assert main(["run", "--suite", suite, "--backend", "random", "--categories", cats]) == 2
+        refused = _one_error_line(capsys)
+        seen.clear()
+        argv = ["all", "--suites", suite, "--backends", "random", "--categories", cats, *where]
+        assert main(argv) == 2
+        assert _one_error_line(capsys) == refused and not seen
+
+
+@pytest.mark.parametrize(
+    "backend, opt, used_by",
+    [
+        ("hbeo", "samples=3", "hbeo-mdn-likelihood and hbeo-mdn-posterior"),
+        ("hbeo", "seed=1", "hbeo-mdn-likelihood and hbeo-mdn-posterior"),
+        ("hbeo", "grasp=best", "hbeo-mdn-likelihood and hbeo-mdn-posterior"),
+        ("hbeo-mdn-likelihood", "prior_grid=32", "hbeo-mdn-posterior"),
+    ],
+)
+def test_an_option_the_backend_mode_does_not_use_is_refused(
+    capsys, tmp_path, backend, opt, used_by
+) -> None:
+    """`--backend hbeo --opt samples=3` would change nothing but the run's name (a run
+    `hbeo__samples=3` beside `hbeo`): refused in one line naming the modes that use it and
+    the options this one takes, even at the option's default value, before any run."""
+    from beo_bench.backend import get_spec
+    from beo_bench.errors import UsageError
+    from beo_bench.perception.hbeo.backend import mode_options
+
+    key, value = opt.split("=")
+    with pytest.raises(UsageError, match=f"does not use {key} "):  # before any run starts
+        get_spec(backend).parse({key: int(value) if value.isdigit() else value})
+    out = tmp_path / "run"
+    argv = ["run", "--suite", "pose-1dof", "--backend", backend, "--opt", opt, "--out", str(out)]
+    assert main(argv) == 2
+    mode = {"hbeo": "hbeo", "hbeo-mdn-likelihood": "likelihood"}[backend]
+    line = _one_error_line(capsys)
+    assert line == (
+        f"beo-bench: error: backend {backend!r} does not use {key} (an option of {used_by}); "
+        f"{backend} takes {', '.join(mode_options(mode))}"
+    )
+    assert key not in mode_options(mode) and "model" in mode_options(mode)
+    assert not out.exists()
+    argv = ["all", "--suites", "pose-1dof", "--backends", f"{backend}:{opt}"]
+    assert main([*argv, "--runs", str(tmp_path / "runs"), "--out", str(tmp_path / "b")]) == 2
+    assert _one_error_line(capsys) == line
+
+
+def test_the_modes_that_use_an_option_take_it() -> None:
+    from beo_bench.backend import get_spec
+
+    assert get_spec("hbeo-mdn-likelihood").parse({"samples": 3, "seed": 2}).samples == 3
+    assert get_spec("hbeo-mdn-posterior").parse({"prior_grid": 64}).prior_grid == 64
+    assert get_spec("hbeo").parse({"threads": 2, "size": "small"}).threads == 2
+
+
+def test_objects_takes_its_dataset_as_objects_only() -> None:
+    """One spelling of the dataset: `--objects`, as every command; `--root` is in no help."""
+    from beo_bench.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a.choices, dict))
+    for name, parser in sub.choices.items():
+        assert "--root" not in parser.format_help(), name
+    objects = sub.choices["objects"]
+    assert "--objects" in objects.format_help()
+    assert objects.parse_args(["--objects", "data/m"]).objects == "data/m"

@@ -268,3 +268,43 @@ def test_objects_too_small_to_see_are_the_datas_fault(
     err = capsys.readouterr().err
     assert "never showed 50 pixels" in err and "--units" in err and "--size" in err
     assert "bug" not in err
+
+
+def test_all_checks_every_backends_model_before_any_run(
+    dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    """`all` on a dataset with backends whose models nobody trained for it: it stops before
+    the first run (oracle and icp, which need none, do not run either), naming each backend
+    that misses a model and the `beo-bench train` command that makes it, in one line."""
+    make_unseen(dataset)  # no model for it, even in a cache kept across sessions
+    runs, boards = tmp_path / "runs", tmp_path / "boards"
+    argv = ["all", "--objects", str(dataset), "--split", "all", "--workers", "1",
+            "--suites", "pose-1dof", "--backends", "oracle", "icp", "hbeo", "beo",
+            "--episodes", "2", "--runs", str(runs), "--out", str(boards)]  # fmt: skip
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    last = err.strip().splitlines()[-1]  # after the dataset's warnings and progress
+    assert last.startswith("beo-bench: error: nothing was run: 2 of the runs cannot start")
+    for backend in ("hbeo", "beo"):  # hbeo's two tracks need one model: named once
+        assert f") {backend} on pose-1dof." in last
+        assert f"`beo-bench train {backend} --objects {dataset}`" in last
+    assert "oracle" not in last and "icp" not in last
+    assert not runs.exists() or not any(runs.iterdir())  # no run started
+    assert not boards.exists()
+
+
+def test_the_model_check_skips_finished_runs(tmp_path: Path) -> None:
+    """`all` checks the models of the runs with items left only: a finished run resumes
+    without preparing its backend, so re-running a finished campaign loads nothing."""
+    from beo_bench.bench.campaign import _work_left
+    from beo_bench.bench.runs import RunConfig, RunContext
+
+    out = tmp_path / "run"
+    argv = ["run", "--suite", "pose-1dof", "--backend", "oracle", "--episodes", "2"]
+    assert main([*argv, "--workers", "1", "--out", str(out)]) == 0
+    for size, left in ((2, False), (1, False), (3, True)):
+        suite = get_suite("pose-1dof").with_overrides(size=size, track="class-free")
+        ctx = RunContext.of(RunConfig(suite, "oracle", {}, False))
+        assert _work_left(ctx, out) is left, size
+        assert _work_left(ctx, tmp_path / "none")

@@ -115,6 +115,9 @@ def run_campaign(c: Campaign) -> list[Path]:
                 cfg = RunConfig(tracked, name, kwargs, c.allow_privileged)
                 out = c.runs / run_name(suite.name, name, kwargs, c.seed, track, suite.sensor_tag)
                 contexts.append((RunContext.of(cfg, progress=c.progress), out))
+    # every model and dataset the runs need, looked up before the first run starts: a
+    # missing one fails now, all of them named at once, not after hours of other runs
+    check_prepared(contexts, c.force_rerun)
     # one set of worker processes for every run (see WorkerPool: start-up once, not per run)
     finished = []
     with WorkerPool(c.workers) as pool:
@@ -140,3 +143,52 @@ def run_campaign(c: Campaign) -> list[Path]:
         # every run finished first: one broken suite does not hide how the others did
         check_failure_rate(finished, c.max_failure_rate)
     return written
+
+
+def _work_left(ctx: RunContext, out: Path) -> bool:
+    """Whether the run in ``out`` has items left to score (a run that finished is resumed
+    without preparing its backend, so nothing of it is checked)."""
+    from beo_bench.bench.rows import scan_rows
+    from beo_bench.bench.rundir import RESULTS_NAME
+
+    done = {r.item for r in scan_rows(out / RESULTS_NAME).rows}
+    return any(i not in done for i in range(ctx.suite.size))
+
+
+def check_prepared(contexts: list[tuple[RunContext, Path]], force_rerun: bool = False) -> None:
+    """Prepare each backend that loads a trained model (``Capabilities.model``) once for
+    each set of runs that prepare it alike (its options, the class list, the dataset, the
+    suite's frame) among those with work left (every run with ``force_rerun``), as its runs
+    will: a model, a trained default or a dataset's model that is missing or unusable
+    raises one :class:`~beo_bench.errors.CheckpointError` naming every such backend and
+    suite with the command that fixes it, before any run starts. A default model trained on
+    first use is trained here, in the cache, where the runs then find it."""
+    from beo_bench.backend import get_spec
+    from beo_bench.errors import CheckpointError, TrainingInRunError, UserDataError
+
+    seen: set[tuple[Any, ...]] = set()
+    problems: list[str] = []
+    for ctx, out in contexts:
+        key = (
+            ctx.backend.name,
+            repr(sorted(ctx.backend.kwargs.items())),
+            ctx.categories,
+            None if ctx.dataset is None else ctx.dataset.root,
+            ctx.suite.protocol.world_frame,
+        )
+        if ctx.backend.capabilities.model is None:
+            continue  # no trained model to miss (nothing but caches is built in prepare)
+        if key in seen or not (force_rerun or _work_left(ctx, out)):
+            continue
+        seen.add(key)
+        backend = get_spec(ctx.backend.name).make(ctx.backend.options)
+        try:
+            backend.prepare(ctx)
+        except (CheckpointError, TrainingInRunError, UserDataError) as e:
+            who = backend_label(ctx.backend.name, ctx.backend.kwargs)
+            problems.append(f"({len(problems) + 1}) {who} on {ctx.suite.label}: {e}")
+    if problems:
+        raise CheckpointError(
+            f"nothing was run: {len(problems)} of the runs cannot start, each with what it "
+            "misses and the command that makes it: " + "; ".join(problems)
+        )

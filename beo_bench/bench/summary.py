@@ -95,9 +95,9 @@ def view_values(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, np.ndarra
     return get_kind(suite.kind).view_values(suite, rows)
 
 
-def _collect(suite: Suite, rows: Sequence[Row], intervals: bool = True) -> Tally:
-    """The metrics a suite measures, over ``rows``."""
-    M = Tally(np.array([r.item for r in rows]), intervals)
+def _collect(suite: Suite, rows: Sequence[Row], classes: int, intervals: bool = True) -> Tally:
+    """The metrics a suite measures, over ``rows`` (of a suite of ``classes`` classes)."""
+    M = Tally(np.array([r.item for r in rows]), intervals, classes)
     data = json_rows(rows)
     values = view_values(suite, data)
     get_kind(suite.kind).collect(M, data, values)
@@ -108,11 +108,11 @@ def _collect(suite: Suite, rows: Sequence[Row], intervals: bool = True) -> Tally
     return M
 
 
-def _per_category(suite: Suite, rows: Sequence[Row]) -> dict[str, dict[str, Any]]:
+def _per_category(suite: Suite, rows: Sequence[Row], classes: int) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
     for cat in sorted({r.category for r in rows}):
         sub = [r for r in rows if r.category == cat]
-        M = _collect(suite, sub, intervals=False)
+        M = _collect(suite, sub, classes, intervals=False)
         out[cat] = {"n": len(sub), **{k: M.m[k] for k in SUMMARY_PER_CATEGORY if k in M.m}}
     return out
 
@@ -140,8 +140,14 @@ def summarise(
     """The summary of a run's rows (sorted by item and view, so it does not depend on the
     order in which workers finished), with what the run record says about its backend
     (whether it can use the class hint, its model's digest, whether it was handed the
-    truth) and the run's provenance."""
-    M = _collect(suite, rows)
+    truth) and the run's provenance. Its ``categories`` are the suite's whole class list
+    (``View.categories``), whichever classes the rows show."""
+    from beo_bench.bench.runs import suite_categories
+
+    # the suite's classes, in order, not the rows': a short run lacking a class still
+    # names every class in its confusion matrix (and never "class 2" for a name)
+    categories = list(suite_categories(suite))
+    M = _collect(suite, rows, len(categories))
     ms = np.array([np.nan if r.ms is None else r.ms for r in rows])
     stats = metrics.runtime_stats(ms / 1000.0)
     if stats["n"]:
@@ -150,8 +156,6 @@ def summarise(
         M.m["views_per_s"] = stats["hz"]
     data = json_rows(rows)
     get_kind(suite.kind).timing(M, data)
-    names = {r.true_class: r.category for r in rows}
-    categories = [names.get(i, f"class {i}") for i in range(1 + max(names, default=-1))]
     return Summary(
         categories=categories,
         suite=suite.name,
@@ -163,7 +167,7 @@ def summarise(
         failure_kinds=failure_kinds(data),
         metrics=M.m,
         ci95=M.ci,
-        per_category=_per_category(suite, rows),
+        per_category=_per_category(suite, rows, len(categories)),
         scoring=scoring(suite),
         seed=suite.seed,
         uses_class_hint=uses_class_hint,

@@ -202,9 +202,14 @@ def estimate_values(suite: Suite, rows: list[dict[str, Any]]) -> dict[str, np.nd
 class Tally:
     """Collects metric values and their bootstrap intervals (over ``items``)."""
 
-    def __init__(self, items: np.ndarray, intervals: bool = True) -> None:
+    def __init__(
+        self, items: np.ndarray, intervals: bool = True, classes: int | None = None
+    ) -> None:
         self.items = items
         self.intervals = intervals
+        self.classes = classes
+        """The suite's number of classes (the confusion matrix's side; None: as many as the
+        rows' largest true class needs)."""
         self.m: dict[str, Any] = {}
         self.ci: dict[str, Any] = {}
 
@@ -230,7 +235,9 @@ def collect_classes(M: Tally, rows: list[dict[str, Any]], acc: np.ndarray) -> No
         M.m["class_given"] = True
         return
     M.mean("class_acc", acc)
-    C = 1 + max(r["true_class"] for r in rows)
+    # the suite's classes, not the rows': a short run that lacks a class (or a prediction
+    # of a class no row holds) still gets the whole matrix, in the suite's class order
+    C = max(M.classes or 0, 1 + max(r["true_class"] for r in rows))
     true = np.array([r["true_class"] for r in scored])
     pred = np.array([r.get("pred_class", -1) for r in scored])
     ok = (pred >= 0) & (pred < C)

@@ -10,7 +10,8 @@ from typing import Any
 from beo_bench.argparsing import rate
 from beo_bench.bench import campaign
 from beo_bench.bench.pages.leaderboard import check_out
-from beo_bench.bench.runs import parse_backend_spec
+from beo_bench.bench.runs import parse_backend_spec, suite_categories
+from beo_bench.bench.suites import Kind as SuiteKind
 from beo_bench.bench.suites import UnknownSuiteError, expand_suites, list_suites
 from beo_bench.cli.common import (
     dataset_of,
@@ -25,6 +26,7 @@ from beo_bench.cli.options import (
     MAX_FAILURE_HELP,
     SENSOR_NAMES,
     SPLITS_ALL,
+    categories_parent,
     dataset_parent,
     episodes_parent,
     item_timeout_parent,
@@ -70,6 +72,11 @@ def add(sub: Any, help: str) -> None:
             ),
             episodes_parent(None, "items per suite (default: its own)"),
             seed_parent(None, "replace the suites' base seeds"),
+            categories_parent(
+                "isolated suites: only these classes or sets (modelnet10, shapenet-ch5, "
+                "library), as `run --categories`; each run is then suite SUITE+SET "
+                "(default suites: the isolated ones of every class)"
+            ),
             workers_parent(),
             item_timeout_parent(),
             ray_parent(),
@@ -115,16 +122,30 @@ def run(args: argparse.Namespace) -> int:
     dataset = dataset_of(args)
     split_needs_dataset(args, dataset)
     # suite sets (smoke) name each suite with its size; --episodes, when given, wins
+    default = list_suites() if dataset is None else dataset_suites()
+    if args.categories and not args.suites:
+        # a class subset is for isolated suites (as on `run`): by default, those that draw
+        # from every class (a suite of fixed classes holds few of those asked for)
+        default = [
+            n
+            for n in default
+            if suite_named(n).kind is SuiteKind.ISOLATED and suite_named(n).categories is None
+        ]
     try:
-        sizes = expand_suites(
-            args.suites or (list_suites() if dataset is None else dataset_suites())
-        )
+        sizes = expand_suites(args.suites or default)
     except UnknownSuiteError as e:
         raise UsageError(str(e)) from e
+    if args.categories:
+        # each suite on the class subset is its own suite (SUITE+SET), as `run` names it;
+        # a scene suite or classes a suite does not hold fail here, before any run starts
+        sizes = {suite_named(s).with_categories(args.categories).name: n for s, n in sizes.items()}
     for s in sizes:
         suite = suite_named(s)  # an unknown name fails before any run starts
         if dataset is not None:
-            suite.with_dataset(dataset, args.split)  # so does a scene suite on a dataset
+            # so does a scene suite on a dataset
+            suite = suite.with_dataset(dataset, args.split)
+        if args.categories:
+            suite_categories(suite)  # and an unknown class, as `run` refuses it
     specs = args.backends or every_backend()
     check_out(args.out)  # a refused --out fails now, not after every run
     c = campaign.Campaign(

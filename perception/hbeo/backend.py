@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import hashlib
 import zlib
+from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
@@ -212,6 +213,21 @@ PRIOR_OPTIONS = (
 )
 """The options of chapter 5's ablation, which only ``hbeo-mdn-posterior`` takes."""
 
+MODE_OPTIONS: dict[str, tuple[Mode, ...]] = {
+    "samples": ("likelihood", "posterior"),
+    "seed": ("likelihood", "posterior"),
+    "grasp": ("likelihood", "posterior"),
+    **{name: ("posterior",) for name in PRIOR_OPTIONS},
+}
+"""The options that only some modes use (the pose samples' and the silhouette prior's);
+every other option is every mode's. A mode refuses the others (:meth:`HBEOBackend.parse`):
+they would change nothing but the run's name."""
+
+
+def mode_options(mode: Mode) -> tuple[str, ...]:
+    """The options ``mode`` uses, in their declaration order."""
+    return tuple(f.name for f in fields(HBEOOptions) if mode in MODE_OPTIONS.get(f.name, (mode,)))
+
 
 class HBEOBackend(Backend):
     """HBEO (module docstring; options: :class:`HBEOOptions`); its subclasses are the
@@ -235,6 +251,20 @@ class HBEOBackend(Backend):
             privileged=options.diagnostic_truth(),
             grasp=options.grasp,
         )
+
+    @classmethod
+    def parse(cls, raw: Mapping[str, Any]) -> HBEOOptions:
+        """``raw`` as options (:meth:`Backend.parse`); an option this mode does not use
+        (``samples`` on ``hbeo``, the silhouette prior's off ``hbeo-mdn-posterior``) is a
+        :class:`UsageError` naming the modes that use it and this mode's options."""
+        unused = [k for k in raw if k in MODE_OPTIONS and cls.mode not in MODE_OPTIONS[k]]
+        if unused:
+            users = sorted({BY_MODE[m].name for k in unused for m in MODE_OPTIONS[k]})
+            raise UsageError(
+                f"backend {cls.name!r} does not use {', '.join(unused)} (an option of "
+                f"{' and '.join(users)}); {cls.name} takes {', '.join(mode_options(cls.mode))}"
+            )
+        return super().parse(raw)
 
     @classmethod
     def kind(cls) -> Literal["hbeo", "hbeo-mdn"]:

@@ -237,3 +237,35 @@ def test_the_gross_errors_of_a_sampling_backend_are_scored_apart() -> None:
     assert m["sample_best_rank_gross_mean"] == 10.0  # views 1 and 2
     assert m["sample_near_true_gross_rate"] == 0.5  # view 1's best sample is 4 deg off
     assert m["half_turn_gross_rate"] == 0.5  # 176 deg is, 40 deg is not
+
+
+def test_a_run_lacking_classes_names_every_class_of_its_suite() -> None:
+    """A short tabletop run whose views show two classes: the summary's class list is the
+    suite's (every class, in its order, which the rows' ``true_class`` indexes), so its
+    confusion matrix, the confusions table and the plot name each class, never "class 2",
+    and a prediction of a class no view shows still counts."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from beo_bench.bench.pages.plots import confusion_figure
+    from beo_bench.bench.pages.tables import confused_pairs
+    from beo_bench.bench.runs import suite_categories
+
+    cats = list(suite_categories(TABLETOP))
+    bed, chair, table = cats.index("bed"), cats.index("chair"), cats.index("table")
+    assert table > chair > bed  # the last class a row shows is not the last predicted
+    rows = [
+        _row(0, 0, category="bed", true_class=bed, pred_class=bed),
+        _row(0, 1, category="chair", true_class=chair, pred_class=table, correct=False),
+        _row(1, 0, category="bed", true_class=bed, pred_class=chair, correct=False),
+    ]
+    s = _summarise(TABLETOP, rows)
+    assert s["categories"] == cats
+    conf = np.asarray(s["metrics"]["confusion"])
+    assert conf.shape == (len(cats), len(cats))
+    assert conf[chair, table] == 1 and conf[bed, chair] == 1 and conf.sum() == 3
+    assert set(confused_pairs(s)) == {("chair", "table", 1, 1), ("bed", "chair", 1, 2)}
+    fig = confusion_figure(s["metrics"]["confusion"], s["categories"], "tabletop")
+    ax = fig.axes[0]
+    assert [t.get_text() for t in ax.get_xticklabels()] == cats
+    assert [t.get_text().split(" (")[0] for t in ax.get_yticklabels()] == cats

@@ -85,6 +85,48 @@ def test_vector_envs_get_the_limit_too() -> None:
     envs.close()
 
 
+# -- agents in [-1, 1] -------------------------------------------------------------------------
+def _rescaled(env: gym.Env) -> gym.Env:
+    """The env as SB3's agents see it (docs/env.md, "RL libraries"): actions in [-1, 1]."""
+    return gym.wrappers.RescaleAction(env, np.float32(-1), np.float32(1))
+
+
+@pytest.mark.parametrize("mode", [None, "sync", "async"])
+def test_a_zero_action_through_rescale_action_is_a_valid_grasp(mode) -> None:
+    """A policy initialised at zero acts at the space's centre, whose quaternion part is
+    zero: the identity orientation (docs/env.md, "Action space"), never an ActionError, in
+    a single env and in both of gym.make_vec's modes."""
+    if mode is None:
+        env = _rescaled(gym.make("BEOPick-v0", **SMALL))
+        env.reset(seed=0)
+        zero = np.zeros(8, np.float32)
+        assert np.all(env.action(zero)[3:7] == 0)  # the quaternion the env is given
+        _, reward, term, trunc, info = env.step(zero)
+        assert reward == 0.0 and (term or trunc) and info["reason"] == "nothing_lifted"
+        env.close()
+        return
+    envs = gym.make_vec(
+        "BEOPick-v0", num_envs=2, vectorization_mode=mode, wrappers=[_rescaled], **SMALL
+    )
+    assert envs.single_action_space == gym.spaces.Box(-1, 1, (8,), np.float32)
+    envs.reset(seed=0)
+    _, reward, term, trunc, info = envs.step(np.zeros((2, 8), np.float32))
+    assert (reward == 0).all() and (term | trunc).all()
+    assert list(info["reason"]) == ["nothing_lifted"] * 2
+    envs.close()
+
+
+def test_a_zero_quaternion_is_the_identity_orientation() -> None:
+    from beo_bench.envs.pick import parse_action
+
+    T, opening = parse_action([0.1, 0.2, 0.9, 0, 0, 0, 0, 0.05])
+    np.testing.assert_array_equal(T[:3, :3], np.eye(3))
+    np.testing.assert_array_equal(T[:3, 3], [0.1, 0.2, 0.9])
+    assert opening == 0.05
+    T1, _ = parse_action([0.1, 0.2, 0.9, 1, 0, 0, 0, 0.05])
+    np.testing.assert_array_equal(T, T1)
+
+
 # -- copy and pickle ---------------------------------------------------------------------------
 def _assert_same_obs(a: dict, b: dict) -> None:
     assert a.keys() == b.keys()
