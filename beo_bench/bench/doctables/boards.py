@@ -1,5 +1,6 @@
 """What every generated doc table reads: the committed leaderboards (:class:`Boards`), the
-methods a table lists, and the cell formats.
+methods a table lists, the cell formats, and the declared tables (:class:`Table`: a header,
+rows and cells of figures, drawn by one renderer) that most tables are.
 """
 
 from __future__ import annotations
@@ -164,3 +165,115 @@ _DIFF_FORMATS: dict[str, tuple[Callable[[float], str], str]] = {
     "class_acc": (pct, " pts"),
     "pick_success": (pct, " pts"),
 }
+
+
+# -- a declared table ------------------------------------------------------------------------
+FORMATS: dict[str, Callable[[float], str]] = {
+    "rot_err_deg_mean": deg, "rot_err_deg_median": deg, "sample_best_err_deg_mean": deg,
+    "sample_spread_deg_mean": deg, "iou_mean": num, "fscore_mean": num, "n": str,
+}  # fmt: skip
+"""A figure's format where a cell names none (any other metric: a rate, :func:`pct`)."""
+
+
+@dataclass(frozen=True)
+class Fig:
+    """A metric of one leaderboard row (``n``: its items) in ``fmt``: the row of ``name`` on
+    ``suite`` and ``track``, each left out for the table row's own."""
+
+    key: str
+    fmt: Callable[[float], str] | None = None
+    suite: str = ""
+    name: str = ""
+    track: str | None = None
+
+
+@dataclass(frozen=True)
+class Pair(Fig):
+    """The paired entry of ``name`` against ``baseline`` on ``key`` (:meth:`Boards.pair`):
+    its difference with interval and verdict (:func:`_diff`, in the metric's unit), or
+    with ``value`` one of its figures (``baseline_value``, ``method_value``, ``items``)."""
+
+    baseline: str = ""
+    value: str = "diff"
+    digits: int = 1
+    sensor: str | None = None
+
+
+@dataclass(frozen=True)
+class Cell:
+    """A cell: its figures in ``text`` (a format string; none: joined by ``, ``)."""
+
+    figs: tuple[Fig, ...]
+    text: str = ""
+
+
+@dataclass(frozen=True)
+class Row:
+    """A line: its label and cells (none: the table's columns), whose figures read the row
+    of ``name`` on ``suite`` and ``track``; shown only where every figure of ``when`` is."""
+
+    label: str | Cell
+    name: str = ""
+    suite: str = ""
+    track: str | None = None
+    cells: tuple[Cell | Fig | str, ...] | None = None
+    when: tuple[Fig, ...] = ()
+
+
+def backends(names: tuple[str, ...], *when: Fig, **kw: Any) -> tuple[Row, ...]:
+    """A row per backend, labelled with its name."""
+    return tuple(Row(f"`{n}`", n, when=when, **kw) for n in names)
+
+
+@dataclass(frozen=True)
+class Table:
+    """A doc table as data, drawn by calling it on the :class:`Boards`: ``head``, then each
+    row's label and cells (a figure, a :class:`Cell` of several, or text). ``needs``: the
+    suites it waits for; ``empty``: why it waits where no row is shown; ``note``: the
+    paragraph after it."""
+
+    head: tuple[str, ...]
+    rows: tuple[Row, ...]
+    cols: tuple[Cell | Fig | str, ...] = ()
+    suite: str = ""
+    needs: tuple[str, ...] = ()
+    empty: str = ""
+    note: Callable[[Boards], str] | None = None
+
+    def __call__(self, b: Boards) -> str:
+        for suite in self.needs:
+            b.rows(suite)  # the page, or the table is pending
+
+        def text(c: Cell | Fig | str, r: Row) -> str:
+            if isinstance(c, str):
+                return c
+            figs = [self._figure(b, f, r) for f in (c.figs if isinstance(c, Cell) else (c,))]
+            return c.text.format(*figs) if isinstance(c, Cell) and c.text else ", ".join(figs)
+
+        lines = []
+        for r in self.rows:
+            try:
+                for f in r.when:
+                    self._figure(b, f, r)
+            except MissingFigureError:  # not on this version's pages (nor the page itself)
+                continue
+            lines.append(
+                [text(c, r) for c in (r.label, *(self.cols if r.cells is None else r.cells))]
+            )
+        if self.empty and not lines:  # a table of headers alone would read as a broken page
+            raise PendingSuiteError(self.empty)
+        out = _table(list(self.head), lines)
+        return out if self.note is None else out + "\n" + self.note(b) + "\n"
+
+    def _figure(self, b: Boards, f: Fig, r: Row) -> str:
+        suite, name, track = f.suite or r.suite or self.suite, f.name or r.name, f.track or r.track
+        fmt = f.fmt or FORMATS.get(f.key, pct)
+        if isinstance(f, Pair):
+            p = b.pair(suite, name, f.baseline, f.key, track, f.sensor)
+            unit = " deg" if fmt is deg else (" pts" if fmt is pct else "")
+            return _diff(p, unit, f.digits) if f.value == "diff" else fmt(p[f.value])
+        row = b.row(suite, name, track)
+        v = row["n"] if f.key == "n" else row["metrics"].get(f.key)
+        if v is None:
+            raise MissingFigureError(f"leaderboards/{suite}.json: {name!r} has no {f.key}")
+        return fmt(v)
