@@ -142,12 +142,14 @@ def num(v: float, digits: int = 3) -> str:
     return f"{v:.{digits}f}"
 
 
-def _diff(p: dict[str, Any], unit: str, digits: int = 1) -> str:
+def _diff(p: dict[str, Any], unit: str, digits: int = 1, sign: int = 1) -> str:
     """A paired difference with its interval and verdict; ``unit`` `` pts`` for a rate
-    (shown in percentage points), else the value's own unit (`` deg``, or ``""``)."""
-    scale = 100.0 if unit == " pts" else 1.0
-    d, lo, hi = (f"{scale * x:+.{digits}f}" for x in (p["diff"], *p["ci95"]))
-    return f"{d}{unit} [{lo}, {hi}] {verdict_cell(p['verdict'])}"
+    (shown in percentage points), else the value's own unit (`` deg``, or ``""``); ``sign``
+    -1: baseline - method, without the verdict (which reads method - baseline)."""
+    scale = sign * (100.0 if unit == " pts" else 1.0)
+    ci = sorted(scale * x for x in p["ci95"])
+    d, lo, hi = (f"{x:+.{digits}f}" for x in (scale * p["diff"], *ci))
+    return f"{d}{unit} [{lo}, {hi}]" + (f" {verdict_cell(p['verdict'])}" if sign > 0 else "")
 
 
 def _table(head: list[str], rows: list[list[str]]) -> str:
@@ -158,21 +160,25 @@ def _table(head: list[str], rows: list[list[str]]) -> str:
 METHODS = (*in_tree("method"), *sorted(in_tree("baseline")))
 
 
-# a paired difference's format and unit, per metric
-_DIFF_FORMATS: dict[str, tuple[Callable[[float], str], str]] = {
-    "rot_err_deg_mean": (deg, " deg"),
-    "gross_err_rate": (pct, " pts"),
-    "class_acc": (pct, " pts"),
-    "pick_success": (pct, " pts"),
-}
-
-
 # -- a declared table ------------------------------------------------------------------------
-FORMATS: dict[str, Callable[[float], str]] = {
+Fmt = Callable[[float], str]
+FORMATS: dict[str, Fmt] = {
     "rot_err_deg_mean": deg, "rot_err_deg_median": deg, "sample_best_err_deg_mean": deg,
     "sample_spread_deg_mean": deg, "iou_mean": num, "fscore_mean": num, "n": str,
 }  # fmt: skip
 """A figure's format where a cell names none (any other metric: a rate, :func:`pct`)."""
+
+
+def fmt_unit(key: str, fmt: Fmt | None = None) -> tuple[Fmt, str]:
+    """A metric's format (``fmt``, else :data:`FORMATS`') and its paired difference's unit."""
+    fmt = fmt or FORMATS.get(key, pct)
+    return fmt, " deg" if fmt is deg else (" pts" if fmt is pct else "")
+
+
+def _shift(p: dict[str, Any]) -> str:
+    """A paired change in a rate, in points with its interval (``+14.4 [+10.2, +18.4]``)."""
+    lo, hi = p["ci95"]
+    return f"{100 * p['diff']:+.1f} [{100 * lo:+.1f}, {100 * hi:+.1f}]"
 
 
 @dataclass(frozen=True)
@@ -181,7 +187,7 @@ class Fig:
     ``suite`` and ``track``, each left out for the table row's own."""
 
     key: str
-    fmt: Callable[[float], str] | None = None
+    fmt: Fmt | None = None
     suite: str = ""
     name: str = ""
     track: str | None = None
@@ -191,20 +197,23 @@ class Fig:
 class Pair(Fig):
     """The paired entry of ``name`` against ``baseline`` on ``key`` (:meth:`Boards.pair`):
     its difference with interval and verdict (:func:`_diff`, in the metric's unit), or
-    with ``value`` one of its figures (``baseline_value``, ``method_value``, ``items``)."""
+    with ``value`` its ``shift`` (:func:`_shift`) or one of its figures
+    (``baseline_value``, ``method_value``, ``items``); ``sign``: as :func:`_diff`'s."""
 
     baseline: str = ""
     value: str = "diff"
-    digits: int = 1
+    sign: int = 1
     sensor: str | None = None
 
 
 @dataclass(frozen=True)
 class Cell:
-    """A cell: its figures in ``text`` (a format string; none: joined by ``, ``)."""
+    """A cell: its figures in ``text`` (a format string; none: joined by ``, ``), or ``-``
+    where a figure of ``when`` is not on the pages."""
 
     figs: tuple[Fig, ...]
     text: str = ""
+    when: tuple[Fig, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -228,8 +237,8 @@ def backends(names: tuple[str, ...], *when: Fig, **kw: Any) -> tuple[Row, ...]:
 @dataclass(frozen=True)
 class Table:
     """A doc table as data, drawn by calling it on the :class:`Boards`: ``head``, then each
-    row's label and cells (a figure, a :class:`Cell` of several, or text). ``needs``: the
-    suites it waits for; ``empty``: why it waits where no row is shown; ``note``: the
+    row's label and cells (a figure, a :class:`Cell` of several, or text). It waits for its
+    ``suite`` and ``needs``, and with ``empty`` (why) where no row is shown; ``note``: the
     paragraph after it."""
 
     head: tuple[str, ...]
@@ -241,37 +250,43 @@ class Table:
     note: Callable[[Boards], str] | None = None
 
     def __call__(self, b: Boards) -> str:
-        for suite in self.needs:
+        for suite in filter(None, (self.suite, *self.needs)):
             b.rows(suite)  # the page, or the table is pending
 
         def text(c: Cell | Fig | str, r: Row) -> str:
             if isinstance(c, str):
                 return c
-            figs = [self._figure(b, f, r) for f in (c.figs if isinstance(c, Cell) else (c,))]
-            return c.text.format(*figs) if isinstance(c, Cell) and c.text else ", ".join(figs)
+            c = Cell((c,)) if isinstance(c, Fig) else c
+            if not self._has(b, c.when, r):
+                return "-"
+            figs = [self._figure(b, f, r) for f in c.figs]
+            return c.text.format(*figs) if c.text else ", ".join(figs)
 
-        lines = []
-        for r in self.rows:
-            try:
-                for f in r.when:
-                    self._figure(b, f, r)
-            except MissingFigureError:  # not on this version's pages (nor the page itself)
-                continue
-            lines.append(
-                [text(c, r) for c in (r.label, *(self.cols if r.cells is None else r.cells))]
-            )
+        lines = [
+            [text(c, r) for c in (r.label, *(self.cols if r.cells is None else r.cells))]
+            for r in self.rows
+            if self._has(b, r.when, r)
+        ]
         if self.empty and not lines:  # a table of headers alone would read as a broken page
             raise PendingSuiteError(self.empty)
         out = _table(list(self.head), lines)
         return out if self.note is None else out + "\n" + self.note(b) + "\n"
 
+    def _has(self, b: Boards, figs: tuple[Fig, ...], r: Row) -> bool:
+        """Whether the pages have the figures (not on this version's pages, nor the page)."""
+        try:
+            return all(self._figure(b, f, r) for f in figs)  # (no figure reads "")
+        except MissingFigureError:
+            return False
+
     def _figure(self, b: Boards, f: Fig, r: Row) -> str:
         suite, name, track = f.suite or r.suite or self.suite, f.name or r.name, f.track or r.track
-        fmt = f.fmt or FORMATS.get(f.key, pct)
+        fmt, unit = fmt_unit(f.key, f.fmt)
         if isinstance(f, Pair):
             p = b.pair(suite, name, f.baseline, f.key, track, f.sensor)
-            unit = " deg" if fmt is deg else (" pts" if fmt is pct else "")
-            return _diff(p, unit, f.digits) if f.value == "diff" else fmt(p[f.value])
+            if f.value in ("diff", "shift"):
+                return _diff(p, unit, sign=f.sign) if f.value == "diff" else _shift(p)
+            return fmt(p[f.value])
         row = b.row(suite, name, track)
         v = row["n"] if f.key == "n" else row["metrics"].get(f.key)
         if v is None:

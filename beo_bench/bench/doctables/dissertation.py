@@ -29,13 +29,9 @@ from beo_bench.bench.pages.entries import DISSERTATION_MODELNET10
 from beo_bench.bench.pages.tables import confused_pairs
 from beo_bench.bench.suites import get_suite
 
-
-def _pts(v: float) -> str:
-    return f"{100 * v:.1f}"
-
-
-_OOD = (("rot_err_deg_mean", "{:.1f}".format, " deg"), ("gross_err_rate", _pts, "%"),
-        ("class_acc", _pts, "%"), ("iou_mean", num, ""))  # fmt: skip
+_OOD = (("rot_err_deg_mean", "{:.1f}".format, " deg"),
+        *((k, lambda v: f"{100 * v:.1f}", "%") for k in ("gross_err_rate", "class_acc")),
+        ("iou_mean", num, ""))  # fmt: skip
 ood = Table(
     ("backend", "mean rotation error", "> 15 deg", "class accuracy", "IoU"),
     backends(METHODS, Fig("n", suite="pose-3dof-ood")),
@@ -55,7 +51,6 @@ hbeo_detail = Table(
           Fig("edt_err_mean", "{:.0f}".format), Fig("fscore_mean"),
           Fig("ms_per_view_median", "{:.1f}".format)),
     suite="pose-3dof",
-    needs=("pose-3dof",),
 )  # fmt: skip
 """The HBEO family on ``pose-3dof`` (class-free), beside ``icp`` and ``beo``."""
 

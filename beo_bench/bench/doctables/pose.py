@@ -11,7 +11,6 @@ from typing import Any
 
 from beo_bench.bench.columns import spec
 from beo_bench.bench.doctables.boards import (
-    _DIFF_FORMATS,
     METHODS,
     Boards,
     Cell,
@@ -25,6 +24,7 @@ from beo_bench.bench.doctables.boards import (
     _table,
     backends,
     deg,
+    fmt_unit,
     num,
     pct,
 )
@@ -35,20 +35,19 @@ from beo_bench.bench.runs import backend_label
 
 # -- the tables ------------------------------------------------------------------------------
 _POSE = ("rot_err_deg_mean", "gross_err_rate")
-_HEADLINE_COLS = tuple(
-    Cell(tuple(Fig(k, suite=s) for k in keys))
-    for s, keys in (("known-pose", ("class_acc", "iou_mean")), ("pose-1dof", _POSE),
-                    ("pose-3dof", (*_POSE, "class_acc")), ("tabletop", (*_POSE, "class_acc")))
-)  # fmt: skip
-_PICK = Fig("pick_success", suite="pick")
 HEADLINE_CELLS: tuple[tuple[str, str | None, tuple[str, ...]], ...] = (
     ("known-pose", None, ("class_acc",)),
-    ("pose-1dof", "class-free", ("rot_err_deg_mean", "gross_err_rate")),
-    ("pose-3dof", "class-free", ("rot_err_deg_mean", "gross_err_rate", "class_acc")),
-    ("tabletop", None, ("rot_err_deg_mean", "gross_err_rate", "class_acc")),
+    ("pose-1dof", "class-free", _POSE),
+    ("pose-3dof", "class-free", (*_POSE, "class_acc")),
+    ("tabletop", None, (*_POSE, "class_acc")),
     ("pick", None, ("pick_success",)),
 )
-"""The headline's figures, by (suite, track, metrics)."""
+"""The headline's figures, by (suite, track, metrics), which its note pairs."""
+# the headline's cells: those figures, the IoU beside the class at a known pose (not paired)
+_HEADLINE_COLS = tuple(
+    Cell(tuple(Fig(k, suite=s) for k in keys + ("iou_mean",) * (s == "known-pose")))
+    for s, _, keys in HEADLINE_CELLS
+)
 
 
 def modes_note(b: Boards) -> str:
@@ -60,14 +59,13 @@ def modes_note(b: Boards) -> str:
     same, found, loose = 0, [], []
     for suite, track, keys in HEADLINE_CELLS:
         for key in keys:
-            fmt_unit = _DIFF_FORMATS.get(key)
             try:
                 got = b.primary(suite, Primary(post, lik, key, track, ""))
                 p = got if got is not None else b.pair(suite, post, lik, key, track)
             except MissingFigureError:  # the page, or the pair on it, is not there (yet)
                 continue
             what = f"`{suite}` {spec(key).label}"
-            diff = _diff(p, fmt_unit[1]) if fmt_unit else p["verdict"]
+            diff = _diff(p, fmt_unit(key)[1])
             if p["verdict"] == "no difference":
                 same += 1
             elif got is not None:
@@ -94,9 +92,10 @@ headline = Table(
     ("backend", "`known-pose` class acc., IoU", "`pose-1dof` mean, > 15 deg",
      "`pose-3dof` mean, > 15 deg, class acc.", "`tabletop` mean, > 15 deg, class acc.",
      "`pick` success"),
-    (*backends((*METHODS, "random"), cells=(*_HEADLINE_COLS, _PICK)),
-     Row("`oracle`", "oracle", cells=(*_HEADLINE_COLS, Cell(
-         (_PICK, replace(_PICK, name="oracle (mesh=false)")), "{} ({} planning on its voxels)")))),
+    (*backends((*METHODS, "random"), cells=_HEADLINE_COLS),
+     Row("`oracle`", "oracle", cells=(*_HEADLINE_COLS[:-1], Cell(
+         (*_HEADLINE_COLS[-1].figs, Fig("pick_success", suite="pick", name="oracle (mesh=false)")),
+         "{} ({} planning on its voxels)")))),
     note=modes_note,
 )  # fmt: skip
 """Every backend on every suite (the pose suites' class-free track)."""
@@ -282,57 +281,40 @@ def options_of(opts: dict[str, Any]) -> str:
     return ",".join(f"{k}={str(v).lower() if isinstance(v, bool) else v}" for k, v in opts.items())
 
 
-def swap(b: Boards) -> str:
-    """Where each backend's pick gap comes from: one estimated component swapped for the truth."""
-    head = ["backend", "pick success", "true class", "true pose and size", "true shape",
-            "oracle on voxels"]  # fmt: skip
-    voxels = pct(b.metric("pick", "oracle (mesh=false)", "pick_success"))
-    rows = []
-    for base in ("hbeo", "hbeo-mdn-posterior", "icp"):
-        cells = [pct(b.metric("pick", base, "pick_success"))]
-        for truth in ("class", "pose", "shape"):
-            name = f'swap (base="{base}", truth="{truth}")'
-            # a swap not run at this suite version (the backend's own row is): "-", as the
-            # page has no row of it; the prose beside the table says which
-            if not b.has("pick", name):
-                cells.append("-")
-                continue
-            shift = _shift(b.pair("pick", name, base, "pick_success", None))
-            cells.append(f"{pct(b.metric('pick', name, 'pick_success'))} ({shift})")
-        rows.append([f"`{base}`", *cells, voxels])
-    return _table(head, rows)
-
-
-def _shift(p: dict[str, Any]) -> str:
-    """A paired change in a rate, in points with its interval (``+14.4 [+10.2, +18.4]``)."""
-    lo, hi = p["ci95"]
-    return f"{100 * p['diff']:+.1f} [{100 * lo:+.1f}, {100 * hi:+.1f}]"
+_SWAP_BASES = ("hbeo", "hbeo-mdn-posterior", "icp")
+swap = Table(
+    ("backend", "pick success", "true class", "true pose and size", "true shape",
+     "oracle on voxels"),
+    tuple(Row(f"`{base}`", base, cells=(
+        Fig("pick_success"),
+        # a swap not run at this suite version (the backend's own row is): "-", as the page
+        # has no row of it; the prose beside the table says which
+        *(Cell((Fig("pick_success", name=sw), Pair("pick_success", name=sw, baseline=base,
+                                                   value="shift")), "{} ({})", (Fig("n", name=sw),))
+          for sw in (f'swap (base="{base}", truth="{t}")' for t in ("class", "pose", "shape"))),
+        Fig("pick_success", name="oracle (mesh=false)"))) for base in _SWAP_BASES),
+    suite="pick",
+)  # fmt: skip
+"""Where each backend's pick gap comes from: one estimated component swapped for the truth."""
 
 
 REST_PRIOR_SENSOR = "ideal"
 """The sensor the rest prior's tabletop controls ran under (the campaign block's line)."""
 
 
-def rest_prior(b: Boards) -> str:
-    """``tabletop``: each method that takes the rest prior against itself without it
-    (``pose_prior=false``), paired on the scenes both scored, under :data:`REST_PRIOR_SENSOR`."""
-    head = ["backend", "scenes", "rot. error mean, with -> without", "> 15 deg", "class acc.",
-            "with - without, mean [95%]"]  # fmt: skip
-    rows = []
-    for name in ("beo", "icp", "icp-plain"):
-        control = f"{name} (pose_prior=false)"
-        pairs = [
-            b.pair("tabletop", control, name, k, None, REST_PRIOR_SENSOR)
-            for k in ("rot_err_deg_mean", "gross_err_rate", "class_acc")
-        ]
-        rot, gross, acc = pairs
-        lo, hi = rot["ci95"]
-        rows.append([
-            f"`{name}`", str(rot["items"]),
-            f"{deg(rot['baseline_value'])} -> {deg(rot['method_value'])}",
-            f"{pct(gross['baseline_value'])} -> {pct(gross['method_value'])}",
-            f"{pct(acc['baseline_value'])} -> {pct(acc['method_value'])}",
-            # the table's direction is with - without: the ablation's, negated
-            f"{-rot['diff']:+.1f} deg [{-hi:+.1f}, {-lo:+.1f}]",
-        ])  # fmt: skip
-    return _table(head, rows)
+_REST = tuple(
+    Row(f"`{n}`", f"{n} (pose_prior=false)", cells=(
+        Pair("rot_err_deg_mean", str, baseline=n, value="items", sensor=REST_PRIOR_SENSOR),
+        *(Cell(tuple(Pair(k, baseline=n, value=v, sensor=REST_PRIOR_SENSOR)
+                     for v in ("baseline_value", "method_value")), "{} -> {}")
+          for k in ("rot_err_deg_mean", "gross_err_rate", "class_acc")),
+        # the table's direction is with - without: the ablation's, negated
+        Pair("rot_err_deg_mean", baseline=n, sign=-1, sensor=REST_PRIOR_SENSOR)))
+    for n in ("beo", "icp", "icp-plain")
+)  # fmt: skip
+rest_prior = Table(
+    ("backend", "scenes", "rot. error mean, with -> without", "> 15 deg", "class acc.",
+     "with - without, mean [95%]"), _REST, suite="tabletop",
+)  # fmt: skip
+"""``tabletop``: each method that takes the rest prior against itself without it
+(``pose_prior=false``), paired on the scenes both scored, under :data:`REST_PRIOR_SENSOR`."""
