@@ -183,14 +183,16 @@ def _shift(p: dict[str, Any]) -> str:
 
 @dataclass(frozen=True)
 class Fig:
-    """A metric of one leaderboard row (``n``: its items) in ``fmt``: the row of ``name`` on
-    ``suite`` and ``track``, each left out for the table row's own."""
+    """A metric of one leaderboard row (``n``: its items) in ``fmt`` (``value`` ``ci``: with
+    its 95% interval, a rate's): the row of ``name`` on ``suite`` and ``track``, each left
+    out for the table row's own."""
 
     key: str
     fmt: Fmt | None = None
     suite: str = ""
     name: str = ""
     track: str | None = None
+    value: str = ""
 
 
 @dataclass(frozen=True)
@@ -291,4 +293,5 @@ class Table:
         v = row["n"] if f.key == "n" else row["metrics"].get(f.key)
         if v is None:
             raise MissingFigureError(f"leaderboards/{suite}.json: {name!r} has no {f.key}")
-        return fmt(v)
+        lo, hi = row["ci95"][f.key] if f.value == "ci" else (None, None)
+        return fmt(v) if lo is None else f"{fmt(v)} [{100 * lo:.1f}, {100 * hi:.1f}]"
