@@ -175,6 +175,12 @@ def fmt_unit(key: str, fmt: Fmt | None = None) -> tuple[Fmt, str]:
     return fmt, " deg" if fmt is deg else (" pts" if fmt is pct else "")
 
 
+def with_ci(row: dict[str, Any], key: str, fmt: Fmt = pct) -> str:
+    """A row's rate with its 95% interval, in points (``81.8% [78.1, 85.2]``)."""
+    lo, hi = row["ci95"][key]
+    return f"{fmt(row['metrics'][key])} [{100 * lo:.1f}, {100 * hi:.1f}]"
+
+
 def _shift(p: dict[str, Any]) -> str:
     """A paired change in a rate, in points with its interval (``+14.4 [+10.2, +18.4]``)."""
     lo, hi = p["ci95"]
@@ -293,5 +299,4 @@ class Table:
         v = row["n"] if f.key == "n" else row["metrics"].get(f.key)
         if v is None:
             raise MissingFigureError(f"leaderboards/{suite}.json: {name!r} has no {f.key}")
-        lo, hi = row["ci95"][f.key] if f.value == "ci" else (None, None)
-        return fmt(v) if lo is None else f"{fmt(v)} [{100 * lo:.1f}, {100 * hi:.1f}]"
+        return with_ci(row, f.key, fmt) if f.value == "ci" else fmt(v)

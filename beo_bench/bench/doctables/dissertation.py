@@ -24,6 +24,7 @@ from beo_bench.bench.doctables.boards import (
     deg,
     num,
     pct,
+    with_ci,
 )
 from beo_bench.bench.pages.entries import DISSERTATION_MODELNET10
 from beo_bench.bench.pages.tables import confused_pairs
@@ -145,12 +146,6 @@ class accuracy of BEO at a known pose and at 1-DOF (Table 3.1's two rows), then 
 per-class figures in :data:`beo_bench.bench.pages.entries.DISSERTATION_MODELNET10`)."""
 
 
-def _acc_ci(b: Boards, suite: str, name: str) -> str:
-    row = b.row(suite, name)
-    lo, hi = row["ci95"]["class_acc"]
-    return f"{pct(row['metrics']['class_acc'])} [{100 * lo:.1f}, {100 * hi:.1f}]"
-
-
 def _unpaired(b: Boards, a: tuple[str, str], c: tuple[str, str]) -> tuple[str, str]:
     """Class accuracy of run ``a`` against run ``c`` ((suite, backend); other items, or no
     pairing committed: not paired): both, their difference and a 95% interval from the two
@@ -178,9 +173,8 @@ def modelnet10(b: Boards) -> str:
     for name in (*METHODS, "random"):
         if not any(b.has(s, name) for s in suites):
             continue
-        rows.append(
-            [f"`{name}`", *(_acc_ci(b, s, name) if b.has(s, name) else "-" for s in suites)]
-        )
+        cells = [with_ci(b.row(s, name), "class_acc") if b.has(s, name) else "-" for s in suites]
+        rows.append([f"`{name}`", *cells])
     if len(rows) == 1:  # a campaign suite by suite: partial once one of them is there
         raise PendingSuiteError(f"none of {', '.join(suites)} is in leaderboards/")
     # chapter 4's comparison, paired on the same views (the leaderboard's hbeo - beo pair):
@@ -212,7 +206,7 @@ def modelnet10_viewpoints(b: Boards) -> str:
     missing = [s for s in suites if not (b.root / f"{s}.json").is_file()]
     rows = []
     for name in (*METHODS, "random"):
-        cells = [_acc_ci(b, s, name) if b.has(s, name) else "-" for s in suites]
+        cells = [with_ci(b.row(s, name), "class_acc") if b.has(s, name) else "-" for s in suites]
         if any(c != "-" for c in cells):
             rows.append([f"`{name}`", *cells])
     if missing or not rows:
