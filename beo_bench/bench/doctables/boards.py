@@ -170,7 +170,7 @@ FORMATS: dict[str, Fmt] = {
 
 
 def fmt_unit(key: str, fmt: Fmt | None = None) -> tuple[Fmt, str]:
-    """A metric's format (``fmt``, else :data:`FORMATS`') and its paired difference's unit."""
+    """A metric's format (``fmt``, else :data:`FORMATS`'s) and its paired difference's unit."""
     fmt = fmt or FORMATS.get(key, pct)
     return fmt, " deg" if fmt is deg else (" pts" if fmt is pct else "")
 
