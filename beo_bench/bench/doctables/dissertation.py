@@ -5,81 +5,55 @@ figures against ours, the ModelNet10 tables and the published networks.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
 from beo_bench.bench.doctables.boards import (
     METHODS,
     Boards,
+    Cell,
+    Fig,
     MissingFigureError,
     PendingSuiteError,
+    Row,
+    Table,
     _diff,
     _table,
+    backends,
     deg,
     num,
     pct,
+    with_ci,
 )
 from beo_bench.bench.pages.entries import DISSERTATION_MODELNET10
 from beo_bench.bench.pages.tables import confused_pairs
 from beo_bench.bench.suites import get_suite
 
+_OOD = (("rot_err_deg_mean", "{:.1f}".format, " deg"),
+        *((k, lambda v: f"{100 * v:.1f}", "%") for k in ("gross_err_rate", "class_acc")),
+        ("iou_mean", num, ""))  # fmt: skip
+ood = Table(
+    ("backend", "mean rotation error", "> 15 deg", "class accuracy", "IoU"),
+    backends(METHODS, Fig("n", suite="pose-3dof-ood")),
+    cols=tuple(Cell((Fig(k, f, "pose-3dof"), Fig(k, f, "pose-3dof-ood")), f"{{}} -> {{}}{u}")
+               for k, f, u in _OOD),
+    needs=("pose-3dof", "pose-3dof-ood"),
+)  # fmt: skip
+"""Each backend in (``pose-3dof``) and out of distribution (``pose-3dof-ood``)."""
 
-def ood(b: Boards) -> str:
-    """Each backend in (``pose-3dof``) and out of distribution (``pose-3dof-ood``)."""
-    head = ["backend", "mean rotation error", "> 15 deg", "class accuracy", "IoU"]
-    for suite in ("pose-3dof", "pose-3dof-ood"):
-        b.rows(suite)  # both pages, or the table is pending
-    rows = []
-    for name in METHODS:
-        if not b.has("pose-3dof-ood", name):
-            continue
-        cells = []
-        for key, fmt in (
-            ("rot_err_deg_mean", lambda v: f"{v:.1f}"),
-            ("gross_err_rate", lambda v: f"{100 * v:.1f}"),
-            ("class_acc", lambda v: f"{100 * v:.1f}"),
-            ("iou_mean", num),
-        ):
-            a, o = b.metric("pose-3dof", name, key), b.metric("pose-3dof-ood", name, key)
-            unit = " deg" if key == "rot_err_deg_mean" else ("" if key == "iou_mean" else "%")
-            cells.append(f"{fmt(a)} -> {fmt(o)}{unit}")
-        rows.append([f"`{name}`", *cells])
-    return _table(head, rows)
-
-
-def hbeo_detail(b: Boards) -> str:
-    """The HBEO family on ``pose-3dof`` (class-free), beside ``icp`` and ``beo``."""
-    head = ["`pose-3dof`, class-free", "mean rot. error", "> 15 deg", "class acc.", "IoU",
-            "EDT error", "F-score", "ms/view in the runner"]  # fmt: skip
-    rows = []
-    names = [
-        "hbeo",
-        *(f"hbeo-mdn-{m}{o}" for m in ("likelihood", "posterior")
-          for o in (" (samples=5)", "", " (samples=100)")),
-        "icp",
-        "beo",
-    ]  # fmt: skip
-    b.rows("pose-3dof")  # the page, or the table is pending
-    for name in names:
-        if not b.has("pose-3dof", name):
-            continue
-
-        def m(key: str, name: str = name) -> float:
-            return b.metric("pose-3dof", name, key)
-
-        rows.append(
-            [
-                f"`{name}`",
-                deg(m("rot_err_deg_mean")),
-                pct(m("gross_err_rate")),
-                pct(m("class_acc")),
-                num(m("iou_mean")),
-                f"{m('edt_err_mean'):.0f}",
-                num(m("fscore_mean")),
-                f"{m('ms_per_view_median'):.1f}",
-            ]
-        )
-    return _table(head, rows)
+_MDN = tuple(f"hbeo-mdn-{m}{o}" for m in ("likelihood", "posterior")
+             for o in (" (samples=5)", "", " (samples=100)"))  # fmt: skip
+hbeo_detail = Table(
+    ("`pose-3dof`, class-free", "mean rot. error", "> 15 deg", "class acc.", "IoU",
+     "EDT error", "F-score", "ms/view in the runner"),
+    backends(("hbeo", *_MDN, "icp", "beo"), Fig("n")),
+    cols=(*(Fig(k) for k in ("rot_err_deg_mean", "gross_err_rate", "class_acc", "iou_mean")),
+          Fig("edt_err_mean", "{:.0f}".format), Fig("fscore_mean"),
+          Fig("ms_per_view_median", "{:.1f}".format)),
+    suite="pose-3dof",
+)  # fmt: skip
+"""The HBEO family on ``pose-3dof`` (class-free), beside ``icp`` and ``beo``."""
 
 
 def dissertation(b: Boards) -> str:
@@ -172,12 +146,6 @@ class accuracy of BEO at a known pose and at 1-DOF (Table 3.1's two rows), then 
 per-class figures in :data:`beo_bench.bench.pages.entries.DISSERTATION_MODELNET10`)."""
 
 
-def _acc_ci(b: Boards, suite: str, name: str) -> str:
-    row = b.row(suite, name)
-    lo, hi = row["ci95"]["class_acc"]
-    return f"{pct(row['metrics']['class_acc'])} [{100 * lo:.1f}, {100 * hi:.1f}]"
-
-
 def _unpaired(b: Boards, a: tuple[str, str], c: tuple[str, str]) -> tuple[str, str]:
     """Class accuracy of run ``a`` against run ``c`` ((suite, backend); other items, or no
     pairing committed: not paired): both, their difference and a 95% interval from the two
@@ -205,9 +173,8 @@ def modelnet10(b: Boards) -> str:
     for name in (*METHODS, "random"):
         if not any(b.has(s, name) for s in suites):
             continue
-        rows.append(
-            [f"`{name}`", *(_acc_ci(b, s, name) if b.has(s, name) else "-" for s in suites)]
-        )
+        cells = [with_ci(b.row(s, name), "class_acc") if b.has(s, name) else "-" for s in suites]
+        rows.append([f"`{name}`", *cells])
     if len(rows) == 1:  # a campaign suite by suite: partial once one of them is there
         raise PendingSuiteError(f"none of {', '.join(suites)} is in leaderboards/")
     # chapter 4's comparison, paired on the same views (the leaderboard's hbeo - beo pair):
@@ -239,7 +206,7 @@ def modelnet10_viewpoints(b: Boards) -> str:
     missing = [s for s in suites if not (b.root / f"{s}.json").is_file()]
     rows = []
     for name in (*METHODS, "random"):
-        cells = [_acc_ci(b, s, name) if b.has(s, name) else "-" for s in suites]
+        cells = [with_ci(b.row(s, name), "class_acc") if b.has(s, name) else "-" for s in suites]
         if any(c != "-" for c in cells):
             rows.append([f"`{name}`", *cells])
     if missing or not rows:
@@ -247,22 +214,17 @@ def modelnet10_viewpoints(b: Boards) -> str:
     return _table(["backend", *(f"`{s}`" for s in suites)], rows)
 
 
-def modelnet10_headroom(b: Boards) -> str:
-    """Issue 28's headroom on ``modelnet10-3dof`` (class-free): every method's class
-    accuracy under the cap. The dissertation's orderings on the suite are in the
-    ``orderings`` table, which reports each as it comes out rather than requiring it."""
-    suite = "modelnet10-3dof"
-    head = ["check", "figures", "verdict"]
-    rows = []
-    for name in METHODS:
-        if not b.has(suite, name):
-            continue
-        acc = b.metric(suite, name, "class_acc")
-        ok = "holds" if acc <= HEADROOM_CAP else "**fails**"
-        rows.append([f"`{name}` class accuracy <= 97%", _acc_ci(b, suite, name), ok])
-    if not rows:
-        raise PendingSuiteError(f"leaderboards/{suite}.json has no method's row")
-    return _table(head, rows)
+modelnet10_headroom = Table(
+    ("check", "figures", "verdict"),
+    tuple(Row(f"`{n}` class accuracy <= 97%", n, when=(Fig("n"),), cells=(
+        Fig("class_acc", value="ci"), Fig("class_acc", lambda v: "holds" if v <= HEADROOM_CAP
+                                          else "**fails**"))) for n in METHODS),
+    suite="modelnet10-3dof",
+    empty="leaderboards/modelnet10-3dof.json has no method's row",
+)  # fmt: skip
+"""Issue 28's headroom on ``modelnet10-3dof`` (class-free): every method's class accuracy
+under the cap. The dissertation's orderings on the suite are in the ``orderings`` table,
+which reports each as it comes out rather than requiring it."""
 
 
 def modelnet10_chapter4(b: Boards) -> str:
@@ -307,81 +269,60 @@ def modelnet10_chapter4(b: Boards) -> str:
     )
 
 
-def beo_figures(b: Boards) -> str:
-    """``beo`` and ``icp`` on the isolated suites, with the dissertation's figures."""
-
-    def t(ms: float) -> str:
-        return f"{ms / 1000:.2f} s" if ms >= 1000 else f"{ms:.0f} ms"
-
-    def both(suite: str, key: str, fmt: Callable[[float], str]) -> list[str]:
-        return [
-            " / ".join(fmt(b.metric(suite, n, key, tr)) for tr in ("class-given", "class-free"))
-            for n in ("beo", "icp")
-        ]
-
-    def pose(suite: str, track: str, with_class: bool) -> list[str]:
-        out = []
-        for n in ("beo", "icp"):
-            m = b.row(suite, n, track)["metrics"]
-            cell = f"{m['rot_err_deg_mean']:.1f} / {deg(m['rot_err_deg_median'])}, "
-            cell += pct(m["gross_err_rate"])
-            if with_class:
-                cell += f", {pct(m['class_acc'])}"
-            out.append(cell)
-        return out
-
-    kp = [
-        f"{pct(b.metric('known-pose', n, 'class_acc'))}, "
-        f"{num(b.metric('known-pose', n, 'iou_mean'))}"
-        for n in ("beo", "icp")
-    ]
-    rows = [
-        ["known-pose: median per view", *(t(b.metric("known-pose", n, "ms_per_view_median"))
-                                          for n in ("beo", "icp")), "1.13 s"],
-        ["pose-1dof: median per view, class given / class-free",
-         *both("pose-1dof", "ms_per_view_median", t), "672.97 s"],
-        ["pose-3dof: median per view, class given / class-free",
-         *both("pose-3dof", "ms_per_view_median", t), "3529.88 s"],
-        ["known-pose: class accuracy, IoU", kp[0], kp[1] + " (mean shape)", "76.3% (ModelNet10)"],
-        ["pose-1dof, class given: rotation error mean / median, > 15 deg",
-         *pose("pose-1dof", "class-given", False), "n/a"],
-        ["pose-1dof, class-free: mean / median, > 15 deg, class accuracy",
-         *pose("pose-1dof", "class-free", True), "n/a"],
-        ["pose-3dof, class given: mean / median, > 15 deg",
-         *pose("pose-3dof", "class-given", False), "n/a"],
-        ["pose-3dof, class-free: mean / median, > 15 deg, class accuracy",
-         *pose("pose-3dof", "class-free", True), "n/a"],
-    ]  # fmt: skip
-    return _table(["figure", "`beo`", "`icp`", "dissertation"], rows)
+def _t(ms: float) -> str:
+    return f"{ms / 1000:.2f} s" if ms >= 1000 else f"{ms:.0f} ms"
 
 
-def ref_accuracy(b: Boards) -> str:
-    """The published networks on ``pose-3dof`` (class-free) beside the dissertation's car."""
-    rows = []
-    for name, what in (
-        ("hbeo", "`hbeo` (published)"),
-        ("hbeo-mdn-likelihood", "`hbeo-mdn-likelihood` N=25 (published)"),
-        ("hbeo-mdn-posterior", "`hbeo-mdn-posterior` N=25 (published)"),
-    ):
-        m = b.row("pose-3dof", name)["metrics"]
-        rows.append(
-            [what, deg(m["rot_err_deg_mean"]), pct(m["gross_err_rate"]), pct(m["class_acc"]),
-             num(m["iou_mean"])]
-        )  # fmt: skip
-    rows.append(["dissertation, HBEO (car; Tables 4.1, 5.1, 5.2)", "9.45 deg", "6.87%",
-                 "81.8% (3-DOF, Table 4.1)", ""])  # fmt: skip
-    rows.append(["dissertation, MDN posterior N=100 (car)", "3.23 deg", "0.93%", "", ""])
-    return _table(["network", "mean rot. error", "> 15 deg", "class acc.", "IoU"], rows)
+def _beo_icp(label: str, theirs: str, text: str, *figs: Fig, icp: str = "") -> Row:
+    """A row of ``beo``'s and ``icp``'s figures in ``text`` (``icp``'s own if given)."""
+    ours = (Cell(tuple(replace(f, name=n) for f in figs), t) for n, t in
+            (("beo", text), ("icp", icp or text)))  # fmt: skip
+    return Row(label, cells=(*ours, theirs))
 
 
-def pick_models(b: Boards) -> str:
-    """``pick`` success of the published networks, and with one component swapped in."""
-    rows = [[f"`{n}`", pct(b.metric("pick", n, "pick_success"))] for n in METHODS[1:4]]
-    for base in ("hbeo-mdn-posterior", "hbeo"):
-        rates = [
-            pct(b.metric("pick", f'swap (base="{base}", truth="{t}")', "pick_success"))
-            for t in ("class", "pose", "shape")
-        ]
-        rows.append([f"`swap:base={base}`, true class / pose / shape", " / ".join(rates)])
-    rows.append(["`oracle` (the truth)", pct(b.metric("pick", "oracle", "pick_success"))])
-    return _table(["backend", "pick success"], rows)
+_MS, _CG, _CF = "ms_per_view_median", "class-given", "class-free"
+beo_figures = Table(("figure", "`beo`", "`icp`", "dissertation"), (
+    _beo_icp("known-pose: median per view", "1.13 s", "", Fig(_MS, _t, "known-pose")),
+    *(_beo_icp(f"{s}: median per view, class given / class-free", theirs, "{} / {}",
+               Fig(_MS, _t, s, track=_CG), Fig(_MS, _t, s, track=_CF))
+      for s, theirs in (("pose-1dof", "672.97 s"), ("pose-3dof", "3529.88 s"))),
+    _beo_icp("known-pose: class accuracy, IoU", "76.3% (ModelNet10)", "",
+             Fig("class_acc", suite="known-pose"), Fig("iou_mean", suite="known-pose"),
+             icp="{}, {} (mean shape)"),
+    *(_beo_icp(label, "n/a", "{} / {}, {}" + ", {}" * (t == _CF),
+               Fig("rot_err_deg_mean", "{:.1f}".format, s, track=t),
+               *(Fig(k, suite=s, track=t) for k in ("rot_err_deg_median", "gross_err_rate")),
+               *(Fig("class_acc", suite=s, track=t),) * (t == _CF))
+      for label, s, t in (
+        ("pose-1dof, class given: rotation error mean / median, > 15 deg", "pose-1dof", _CG),
+        ("pose-1dof, class-free: mean / median, > 15 deg, class accuracy", "pose-1dof", _CF),
+        ("pose-3dof, class given: mean / median, > 15 deg", "pose-3dof", _CG),
+        ("pose-3dof, class-free: mean / median, > 15 deg, class accuracy", "pose-3dof", _CF))),
+))  # fmt: skip
+"""``beo`` and ``icp`` on the isolated suites, with the dissertation's figures."""
+
+
+ref_accuracy = Table(
+    ("network", "mean rot. error", "> 15 deg", "class acc.", "IoU"),
+    (Row("`hbeo` (published)", "hbeo"),
+     *(Row(f"`{n}` N=25 (published)", n) for n in ("hbeo-mdn-likelihood", "hbeo-mdn-posterior")),
+     Row("dissertation, HBEO (car; Tables 4.1, 5.1, 5.2)",
+         cells=("9.45 deg", "6.87%", "81.8% (3-DOF, Table 4.1)", "")),
+     Row("dissertation, MDN posterior N=100 (car)", cells=("3.23 deg", "0.93%", "", ""))),
+    cols=tuple(Fig(k) for k in ("rot_err_deg_mean", "gross_err_rate", "class_acc", "iou_mean")),
+    suite="pose-3dof",
+)  # fmt: skip
+"""The published networks on ``pose-3dof`` (class-free) beside the dissertation's car."""
+
+pick_models = Table(
+    ("backend", "pick success"),
+    (*backends(METHODS[1:4]),
+     *(Row(f"`swap:base={base}`, true class / pose / shape", cells=(Cell(tuple(
+         Fig("pick_success", name=f'swap (base="{base}", truth="{t}")')
+         for t in ("class", "pose", "shape")), "{} / {} / {}"),))
+       for base in ("hbeo-mdn-posterior", "hbeo")),
+     Row("`oracle` (the truth)", "oracle")),
+    cols=(Fig("pick_success"),),
+    suite="pick",
+)  # fmt: skip
+"""``pick`` success of the published networks, and with one component swapped in."""

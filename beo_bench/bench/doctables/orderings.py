@@ -10,12 +10,12 @@ import numpy as np
 
 from beo_bench.bench.columns import markdown_table, spec
 from beo_bench.bench.doctables.boards import (
-    _DIFF_FORMATS,
     Boards,
     MissingFigureError,
     PendingSuiteError,
     _diff,
     _table,
+    fmt_unit,
 )
 from beo_bench.bench.doctables.dissertation import _unpaired
 from beo_bench.bench.pages.verdicts import (
@@ -87,7 +87,7 @@ def _paired_check(b: Boards, suite: str, pc: Primary) -> tuple[str, str]:
     primary comparison where the page has it, else the page's paired interval
     (uncorrected), else (class accuracy, no pairing committed) the two rows' intervals,
     unpaired."""
-    fmt, unit = _DIFF_FORMATS[pc.metric]
+    fmt, unit = fmt_unit(pc.metric)
     got = b.primary(suite, pc)
     if got is not None:
         figures = f"{fmt(got['method_value'])} vs {fmt(got['baseline_value'])}: "

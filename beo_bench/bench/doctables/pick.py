@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 
 from beo_bench.bench.columns import verdict_cell
-from beo_bench.bench.doctables.boards import Boards, PendingSuiteError, _diff, _table, pct
-from beo_bench.bench.doctables.pose import _shift, options_of
+from beo_bench.bench.doctables.boards import Boards, PendingSuiteError, _diff, _shift, _table, pct
+from beo_bench.bench.doctables.pose import options_of
 from beo_bench.bench.pages.entries import BOUNDS
 from beo_bench.bench.pages.pick import ROBUST_PAIRS
 from beo_bench.bench.pages.plots import ERROR_BINS, error_bins, found_target_episodes
