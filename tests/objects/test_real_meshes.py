@@ -16,6 +16,7 @@ from PIL import Image
 
 from beo_bench.errors import MeshLoadError, NonFiniteMeshError, TruncatedMeshError
 from beo_bench.objects.datasets import open_dataset
+from beo_bench.objects.datasets.meshfile import read_mesh
 from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.processing import MAX_FACES, repair, simplify, voxelize
 
@@ -224,6 +225,35 @@ def test_truncated_obj_is_refused_in_every_repair_mode(tmp_path: Path) -> None:
             with pytest.raises(TruncatedMeshError, match=re.escape(name) + ".*truncated"):
                 _ = inst.mesh
     assert _load_one(folder / "no_newline.obj", tmp_path / "data").mesh.is_watertight
+
+
+def test_truncated_stl_is_named_truncated_not_a_parse_or_module_error(tmp_path: Path) -> None:
+    """A cut binary STL was read as text and refused as having no faces (or, without
+    charset-normalizer, as a missing module); a cut text STL lacks its endsolid line."""
+    folder = tmp_path / "data" / "thing"
+    folder.mkdir(parents=True)
+    ball = trimesh.creation.icosphere(radius=0.05)
+    binary = ball.export(file_type="stl")
+    text = trimesh.exchange.stl.export_stl_ascii(ball).encode()
+    (folder / "cut.stl").write_bytes(binary[: len(binary) // 2 + 7])
+    (folder / "header.stl").write_bytes(binary[:40])
+    (folder / "cut_text.stl").write_bytes(text[: len(text) // 2])
+    (folder / "whole.stl").write_bytes(binary)
+    (folder / "whole_text.stl").write_bytes(text)
+    n = len(ball.faces)
+    expected = {
+        "cut.stl": f"declares {n:,} triangles ({84 + 50 * n:,} bytes) but it has "
+        f"{len(binary) // 2 + 7:,} bytes",
+        "header.stl": "84-byte header and this file has 40 bytes",
+        "cut_text.stl": "a text STL ends with an endsolid line",
+    }
+    for name, why in expected.items():
+        with pytest.raises(TruncatedMeshError, match=re.escape(name) + ": the file is trunc"):
+            read_mesh(folder / name)
+        with pytest.raises(TruncatedMeshError, match=re.escape(why)):
+            read_mesh(folder / name)
+    for name in ("whole.stl", "whole_text.stl"):
+        assert len(read_mesh(folder / name).faces) == n
 
 
 def test_objectset_check_reports_every_bad_file_at_load_time(tmp_path: Path) -> None:

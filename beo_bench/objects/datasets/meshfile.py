@@ -315,7 +315,8 @@ def read_mesh(path: str | Path, max_faces: int | None = None) -> trimesh.Trimesh
     Raises, each naming the file: :class:`~beo_bench.errors.MeshLoadError` for a missing,
     unreadable or unparseable file; :class:`~beo_bench.errors.NonFiniteMeshError` for NaN
     or infinite coordinates; :class:`~beo_bench.errors.TruncatedMeshError` for an OBJ that
-    was cut off (its last line is incomplete, or unterminated while the surface is open);
+    was cut off (its last line is incomplete, or unterminated while the surface is open) or
+    an STL (shorter than its header's triangle count, or a text one without ``endsolid``);
     :class:`~beo_bench.errors.EmptyMeshError` for one without faces;
     :class:`~beo_bench.errors.TooManyFacesError` for one with more than ``max_faces``
     faces (None: no budget), counted before parsing where the format allows
@@ -340,6 +341,8 @@ def read_mesh(path: str | Path, max_faces: int | None = None) -> trimesh.Trimesh
     cut = _obj_unterminated_line(data) if suffix == ".obj" else None
     if cut is not None and not _obj_line_ok(cut):
         _raise_truncated(p, cut, "which is incomplete")
+    if suffix == ".stl":
+        _check_stl_length(p, data)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # e.g. missing texture images: irrelevant here
@@ -404,7 +407,7 @@ def count_faces(data: bytes, suffix: str) -> int | None:
     if suffix == ".obj":
         return len(_OBJ_FACE.findall(data))
     if suffix == ".stl":
-        if data[:5].lower() == b"solid" and b"endfacet" in data[:4096]:
+        if _stl_is_text(data):
             return data.count(b"endfacet")
         if len(data) >= 84:
             n = int.from_bytes(data[80:84], "little")
@@ -445,6 +448,43 @@ def _raise_truncated(p: Path, tokens: list[bytes], why: str) -> NoReturn:
         f"{p}: the file is truncated: it ends in the middle of a line ({shown!r}, {why}); "
         f"re-download or re-export it (a complete file ends with a line break)"
     )
+
+
+def _stl_is_text(data: bytes) -> bool:
+    """Whether STL bytes are the text form (binary files may also start with ``solid``:
+    some exporters write it into the 80-byte header, so a facet must follow)."""
+    return data[:5].lower() == b"solid" and b"endfacet" in data[:4096]
+
+
+def _check_stl_length(p: Path, data: bytes) -> None:
+    """A :class:`~beo_bench.errors.TruncatedMeshError` for an STL cut short: a binary one
+    holds fewer bytes than the 84 + 50 per triangle its header declares, a text one does not
+    end with ``endsolid``. Checked before parsing: a cut binary file was otherwise read as
+    text and refused as having no faces (or, without charset-normalizer, as a missing
+    module), which sends the user after the wrong problem."""
+    if _stl_is_text(data):
+        last = data.rstrip().rsplit(b"\n", 1)[-1].strip()
+        if not last.lower().startswith(b"endsolid"):
+            shown = last[:60].decode("utf-8", errors="replace")
+            raise TruncatedMeshError(
+                f"{p}: the file is truncated: a text STL ends with an endsolid line and this "
+                f"one ends with {shown!r}; re-download or re-export it"
+            )
+        return
+    if len(data) < 84:
+        if data.strip():
+            raise TruncatedMeshError(
+                f"{p}: the file is truncated: a binary STL has an 84-byte header and this "
+                f"file has {len(data)} bytes; re-download or re-export it"
+            )
+        return  # empty: the no-faces error says it
+    declared = int.from_bytes(data[80:84], "little")
+    if len(data) < 84 + 50 * declared:
+        raise TruncatedMeshError(
+            f"{p}: the file is truncated: its header declares {declared:,} triangles "
+            f"({84 + 50 * declared:,} bytes) but it has {len(data):,} bytes; re-download or "
+            f"re-export it"
+        )
 
 
 def _obj_line_ok(tokens: list[bytes]) -> bool:
