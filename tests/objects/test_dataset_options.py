@@ -112,7 +112,7 @@ def test_a_bad_manifest_is_one_line_naming_the_file_and_the_key(
 ) -> None:
     root = _mixed(tmp_path / "data")
     (root / MANIFEST_NAME).write_text(text)
-    with pytest.raises(ManifestError, match="beo-bench.toml"):
+    with pytest.raises(ManifestError, match=r"beo-bench\.toml"):
         open_dataset(root)
     assert main(["objects", "--objects", str(root), "--split", "all"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -129,8 +129,9 @@ def test_a_y_up_file_is_named_with_the_flag_and_the_manifest_key(tmp_path: Path)
     assert len(said) == 1, said  # the Y-up cup; not the z-up one, the boxes or the rods
     assert said[0].startswith(f"{root / 'cup' / 'y.obj'}: it looks modelled Y-up")
     assert "pass --up y for every file" in said[0]
-    assert f'up = "y" under [files."cup/y.obj"] or [classes.cup] in {root / MANIFEST_NAME}' in (
-        said[0]
+    assert (
+        f'up = "y" under [files."cup/y.obj"] or [classes.cup] in {root / MANIFEST_NAME}'
+        in (said[0])
     )
     # loaded as the manifest says, it stands, and nothing is said
     (root / MANIFEST_NAME).write_text('[files."cup/y.obj"]\nup = "y"\n')
@@ -157,8 +158,8 @@ def test_unknown_class_size_advice_is_the_cli_flag_on_the_command_line(
     lines = [ln for ln in err.splitlines() if "has no known size" in ln]
     assert len(lines) == 1, err  # the check's, once; not again from the workers
     assert lines[0].startswith("beo-bench: warning: category 'zorblax' has no known size")
-    assert "set size = <metres> under [classes.zorblax] in the dataset's beo-bench.toml" in (
-        lines[0]
+    assert (
+        "set size = <metres> under [classes.zorblax] in the dataset's beo-bench.toml" in (lines[0])
     )
     assert "--size M" in lines[0] and "size={" not in lines[0]
     assert "warnings.warn" not in err  # no source line of a worker's default printout

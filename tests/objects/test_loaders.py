@@ -26,8 +26,8 @@ from beo_bench.errors import (
 from beo_bench.geometry import axis_angle, rigid
 from beo_bench.objects import ObjectSet, instance_from_key
 from beo_bench.objects.cache import entry_path
-from beo_bench.objects.datasets import instance_from_key as resolve
 from beo_bench.objects.datasets import DatasetScanWarning, object_set, open_dataset
+from beo_bench.objects.datasets import instance_from_key as resolve
 from beo_bench.objects.datasets.layouts import (
     FOLDER,
     LAYOUTS,
