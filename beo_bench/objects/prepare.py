@@ -81,7 +81,7 @@ def _process_unbuilt(inst: ObjectInstance, D: int) -> tuple[dict[str, Any], list
         warnings.simplefilter("always")
         d = asdict(process(inst, D))
     d["extents"] = tuple(d["extents"])
-    return d, [_picklable(w.message) for w in caught]
+    return d, [_picklable(w.message) for w in caught if isinstance(w.message, Warning)]
 
 
 def _picklable(w: Warning) -> Warning:

@@ -180,3 +180,28 @@ def test_workers_warnings_reach_the_parent_once(tmp_path: Path) -> None:
         prepare(insts, D=16, workers=2, progress=False)
     sizes = [w for w in caught if issubclass(w.category, UnknownSizeWarning)]
     assert len(sizes) == 1 and "'wuggle' has no known size" in str(sizes[0].message)
+
+
+def test_instances_read_the_mesh_the_check_built(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The dataset check builds every file once; instances (in the driver or in workers)
+    then read that mesh from the cache instead of repairing the file again."""
+    from beo_bench.objects import processing
+    from beo_bench.objects.cache import mesh_hash
+
+    root = _mixed(tmp_path / "data")
+    dataset = open_dataset(root, repair="voxel")
+    check_dataset(dataset)
+
+    def no_repair(*args: object, **kw: object) -> None:
+        raise AssertionError("the file was repaired again")
+
+    monkeypatch.setattr(processing, "repair", no_repair)
+    meshes = {i.key: i.mesh for i in dataset.objects("all")}
+    monkeypatch.undo()
+    monkeypatch.setenv("BEO_BENCH_CACHE", str(tmp_path / "another_cache"))  # built anew
+    rebuilt = {i.key: i.mesh for i in open_dataset(root, repair="voxel").objects("all")}
+    assert meshes.keys() == rebuilt.keys() and len(meshes) == 6
+    for key, mesh in meshes.items():  # the cached mesh is the built one, to the bit
+        assert mesh_hash(mesh) == mesh_hash(rebuilt[key])

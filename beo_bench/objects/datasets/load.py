@@ -10,6 +10,7 @@ where the models are, what their categories and splits are, what their axes are.
 from __future__ import annotations
 
 import functools
+import hashlib
 import sys
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -379,6 +380,11 @@ def loaded_symmetry(mesh: trimesh.Trimesh, root: Path | None = None) -> Symmetry
     return symmetry.unpack_symmetry(arrays)
 
 
+LOADED_VERSION = 1
+"""Version of the cached built meshes (cache kind ``loaded``): bump it when reading,
+repairing or scaling a file gives another mesh, so that no mesh of an older rule is reused."""
+
+
 def build_mesh(
     path: str,
     category: str,
@@ -392,13 +398,69 @@ def build_mesh(
 ) -> Generated:
     """Read, rotate, repair, centre, scale and check one file (the lazy part of an
     instance); ``units`` is the option with the layout's default filled in; ``root``: the
-    cache its symmetry is kept in (the instance's ``cache_dir``). ``max_faces``:
+    cache it and its symmetry are kept in (the instance's ``cache_dir``). ``max_faces``:
     the face budget (None: none; see :func:`~beo_bench.objects.datasets.meshfile.read_mesh`).
     ``trace``, when given, is filled as the steps go (the dataset check,
     :mod:`beo_bench.objects.datasets.checks`, tells from it where a file failed and what it
     measured): ``stage`` (``read``, ``repair``, ``scale``, ``size``: the step under way),
     ``faces``, ``native_extents`` (file units, our axes), ``units`` (the ones used, detected
-    ones resolved; None when ``size`` set the scale) and ``extents`` (metres)."""
+    ones resolved; None when ``size`` set the scale) and ``extents`` (metres).
+
+    The mesh is cached by the file's content and these options (kind ``loaded``): the
+    dataset check builds every file in the driver before a command starts, and the
+    instances, in the driver or in workers, then read what it built instead of repairing
+    the file again (a voxel or solid rebuild is seconds a file). With a ``trace`` the file
+    is always built (the check wants the steps), and the result stored."""
+    content = _file_digest(path)
+    if content is None:  # unreadable: building says why
+        return _LoadedGenerated(
+            _build(path, category, rotation, opts, units, max_faces, trace), root
+        )
+    settings = {
+        "v": LOADED_VERSION,
+        "category": category,
+        "rotation": rotation,
+        "repair": opts.repair,
+        "size": opts.size_for(category),
+        "units": units,
+    }
+    built: list[trimesh.Trimesh] = []
+
+    def build() -> dict[str, np.ndarray]:
+        built.append(_build(path, category, rotation, opts, units, max_faces, trace))
+        return {"vertices": built[0].vertices, "faces": built[0].faces}
+
+    if trace is not None:
+        build()
+    arrays = cache.cached("loaded", content, settings, build, root)
+    if built:  # built here: this very mesh (its cached arrays are the same numbers)
+        return _LoadedGenerated(built[0], root)
+    mesh = trimesh.Trimesh(arrays["vertices"], arrays["faces"], process=False)
+    return _LoadedGenerated(mesh, root)
+
+
+def _file_digest(path: str) -> str | None:
+    """The SHA-256 of a file's bytes (32 hex digits), or None when it cannot be read."""
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+    except OSError:
+        return None
+    return h.hexdigest()[:32]
+
+
+def _build(
+    path: str,
+    category: str,
+    rotation: tuple[tuple[float, ...], ...],
+    opts: LoadOptions,
+    units: str,
+    max_faces: int | None,
+    trace: dict[str, Any] | None,
+) -> trimesh.Trimesh:
+    """:func:`build_mesh`'s steps, uncached."""
     t: dict[str, Any] = {} if trace is None else trace
     t["stage"] = "read"
     mesh = read_mesh(path, max_faces)
@@ -437,4 +499,4 @@ def build_mesh(
     t["stage"] = "size"
     check_plausible_size(mesh, path, how_scaled(size, units, bool(t.get("detected"))))
     t["stage"] = "done"
-    return _LoadedGenerated(mesh, root)
+    return mesh
