@@ -110,6 +110,12 @@ class DatasetTooLargeError(DatasetLayoutError):
     or root directory rather than at a dataset."""
 
 
+class ManifestError(DatasetLayoutError):
+    """A dataset's ``beo-bench.toml`` (per-class and per-file loading options) that cannot
+    be used: not TOML, an unknown table or key, a bad value, or a class or file the dataset
+    does not have. The message names the file and the key."""
+
+
 class BadObjectsError(UserDataError, ValueError):
     """Files of a user's dataset that cannot be used as objects, found by the check before
     a command uses the dataset (:func:`beo_bench.objects.datasets.check_dataset`); the

@@ -195,5 +195,9 @@ def show_warning(
     file: Any = None,
     line: str | None = None,
 ) -> None:
-    """Warnings as one line each, like the errors (no source file, no code line)."""
-    print(f"beo-bench: warning: {message}", file=sys.stderr)
+    """Warnings as one line each, like the errors (no source file, no code line); a warning
+    with a ``cli_text()`` (advice that differs for the command line, e.g.
+    :class:`~beo_bench.objects.datasets.UnknownSizeWarning`) gives that."""
+    cli_text = getattr(message, "cli_text", None)
+    text = cli_text() if callable(cli_text) else message
+    print(f"beo-bench: warning: {text}", file=sys.stderr)

@@ -63,6 +63,7 @@ _log = logging.getLogger(__name__)
 
 KINDS: dict[str, str] = {
     "generated": "procedural meshes of the built-in categories",
+    "loaded": "dataset meshes as built from their files (read, repaired, scaled)",
     "voxels": "solid occupancy grids of each instance",
     "surface": "surface samples of each instance",
     "coacd": "convex collision parts (CoACD) of each instance",
@@ -279,6 +280,7 @@ _SHAPES: dict[str, Callable[[dict[str, Any]], dict[str, tuple[int | None, ...]]]
     "voxels": lambda s: {"occ": ((int(s["D"]) ** 3 + 7) // 8,)},
     "surface": lambda s: {"points": (int(s["n"]), 3), "normals": (int(s["n"]), 3)},
     "coacd": lambda s: dict(_PARTS),
+    "loaded": lambda s: {"vertices": (None, 3), "faces": (None, 3)},
     "symmetry": lambda s: {"continuous": (None, 6), "discrete": (None, 4, 4)},
     "generated": lambda s: {**_MESH, **{f"part_{k}": v for k, v in _PARTS.items()}},
     "classmeans": lambda s: {
@@ -290,6 +292,7 @@ _KINDS: dict[str, dict[str, str]] = {
     "voxels": {"occ": "u"},
     "generated": {"symmetry": "U", "faces": "i", "part_counts": "i", "part_faces": "i"},
     "coacd": {"counts": "i", "faces": "i", "face_counts": "i"},
+    "loaded": {"faces": "i"},
 }
 """dtype kinds other than real floats, per kind and array (counts and indices are
 integers, packed bits unsigned bytes, a symmetry record text)."""
@@ -322,11 +325,11 @@ def entry_problem(kind: str, arrays: Mapping[str, np.ndarray]) -> str | None:
         shape, size = arrays["shape"], arrays["size"]
         if (shape.size and (shape.min() < 0 or shape.max() > 1)) or (size <= 0).any():
             return "mean occupancies outside [0, 1] or sizes that are not positive"
-    if kind == "generated":
+    if kind in ("generated", "loaded"):
         faces, n = arrays["faces"], len(arrays["vertices"])
         if len(faces) == 0 or faces.min() < 0 or faces.max() >= n:
             return "mesh faces indexing outside its vertices"
-        return _parts_problem(arrays, "part_")
+        return _parts_problem(arrays, "part_") if kind == "generated" else None
     if kind == "coacd":
         return _parts_problem(arrays)
     return None

@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import os
+import pickle
 import time
+import warnings
 from collections.abc import Iterable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, replace
@@ -23,6 +25,7 @@ from tqdm import tqdm
 
 from beo_bench.errors import BeoBenchError
 from beo_bench.objects import cache
+from beo_bench.objects.datasets.meshfile import UnknownSizeWarning, warn_unknown_size
 from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.processing import DEFAULT_RESOLUTION
 from beo_bench.objects.symmetry import symmetry_name
@@ -70,10 +73,36 @@ def process(inst: ObjectInstance, D: int = DEFAULT_RESOLUTION) -> InstanceStats:
     )
 
 
-def _process_unbuilt(inst: ObjectInstance, D: int) -> dict[str, Any]:
-    d = asdict(process(inst, D))
+def _process_unbuilt(inst: ObjectInstance, D: int) -> tuple[dict[str, Any], list[Warning]]:
+    """:func:`process` in a worker, with the warnings it raised: recorded, not printed (a
+    worker's default printout is Python's two-line form with the source line, once per
+    worker), for the parent to show once (:func:`_reemit`)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        d = asdict(process(inst, D))
     d["extents"] = tuple(d["extents"])
-    return d
+    return d, [_picklable(w.message) for w in caught if isinstance(w.message, Warning)]
+
+
+def _picklable(w: Warning) -> Warning:
+    """``w``, or its text as a plain ``UserWarning`` when it does not survive pickling
+    (a warning class defined in a function, arguments that do not pickle)."""
+    try:
+        pickle.loads(pickle.dumps(w))
+    except Exception:
+        return UserWarning(f"{type(w).__name__}: {w}")
+    return w
+
+
+def _reemit(ws: list[Warning], seen: set[tuple[type, str]]) -> None:
+    """Show warnings a worker recorded, each once (``seen``: what this call showed before;
+    an unknown-size warning once per process, as loading in this process gives it)."""
+    for w in ws:
+        if isinstance(w, UnknownSizeWarning):
+            warn_unknown_size(w.category)
+        elif (type(w), str(w)) not in seen:
+            seen.add((type(w), str(w)))
+            warnings.warn(w, stacklevel=2)
 
 
 def prepare(
@@ -113,11 +142,14 @@ def prepare(
         root = cache.cache_root()
         # replace(): a copy without the built mesh, which would otherwise be pickled too
         unbuilt = [replace(i, cache_dir=i.cache_dir or root) for i in insts]
+        seen: set[tuple[type, str]] = set()
         with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
             futures = [(i.key, pool.submit(_process_unbuilt, i, D)) for i in unbuilt]
             for key, f in futures:
                 try:
-                    out.append(InstanceStats(**f.result()))
+                    stats, said = f.result()
+                    out.append(InstanceStats(**stats))
+                    _reemit(said, seen)
                 except BeoBenchError as e:
                     failed.append((key, e))
                 bar.update()

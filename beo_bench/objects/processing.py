@@ -50,7 +50,10 @@ def repair(
     :func:`solidify` (an inside vote that tolerates holes and self-intersections, then
     :data:`MAX_FACES` faces at most). ``voxel`` instead remeshes a mesh that is still open
     by voxelising its surface at ``resolution``, filling the inside and running marching
-    cubes (loses detail below one voxel; faces are not reduced). ``none`` only checks.
+    cubes (loses detail below one voxel), then :func:`simplify` towards :data:`MAX_FACES`
+    faces, as CoACD's input always was: marching cubes gives 20k-60k faces, which made
+    every later step (symmetry, voxels, samples) slower for no detail (the simplified can of
+    robosuite has the same 64^3 voxels as the 64k-face one). ``none`` only checks.
     """
     if mode not in REPAIR_MODES:
         raise ValueError(f"repair mode {mode!r}: use one of {', '.join(map(repr, REPAIR_MODES))}")
@@ -67,7 +70,7 @@ def repair(
             # (self-intersecting parts that share edges, non-manifold edges)
             mesh = solidify(mesh, what)
     if mode == "voxel" and not mesh.is_watertight:
-        mesh = _voxel_remesh(mesh, resolution)
+        mesh = simplify(_voxel_remesh(mesh, resolution), MAX_FACES)
     check_solid(mesh, what)
     return mesh
 
@@ -298,8 +301,20 @@ def surface_samples(mesh: trimesh.Trimesh, n: int, seed: int = 0) -> tuple[np.nd
     return np.asarray(pts, dtype=np.float64), mesh.face_normals[face].astype(np.float64)
 
 
-COACD_SETTINGS = {"threshold": 0.1, "preprocess_mode": "off", "max_convex_hull": 32, "seed": 0}
-"""CoACD's fast settings: about 7 s and a dozen hulls for a mug-like mesh (measured)."""
+COACD_SETTINGS = {
+    "threshold": 0.1,
+    "preprocess_mode": "off",
+    "max_convex_hull": 32,
+    "seed": 0,
+    "resolution": 1000,
+    "mcts_max_depth": 2,
+}
+"""CoACD's fast settings. The concavity threshold (0.1) bounds every part as before; the
+search is cheaper than CoACD's defaults (``resolution`` 2000 surface samples per concavity
+estimate, ``mcts_max_depth`` 3 cuts looked ahead): on robosuite's 14 object meshes it took
+8 s of CPU instead of 18 s (the can 2.5 s instead of 4.1 s), the union of the parts covering
+the mesh as closely (voxel IoU 0.971 against 0.957 on the can, 0.996 against 1.000 on the
+handles) with as many parts (54 against 55 over the 14); ``benchmarks/bench_real_meshes.py``."""
 
 
 def convex_decomposition(mesh: trimesh.Trimesh, **settings: object) -> list[trimesh.Trimesh]:

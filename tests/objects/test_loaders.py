@@ -26,8 +26,8 @@ from beo_bench.errors import (
 from beo_bench.geometry import axis_angle, rigid
 from beo_bench.objects import ObjectSet, instance_from_key
 from beo_bench.objects.cache import entry_path
+from beo_bench.objects.datasets import DatasetScanWarning, object_set, open_dataset
 from beo_bench.objects.datasets import instance_from_key as resolve
-from beo_bench.objects.datasets import object_set, open_dataset
 from beo_bench.objects.datasets.layouts import (
     FOLDER,
     LAYOUTS,
@@ -35,6 +35,7 @@ from beo_bench.objects.datasets.layouts import (
     SHAPENET,
     SHAPENET_TO_CANONICAL,
     Layout,
+    dataset_entries,
     detect_layout,
     get_layout,
     hash_split,
@@ -201,6 +202,16 @@ def test_shapenet_categories_and_round_trip(shapenet_root: Path) -> None:
         again = instance_from_key(inst.key, dataset)
         assert (again.category, again.split, again.index) == (inst.category, inst.split, inst.index)
         assert again.content_hash == inst.content_hash
+
+
+def test_an_unknown_synset_keeps_its_id_and_says_so(shapenet_root: Path) -> None:
+    """A synset none of the 55 (nor a registered class's) is a class named by its id,
+    with one warning naming the folder; known synsets say nothing."""
+    with pytest.warns(DatasetScanWarning) as said:
+        dataset_entries(SHAPENET, str(shapenet_root))
+    lines = [str(w.message) for w in said if issubclass(w.category, DatasetScanWarning)]
+    assert len(lines) == 1 and lines[0].startswith(f"{shapenet_root / UNKNOWN}: synset {UNKNOWN}")
+    assert f"a class named {UNKNOWN!r}" in lines[0]
 
 
 def test_shapenet_set_api(shapenet_root: Path) -> None:

@@ -16,8 +16,16 @@ from PIL import Image
 
 from beo_bench.errors import MeshLoadError, NonFiniteMeshError, TruncatedMeshError
 from beo_bench.objects.datasets import open_dataset
+from beo_bench.objects.datasets.meshfile import read_mesh
 from beo_bench.objects.instance import ObjectInstance
-from beo_bench.objects.processing import MAX_FACES, repair, simplify, voxelize
+from beo_bench.objects.processing import (
+    MAX_FACES,
+    _clean,
+    _voxel_remesh,
+    repair,
+    simplify,
+    voxelize,
+)
 
 MODES = ("basic", "solid", "voxel")
 
@@ -167,10 +175,19 @@ def test_solid_repair_closes_large_holes_with_few_faces() -> None:
         assert len(solid.faces) <= MAX_FACES, name
         # the open shape bounds at most its closed counterpart's volume, and loses little
         assert 0.9 * closed.volume < solid.volume < 1.02 * closed.volume, name
-    # repair='voxel' keeps its behaviour: a thin shell around the open tube, many faces
+    # repair='voxel' keeps its behaviour: a thin shell around the open tube; simplified, as
+    # CoACD's input always was: a fraction of marching cubes' faces, the same solid
     shell = repair(tube, "tube", mode="voxel")
     assert shell.is_watertight and shell.volume < 0.5 * cyl.volume
-    assert len(shell.faces) > 4 * MAX_FACES
+    cubes = _voxel_remesh(_clean(tube), 96)
+    assert len(shell.faces) < len(cubes.faces) / 4
+    assert shell.volume == pytest.approx(cubes.volume, rel=0.01)
+    extent = float(cubes.extents.max())
+    centre = cubes.bounds.mean(axis=0)
+    assert np.array_equal(
+        voxelize(shell.copy().apply_translation(-centre), 32, extent),
+        voxelize(cubes.copy().apply_translation(-centre), 32, extent),
+    )
 
 
 def test_simplify_reaches_the_face_budget() -> None:
@@ -224,6 +241,35 @@ def test_truncated_obj_is_refused_in_every_repair_mode(tmp_path: Path) -> None:
             with pytest.raises(TruncatedMeshError, match=re.escape(name) + ".*truncated"):
                 _ = inst.mesh
     assert _load_one(folder / "no_newline.obj", tmp_path / "data").mesh.is_watertight
+
+
+def test_truncated_stl_is_named_truncated_not_a_parse_or_module_error(tmp_path: Path) -> None:
+    """A cut binary STL was read as text and refused as having no faces (or, without
+    charset-normalizer, as a missing module); a cut text STL lacks its endsolid line."""
+    folder = tmp_path / "data" / "thing"
+    folder.mkdir(parents=True)
+    ball = trimesh.creation.icosphere(radius=0.05)
+    binary = ball.export(file_type="stl")
+    text = trimesh.exchange.stl.export_stl_ascii(ball).encode()
+    (folder / "cut.stl").write_bytes(binary[: len(binary) // 2 + 7])
+    (folder / "header.stl").write_bytes(binary[:40])
+    (folder / "cut_text.stl").write_bytes(text[: len(text) // 2])
+    (folder / "whole.stl").write_bytes(binary)
+    (folder / "whole_text.stl").write_bytes(text)
+    n = len(ball.faces)
+    expected = {
+        "cut.stl": f"declares {n:,} triangles ({84 + 50 * n:,} bytes) but it has "
+        f"{len(binary) // 2 + 7:,} bytes",
+        "header.stl": "84-byte header and this file has 40 bytes",
+        "cut_text.stl": "a text STL ends with an endsolid line",
+    }
+    for name, why in expected.items():
+        with pytest.raises(TruncatedMeshError, match=re.escape(name) + ": the file is trunc"):
+            read_mesh(folder / name)
+        with pytest.raises(TruncatedMeshError, match=re.escape(why)):
+            read_mesh(folder / name)
+    for name in ("whole.stl", "whole_text.stl"):
+        assert len(read_mesh(folder / name).faces) == n
 
 
 def test_objectset_check_reports_every_bad_file_at_load_time(tmp_path: Path) -> None:

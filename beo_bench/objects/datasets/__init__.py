@@ -64,9 +64,11 @@ resolves one given the dataset it came from, else under ``$BEO_BENCH_SHAPENET``,
 
 from __future__ import annotations
 
+from beo_bench.errors import ManifestError
 from beo_bench.objects.datasets.checks import (
     DatasetCheck,
     FileCheck,
+    SidewaysWarning,
     SizeWarning,
     SkippedFileWarning,
     check_dataset,
@@ -84,7 +86,13 @@ from beo_bench.objects.datasets.dataset import (
     train_command,
 )
 from beo_bench.objects.datasets.layouts import LAYOUTS, ROOT_ENV
-from beo_bench.objects.datasets.load import DEFAULT_REPAIR, REPAIR_MODES, LoadOptions
+from beo_bench.objects.datasets.load import (
+    DEFAULT_REPAIR,
+    MANIFEST_NAME,
+    REPAIR_MODES,
+    LoadOptions,
+    Manifest,
+)
 from beo_bench.objects.datasets.meshfile import (
     CATEGORY_SIZES,
     MAX_INPUT_FACES,
@@ -98,6 +106,7 @@ __all__ = [
     "CATEGORY_SIZES",
     "DEFAULT_REPAIR",
     "LAYOUTS",
+    "MANIFEST_NAME",
     "MAX_INPUT_FACES",
     "REPAIR_MODES",
     "ROOT_ENV",
@@ -108,6 +117,9 @@ __all__ = [
     "DatasetScanWarning",
     "FileCheck",
     "LoadOptions",
+    "Manifest",
+    "ManifestError",
+    "SidewaysWarning",
     "SizeWarning",
     "SkippedFileWarning",
     "UnknownSizeWarning",

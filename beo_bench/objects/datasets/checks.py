@@ -41,21 +41,30 @@ from tqdm import tqdm
 from beo_bench.atomic import atomic_write_bytes
 from beo_bench.errors import BadObjectsError, EmptyMeshError, MeshError, TooManyFacesError
 from beo_bench.objects.datasets.dataset import Dataset, file_hashes, memo_file
-from beo_bench.objects.datasets.layouts import dataset_entries
-from beo_bench.objects.datasets.load import LoadOptions, build_mesh
+from beo_bench.objects.datasets.layouts import dataset_entries, entry_options
+from beo_bench.objects.datasets.load import (
+    MANIFEST_NAME,
+    LoadOptions,
+    Manifest,
+    build_mesh,
+)
 from beo_bench.objects.datasets.meshfile import (
     DETECTED_UNITS,
     MAX_DIAGONAL,
     MIN_EXTENT,
     UNITS,
-    UnknownSizeWarning,
+    recorded_unknown_sizes,
+    sideways_up,
+    toml_key,
+    warn_unknown_size,
 )
 from beo_bench.objects.registry import LIBRARY_VERSION
 
-CHECK_VERSION = 2
+CHECK_VERSION = 3
 """Version of the verdicts' cache: bumped when loading (repair, scaling) changes what a file
 gives, so that no verdict of an older rule is reused (2: a file whose extent is outside
-:data:`~.meshfile.FILE_EXTENT_LIMITS` is a size error before the repair)."""
+:data:`~.meshfile.FILE_EXTENT_LIMITS` is a size error before the repair; 3: verdicts say
+whether a file looks Y-up, :attr:`FileCheck.sideways`)."""
 
 NEAR_LIMIT = 3.0
 """A loaded object whose largest extent is under this many times
@@ -81,6 +90,10 @@ SKIP = "--skip-bad to run without it"
 
 class SizeWarning(UserWarning):
     """A file that loads within a factor :data:`NEAR_LIMIT` of the size limits."""
+
+
+class SidewaysWarning(UserWarning):
+    """A file of a folder dataset that looks modelled Y-up (:attr:`FileCheck.sideways`)."""
 
 
 class SkippedFileWarning(UserWarning):
@@ -115,6 +128,9 @@ class FileCheck:
     """What is wrong (None: the file loads)."""
     fix: str | None = None
     """The CLI flags that fix it."""
+    sideways: bool = False
+    """Whether it loads looking modelled Y-up (:func:`~.meshfile.sideways_up`): a bottle
+    or mug lying on its side."""
 
     @property
     def ok(self) -> bool:
@@ -169,6 +185,22 @@ class DatasetCheck:
 
     def where(self, f: FileCheck) -> str:
         return str(Path(self.root) / f.path)
+
+    def sideways(self) -> list[tuple[FileCheck, str]]:
+        """The files that look modelled Y-up, with the advice (call only for layouts whose
+        files' axes are an option: folders)."""
+        manifest = Path(self.root) / MANIFEST_NAME
+        return [
+            (
+                f,
+                f"it looks modelled Y-up (flat ends along y, nothing flat below: it would lie "
+                f"on its side); if y is its up axis, pass --up y for every file, or set "
+                f'up = "y" under [files.{toml_key(f.path)}] or [classes.{toml_key(f.category)}]'
+                f" in {manifest} (-y if it then stands upside down)",
+            )
+            for f in self.files
+            if f.ok and f.sideways
+        ]
 
     def line(self, f: FileCheck) -> str:
         """One line about a bad file: its path, what is wrong, the flags that fix it."""
@@ -246,7 +278,7 @@ def check_dataset(
     hashes = file_hashes(dataset.root, dataset.layout)
     root = Path(dataset.root)
     entries = sorted(dataset_entries(layout, dataset.root), key=lambda e: str(e.path))
-    settings = _settings_key(opts, units, rotation)
+    settings = _settings_key(opts, units, rotation, dataset.manifest)
     memo_path = memo_file(dataset.root, f"checks-v{CHECK_VERSION}")
     memo = _read_memo(memo_path)
     known: dict[str, list[Any]] = memo.setdefault(settings, {})
@@ -262,10 +294,14 @@ def check_dataset(
             if not (check.kind == "faces" and (check.faces or 0) <= dataset.max_faces):
                 results[rel] = check
                 continue
-        todo.append((str(e.path), rel, e.category, rotation, opts, units, dataset.max_faces))
+        o = entry_options(layout, dataset.root, e, opts, dataset.manifest)  # its manifest entry
+        r = rotation if o.up == opts.up else tuple(map(tuple, layout.rotation(o).tolist()))
+        todo.append(
+            (str(e.path), rel, e.category, r, o, o.units or layout.default_units, dataset.max_faces)
+        )
     for (_, rel, *_), (check, notes) in zip(todo, _run(todo, workers, progress), strict=True):
-        for note in notes:  # shown once, here, as loading would have shown it
-            warnings.warn(note, UnknownSizeWarning, stacklevel=2)
+        for category in notes:  # shown once, here, as loading would have shown it
+            warn_unknown_size(category)
         results[rel] = check
         if not hashes.get(rel, "").startswith("unreadable"):
             known[rel] = [hashes.get(rel, ""), asdict(check)]
@@ -282,8 +318,13 @@ def check_dataset(
     return DatasetCheck(dataset.root, files, dataset.max_faces)
 
 
-def _settings_key(opts: LoadOptions, units: str, rotation: tuple[tuple[float, ...], ...]) -> str:
-    blob = {
+def _settings_key(
+    opts: LoadOptions,
+    units: str,
+    rotation: tuple[tuple[float, ...], ...],
+    manifest: Manifest | None = None,
+) -> str:
+    blob: dict[str, object] = {
         "v": CHECK_VERSION,
         "library": LIBRARY_VERSION,
         "repair": opts.repair,
@@ -291,6 +332,8 @@ def _settings_key(opts: LoadOptions, units: str, rotation: tuple[tuple[float, ..
         "units": units,
         "rotation": rotation,
     }
+    if manifest is not None:  # (absent without one: the verdicts cached before it stay valid)
+        blob["manifest"] = manifest.identity()
     return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -347,29 +390,35 @@ def check_file(
     max_faces: int,
 ) -> tuple[FileCheck, list[str]]:
     """Build one file as an instance would (:func:`~beo_bench.objects.datasets.load.build_mesh`)
-    and say what it gives; with the messages of the
+    and say what it gives; with the categories of the
     :class:`~.meshfile.UnknownSizeWarning` loading it raised."""
     trace: dict[str, Any] = {}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            build_mesh(path, category, rotation, opts, units, max_faces=max_faces, trace=trace)
+            built = build_mesh(
+                path, category, rotation, opts, units, max_faces=max_faces, trace=trace
+            )
+            sideways = sideways_up(built.mesh)
             failure: tuple[str, str, str] | None = None
         except TooManyFacesError as e:  # refused before it was parsed: its count is the error's
+            sideways = False
             trace["faces"] = e.faces
             failure = _diagnose(e, path, trace, opts, max_faces)
         except MeshError as e:
+            sideways = False
             failure = _diagnose(e, path, trace, opts, max_faces)
         except Exception as e:  # from trimesh or manifold3d on a mesh they cannot handle
             if trace.get("stage") != "repair":
                 raise
+            sideways = False
             failure = (
                 "repair",
                 f"repairing it failed ({type(e).__name__}: {e}; if the file is a sound mesh, "
                 f"please report it to beo-bench)",
                 f"pass {_repair_fix(opts.repair)}",
             )
-    notes = [str(w.message) for w in caught if issubclass(w.category, UnknownSizeWarning)]
+    notes = recorded_unknown_sizes(caught)
     native = trace.get("native_extents")
     check = FileCheck(
         path=rel,
@@ -380,6 +429,7 @@ def check_file(
         detected=bool(trace.get("detected")),
         scaled="units" in trace,
         extents=trace.get("extents"),
+        sideways=sideways,
     )
     if failure is not None:
         kind, problem, fix = failure
@@ -531,6 +581,9 @@ def vet(
             SizeWarning,
             stacklevel=2,
         )
+    if dataset.layout_spec.axes_option:  # (ShapeNet's and ModelNet's axes are known)
+        for f, why in check.sideways():
+            warnings.warn(f"{check.where(f)}: {why}", SidewaysWarning, stacklevel=2)
     bad = check.bad
     if not bad:
         return dataset

@@ -32,6 +32,7 @@ from beo_bench.objects.cache import cache_root
 from beo_bench.objects.datasets.layouts import (
     LAYOUTS,
     Layout,
+    category_dirs,
     dataset_entries,
     detect_layout,
     existing_dir,
@@ -39,7 +40,13 @@ from beo_bench.objects.datasets.layouts import (
     load_objects,
     resolve_key,
 )
-from beo_bench.objects.datasets.load import DEFAULT_REPAIR, REPAIR_MODES, LoadOptions
+from beo_bench.objects.datasets.load import (
+    DEFAULT_REPAIR,
+    REPAIR_MODES,
+    LoadOptions,
+    Manifest,
+    read_manifest,
+)
 from beo_bench.objects.datasets.meshfile import MAX_INPUT_FACES, UNIT_MODES, axes_rotation
 from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.objectset import PROCEDURAL_PREFIX, ObjectSet, resolve_procedural_key
@@ -87,6 +94,10 @@ class Dataset:
     max_faces: int = MAX_INPUT_FACES
     """The face budget the dataset was checked with (``--max-faces``); not part of the
     identity: it decides only which files are refused, and those are :attr:`skipped`."""
+    manifest: Manifest | None = None
+    """The per-class and per-file options of the root's ``beo-bench.toml``
+    (:class:`~beo_bench.objects.datasets.load.Manifest`), or None without one; part of the
+    identity when present."""
 
     @property
     def short(self) -> str:
@@ -94,12 +105,13 @@ class Dataset:
         characters with the default loading options; with others (``--repair``, ``--up``,
         ``--size``, ``--units``, files skipped) a digest of content and options, so that the
         same files loaded two ways never share a run directory or a leaderboard page."""
-        if (self.repair, self.up, self.size, self.units, self.skipped) == (
+        if (self.repair, self.up, self.size, self.units, self.skipped, self.manifest) == (
             DEFAULT_REPAIR,
             "z",
             None,
             None,
             (),
+            None,
         ):
             return self.digest[:SHORT_CHARS]
         blob = json.dumps(self.identity(), sort_keys=True).encode()
@@ -120,6 +132,8 @@ class Dataset:
             out["units"] = self.units
         if self.skipped:
             out["skipped"] = [rel for rel, _ in self.skipped]
+        if self.manifest is not None:
+            out["manifest"] = self.manifest.identity()
         return out
 
     @property
@@ -157,6 +171,7 @@ class Dataset:
             self.options(),
             exclude,
             cache_root,
+            self.manifest,
         )
 
     def instance(self, key: str) -> ObjectInstance:
@@ -232,7 +247,14 @@ def open_dataset(
     if int(max_faces) < 1:
         raise UsageError(f"--max-faces {max_faces}: give a whole number of faces >= 1")
     digest = dataset_digest(path, layout)
-    return Dataset(path, layout, digest, repair, up, sizes, units, (), int(max_faces))
+    spec = get_layout(layout)
+    manifest = read_manifest(
+        path,
+        category_dirs(spec, path),
+        [rel for rel, _ in dataset_files(path, layout)],
+        spec.axes_option,
+    )
+    return Dataset(path, layout, digest, repair, up, sizes, units, (), int(max_faces), manifest)
 
 
 def dataset_files(root: str, layout: str) -> list[tuple[str, Path]]:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import re
+import warnings
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,9 +32,16 @@ from beo_bench.errors import (
     UnknownCategoryError,
     UnknownSplitError,
 )
-from beo_bench.objects.datasets.load import LoadOptions, build_mesh
+from beo_bench.objects.datasets.load import LoadOptions, Manifest, build_mesh
 from beo_bench.objects.datasets.meshfile import MESH_SUFFIXES, axes_rotation
-from beo_bench.objects.datasets.walk import inside, subdirs, valid_name, walk_files, warn_outside
+from beo_bench.objects.datasets.walk import (
+    DatasetScanWarning,
+    inside,
+    subdirs,
+    valid_name,
+    walk_files,
+    warn_outside,
+)
 from beo_bench.objects.instance import ObjectInstance
 from beo_bench.objects.objectset import ObjectSet
 from beo_bench.objects.registry import categories as registered_categories
@@ -184,6 +192,14 @@ class ShapeNetLayout:
 
     def entries(self, root: Path, dirname: str) -> list[Entry]:
         cat = self.category_name(dirname)
+        if cat == dirname:  # (scanned once per process: dir_entries is cached)
+            warnings.warn(
+                f"{root / dirname}: synset {dirname} is none of ShapeNetCore v2's 55 (nor a "
+                f"registered class's), so its models form a class named {dirname!r}; check "
+                f"the folder's name if it should be a known class (e.g. 03797390 is mug)",
+                DatasetScanWarning,
+                stacklevel=2,
+            )
         out = []
         for m in subdirs(root / dirname):
             ident = f"{dirname}/{m}"
@@ -451,13 +467,15 @@ def load_objects(
     opts: LoadOptions,
     exclude: frozenset[str] = frozenset(),
     cache_root: Path | None = None,
+    manifest: Manifest | None = None,
 ) -> ObjectSet:
     """The models of ``split`` (or every model: ``"all"``) of the ``layout`` dataset at
     ``root``, of ``categories`` (default: all; our names or the layout's folder names) and
     at most ``per_category`` each, as lazily built instances loaded with ``opts``; the files
     in ``exclude`` (paths relative to the root: what ``--skip-bad`` skips) are left out
     before instances are numbered. ``cache_root``: the cache the instances keep their
-    derived data in (None: the environment's)."""
+    derived data in (None: the environment's). ``manifest``: the dataset's per-class and
+    per-file options, which replace ``opts``' for their files (their keys say so)."""
     source = layout.name
     if split != "all":  # "all": every model of the dataset, whatever its hash split
         check_split(split)
@@ -485,9 +503,21 @@ def load_objects(
             entries = entries[: int(per_category)]
         if entries or categories is not None:
             instances[c] = [
-                _instance(layout, e, i, opts, cache_root) for i, e in enumerate(entries)
+                _instance(layout, e, i, entry_options(layout, path, e, opts, manifest), cache_root)
+                for i, e in enumerate(entries)
             ]
     return ObjectSet.from_instances(split, instances, source)
+
+
+def entry_options(
+    layout: Layout, root: str, entry: Entry, opts: LoadOptions, manifest: Manifest | None
+) -> LoadOptions:
+    """The options ``entry`` (a model of the dataset at ``root``) loads with: ``opts``, or
+    what the dataset's manifest makes of them for its class and file."""
+    if manifest is None:
+        return opts
+    rel = entry.path.relative_to(root).as_posix()
+    return manifest.options(opts, entry.category, rel, layout.default_units)
 
 
 def _category_names(

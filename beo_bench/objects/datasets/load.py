@@ -10,7 +10,9 @@ where the models are, what their categories and splits are, what their axes are.
 from __future__ import annotations
 
 import functools
-from collections.abc import Mapping
+import hashlib
+import sys
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -19,10 +21,11 @@ from urllib.parse import parse_qsl, urlencode
 import numpy as np
 import trimesh
 
-from beo_bench.errors import ImplausibleSizeError, InvalidKeyError
+from beo_bench.errors import ImplausibleSizeError, InvalidKeyError, ManifestError
 from beo_bench.objects import cache, processing, symmetry
 from beo_bench.objects.datasets.meshfile import (
     FILE_EXTENT_LIMITS,
+    MANIFEST,
     MAX_DIAGONAL,
     MIN_EXTENT,
     UNIT_MODES,
@@ -32,10 +35,16 @@ from beo_bench.objects.datasets.meshfile import (
     how_scaled,
     read_mesh,
     scale_factor,
+    toml_key,
 )
 from beo_bench.objects.registry import Generated
 from beo_bench.objects.symmetry import DEFAULT_MARGIN, ESTIMATOR_VERSION
 from beo_bench.types import Symmetry
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # the same parser, before it joined the standard library
+    import tomli as tomllib
 
 REPAIR_MODES: tuple[str, ...] = processing.REPAIR_MODES
 """See :func:`~beo_bench.objects.processing.repair`."""
@@ -185,6 +194,162 @@ def check_size(v: object) -> float | str:
     return f
 
 
+# --------------------------------------------------------------------------------------
+# the manifest: per-class and per-file options beside the meshes
+
+MANIFEST_NAME = MANIFEST
+"""The file at a dataset's root that gives classes and files their own ``units``, ``size``
+and ``up`` (:class:`Manifest`): a folder mixing millimetre and metre files, or a few Y-up
+files, cannot be fixed by the command-wide ``--units``, ``--size`` and ``--up``."""
+
+MANIFEST_KEYS = ("units", "size", "up")
+"""What a manifest entry may set (the meaning of the flags of the same names)."""
+
+
+@dataclass(frozen=True)
+class Override:
+    """One manifest entry: the options it sets (None: left as the command gives them)."""
+
+    units: str | None = None
+    size: float | str | None = None
+    up: str | None = None
+
+
+@dataclass(frozen=True)
+class Manifest:
+    """A dataset's :data:`MANIFEST_NAME`, parsed and checked (:func:`read_manifest`):
+    entries per class (``[classes.<class>]``) and per file (``[files."<path relative to the
+    root>"]``). A file's entry beats its class's, and both beat the command's flags for
+    their files; an entry's ``units`` also drops a command-wide ``--size`` for them (the
+    file says its units, so its size is read from them)."""
+
+    classes: tuple[tuple[str, Override], ...] = ()
+    files: tuple[tuple[str, Override], ...] = ()
+
+    def options(
+        self, opts: LoadOptions, category: str, rel: str, default_units: str | None
+    ) -> LoadOptions:
+        """The options the file ``rel`` (relative to the root) of ``category`` loads with:
+        ``opts`` (the command's) with this manifest's entries for its class and for it."""
+        entries = [dict(self.classes).get(category), dict(self.files).get(rel)]
+        if not any(entries):
+            return opts
+        size, units, up = opts.size_for(category), opts.units, opts.up
+        for e in entries:
+            if e is None:
+                continue
+            if e.size is not None:
+                size = e.size
+            elif e.units is not None:
+                size = None
+            units = e.units if e.units is not None else units
+            up = e.up if e.up is not None else up
+        return LoadOptions.make(opts.repair, size, up, opts.front, units, default_units)
+
+    def identity(self) -> dict[str, dict[str, dict[str, object]]]:
+        """The entries as plain data (a dataset's identity carries them)."""
+
+        def plain(entries: tuple[tuple[str, Override], ...]) -> dict[str, dict[str, object]]:
+            return {
+                k: {f: v for f in MANIFEST_KEYS if (v := getattr(o, f)) is not None}
+                for k, o in entries
+            }
+
+        return {"classes": plain(self.classes), "files": plain(self.files)}
+
+
+def read_manifest(
+    root: str | Path,
+    classes: Iterable[str],
+    files: Iterable[str],
+    axes_option: bool = True,
+) -> Manifest | None:
+    """The :class:`Manifest` at ``root`` (None: the dataset has none), checked against the
+    dataset's ``classes`` and ``files`` (paths relative to the root); ``axes_option``:
+    whether the layout's files may name their up axis (folders). A
+    :class:`~beo_bench.errors.ManifestError` naming the file and the key for anything wrong."""
+    path = Path(root) / MANIFEST_NAME
+    if not path.is_file():
+        return None
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as e:
+        raise ManifestError(f"{path}: cannot read it ({e}); fix or remove the file") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ManifestError(f"{path}: not valid TOML ({e}); fix or remove the file") from None
+    for table in data:
+        if table not in ("classes", "files"):
+            raise ManifestError(
+                f"{path}: unknown table [{toml_key(table)}]; use [classes.<class>] or "
+                f'[files."<path relative to the root>"]'
+            )
+    known = {"classes": set(classes), "files": set(files)}
+    out: dict[str, list[tuple[str, Override]]] = {"classes": [], "files": []}
+    for table, what, example in (
+        ("classes", "class", "mug"),
+        ("files", "mesh file", '"mug/a.obj"'),
+    ):
+        entries = data.get(table, {})
+        if not isinstance(entries, dict):
+            raise ManifestError(
+                f"{path}: {table} = ...: give one table per {what}, e.g. [{table}.{example}]"
+            )
+        for name, entry in entries.items():
+            where = f"[{table}.{toml_key(name)}]"
+            if name not in known[table]:
+                hint = "paths are relative to the root, with / between folders"
+                if table == "classes":
+                    hint = f"its classes: {', '.join(sorted(known[table])[:12])}"
+                raise ManifestError(f"{path}: {where}: the dataset has no {what} {name!r} ({hint})")
+            if not isinstance(entry, dict):
+                raise ManifestError(
+                    f"{path}: {where} must be a table of {', '.join(MANIFEST_KEYS)}"
+                )
+            out[table].append((name, _override(path, where, entry, axes_option)))
+    return Manifest(tuple(sorted(out["classes"])), tuple(sorted(out["files"])))
+
+
+def _override(path: Path, where: str, entry: dict[str, object], axes_option: bool) -> Override:
+    """One manifest entry's checked values."""
+    for key in entry:
+        if key not in MANIFEST_KEYS:
+            raise ManifestError(
+                f"{path}: {where} {key}: unknown key; an entry sets {', '.join(MANIFEST_KEYS)}"
+            )
+    units, size, up = entry.get("units"), entry.get("size"), entry.get("up")
+    if units is not None:
+        if units == "normalized":
+            units = "normalised"
+        if units not in UNIT_MODES:
+            raise ManifestError(
+                f"{path}: {where} units = {units!r}: use one of {', '.join(UNIT_MODES)}"
+            )
+    if size is not None:
+        if isinstance(size, bool) or not isinstance(size, (int, float, str)):
+            raise ManifestError(
+                f"{path}: {where} size = {size!r}: give metres (a number) or 'native'"
+            )
+        try:
+            size = check_size(size)
+        except (ValueError, ImplausibleSizeError) as e:  # ("size=5: why"): said in TOML
+            why = str(e).split(": ", 1)[-1]
+            raise ManifestError(f"{path}: {where} size = {size!r}: {why}") from None
+    if up is not None:
+        if not axes_option:
+            raise ManifestError(
+                f"{path}: {where} up: this layout's axes are known; only folder datasets take up"
+            )
+        try:
+            axes_rotation(str(up), "x")  # a folder's front axis is +x
+        except ValueError as e:
+            raise ManifestError(f"{path}: {where} up = {up!r}: {e}") from None
+    return Override(
+        None if units is None else str(units),
+        size,
+        None if up is None else str(up),
+    )
+
+
 class _LoadedGenerated(Generated):
     """A loaded mesh whose symmetry is estimated on first use (cached on disk), so that
     only callers that need the symmetry pay for it."""
@@ -215,6 +380,11 @@ def loaded_symmetry(mesh: trimesh.Trimesh, root: Path | None = None) -> Symmetry
     return symmetry.unpack_symmetry(arrays)
 
 
+LOADED_VERSION = 1
+"""Version of the cached built meshes (cache kind ``loaded``): bump it when reading,
+repairing or scaling a file gives another mesh, so that no mesh of an older rule is reused."""
+
+
 def build_mesh(
     path: str,
     category: str,
@@ -228,13 +398,69 @@ def build_mesh(
 ) -> Generated:
     """Read, rotate, repair, centre, scale and check one file (the lazy part of an
     instance); ``units`` is the option with the layout's default filled in; ``root``: the
-    cache its symmetry is kept in (the instance's ``cache_dir``). ``max_faces``:
+    cache it and its symmetry are kept in (the instance's ``cache_dir``). ``max_faces``:
     the face budget (None: none; see :func:`~beo_bench.objects.datasets.meshfile.read_mesh`).
     ``trace``, when given, is filled as the steps go (the dataset check,
     :mod:`beo_bench.objects.datasets.checks`, tells from it where a file failed and what it
     measured): ``stage`` (``read``, ``repair``, ``scale``, ``size``: the step under way),
     ``faces``, ``native_extents`` (file units, our axes), ``units`` (the ones used, detected
-    ones resolved; None when ``size`` set the scale) and ``extents`` (metres)."""
+    ones resolved; None when ``size`` set the scale) and ``extents`` (metres).
+
+    The mesh is cached by the file's content and these options (kind ``loaded``): the
+    dataset check builds every file in the driver before a command starts, and the
+    instances, in the driver or in workers, then read what it built instead of repairing
+    the file again (a voxel or solid rebuild is seconds a file). With a ``trace`` the file
+    is always built (the check wants the steps), and the result stored."""
+    content = _file_digest(path)
+    if content is None:  # unreadable: building says why
+        return _LoadedGenerated(
+            _build(path, category, rotation, opts, units, max_faces, trace), root
+        )
+    settings = {
+        "v": LOADED_VERSION,
+        "category": category,
+        "rotation": rotation,
+        "repair": opts.repair,
+        "size": opts.size_for(category),
+        "units": units,
+    }
+    built: list[trimesh.Trimesh] = []
+
+    def build() -> dict[str, np.ndarray]:
+        built.append(_build(path, category, rotation, opts, units, max_faces, trace))
+        return {"vertices": built[0].vertices, "faces": built[0].faces}
+
+    if trace is not None:
+        build()
+    arrays = cache.cached("loaded", content, settings, build, root)
+    if built:  # built here: this very mesh (its cached arrays are the same numbers)
+        return _LoadedGenerated(built[0], root)
+    mesh = trimesh.Trimesh(arrays["vertices"], arrays["faces"], process=False)
+    return _LoadedGenerated(mesh, root)
+
+
+def _file_digest(path: str) -> str | None:
+    """The SHA-256 of a file's bytes (32 hex digits), or None when it cannot be read."""
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+    except OSError:
+        return None
+    return h.hexdigest()[:32]
+
+
+def _build(
+    path: str,
+    category: str,
+    rotation: tuple[tuple[float, ...], ...],
+    opts: LoadOptions,
+    units: str,
+    max_faces: int | None,
+    trace: dict[str, Any] | None,
+) -> trimesh.Trimesh:
+    """:func:`build_mesh`'s steps, uncached."""
     t: dict[str, Any] = {} if trace is None else trace
     t["stage"] = "read"
     mesh = read_mesh(path, max_faces)
@@ -273,4 +499,4 @@ def build_mesh(
     t["stage"] = "size"
     check_plausible_size(mesh, path, how_scaled(size, units, bool(t.get("detected"))))
     t["stage"] = "done"
-    return _LoadedGenerated(mesh, root)
+    return mesh

@@ -14,6 +14,7 @@ import functools
 import io
 import re
 import warnings
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -138,7 +139,50 @@ for where the values come from); ``size={category: metres}`` overrides an entry.
 
 
 class UnknownSizeWarning(UserWarning):
-    """A normalised mesh of a category with no known size: it gets :data:`DEFAULT_SIZE`."""
+    """A normalised mesh of a category with no known size: it gets :data:`DEFAULT_SIZE`.
+
+    Made from the category alone (so that it pickles from a worker process as it is);
+    ``str()`` gives the advice in Python terms, :meth:`cli_text` in the command line's (the
+    CLI prints that one: a user of ``beo-bench`` has no ``size=`` argument to pass)."""
+
+    def __init__(self, category: str) -> None:
+        super().__init__(category)
+        self.category = category
+
+    def _text(self, fix: str) -> str:
+        return (
+            f"category {self.category!r} has no known size (not in CATEGORY_SIZES nor "
+            f"registered): its normalised meshes get {DEFAULT_SIZE} m; for its real size "
+            f"{fix}"
+        )
+
+    def __str__(self) -> str:
+        return self._text(
+            f"pass size={{{self.category!r}: <metres>}} to open_dataset, or set "
+            f"size = <metres> under [classes.{toml_key(self.category)}] in the dataset's "
+            f"{MANIFEST}"
+        )
+
+    def cli_text(self) -> str:
+        """The warning for a command-line user: the manifest key and ``--size``."""
+        return self._text(
+            f"set size = <metres> under [classes.{toml_key(self.category)}] in the "
+            f"dataset's {MANIFEST} (or pass --size M for every object's largest extent)"
+        )
+
+
+MANIFEST = "beo-bench.toml"
+"""The name of a dataset's per-class and per-file options file (read by
+:func:`~beo_bench.objects.datasets.load.read_manifest`)."""
+
+_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def toml_key(name: str) -> str:
+    """``name`` as a TOML key: bare when it may be, else quoted."""
+    if _BARE_KEY.match(name):
+        return name
+    return '"' + name.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 SIZE_SAMPLES = 7
@@ -168,21 +212,31 @@ def procedural_size(category: str) -> float:
     return round(float(np.median(ext)), 6)
 
 
-@functools.cache
-def _warn_unknown_size(category: str) -> None:
-    # once per category and process: one line per mesh would bury the advice
-    warnings.warn(
-        f"category {category!r} has no known size (not in CATEGORY_SIZES nor registered): its "
-        f"normalised meshes get {DEFAULT_SIZE} m; pass size={{{category!r}: <metres>}} to the "
-        f"loader for its real size",
-        UnknownSizeWarning,
-        stacklevel=3,
-    )
+_SAID: set[str] = set()
+"""The categories whose :class:`UnknownSizeWarning` this process has given."""
+
+
+def warn_unknown_size(category: str) -> None:
+    """The :class:`UnknownSizeWarning` of ``category``, once per process (one line per
+    mesh would bury the advice; the dataset check and the parent of worker processes
+    re-emit what they recorded through here, so the driver says it once)."""
+    if category not in _SAID:
+        _SAID.add(category)
+        warnings.warn(UnknownSizeWarning(category), stacklevel=3)
+
+
+def recorded_unknown_sizes(caught: Iterable[warnings.WarningMessage]) -> list[str]:
+    """The categories of the :class:`UnknownSizeWarning` among warnings that were recorded
+    (``catch_warnings(record=True)``), not shown: forgotten as given, so that re-emitting
+    them (:func:`warn_unknown_size`) shows them."""
+    cats = [w.message.category for w in caught if isinstance(w.message, UnknownSizeWarning)]
+    _SAID.difference_update(cats)
+    return cats
 
 
 def _size_of(category: str) -> float:
     if category not in CATEGORY_SIZES and category not in registered_categories():
-        _warn_unknown_size(category)
+        warn_unknown_size(category)
     return default_size(category)
 
 
@@ -287,6 +341,44 @@ def axes_rotation(up: str = "z", front: str = "x") -> Mat3:
     return np.stack([f, np.cross(u, f), u])
 
 
+FLAT_BASE = 0.4
+"""Share of the bounding box's cross-section that the flat faces of a mesh's convex hull
+facing one way must cover to count as a base it stands on (:func:`sideways_up`): a
+cylinder's end covers 0.79, a mug's bottom about 0.6 (its handle widens the box)."""
+
+NO_BASE = 0.1
+"""Share below which a mesh has no flat base facing down at all (a bowl on its side)."""
+
+STANDS = 0.75
+"""A mesh whose flat base facing down (-z) covers at least this share of its flat base
+facing along y stands as it is (:func:`sideways_up`): a box's faces cover 1.0 each, and a
+Y-up hexagonal bottle lies on a side covering 0.54 of the box, its end 0.8."""
+
+
+def sideways_up(mesh: trimesh.Trimesh) -> bool:
+    """Whether a canonical mesh looks modelled with +y up (the glTF and many OBJ
+    exporters' convention) rather than +z: its convex hull has a flat base facing along y
+    (:data:`FLAT_BASE`) and a much smaller one, or none, facing down (:data:`STANDS`): a
+    Y-up bottle, can, mug or bowl, which lies on its side on the table. Only the axis is
+    told: an open container's rim makes as large a hull face as its bottom. False for
+    shapes with no flat base at all (a lemon) and for boxes, where nothing tells."""
+    hull = mesh.convex_hull
+    normals, areas = np.asarray(hull.face_normals), np.asarray(hull.area_faces)
+    ext = np.asarray(mesh.extents, dtype=np.float64)
+
+    def base(axis: int, sign: float) -> float:
+        flat = areas[normals[:, axis] * sign > np.cos(np.radians(8.0))].sum()
+        other = [i for i in range(3) if i != axis]
+        return float(flat / max(ext[other[0]] * ext[other[1]], 1e-12))
+
+    along_y, down = max(base(1, -1.0), base(1, 1.0)), base(2, -1.0)
+    # taller along y than along z, or flat at both y ends and nothing flat below (a bowl: its
+    # rim and its foot): a monitor's screen or a night stand's side faces y, but it is not
+    # taller that way and stands on its feet
+    upright = ext[1] >= ext[2] or (down < NO_BASE and min(base(1, -1.0), base(1, 1.0)) >= FLAT_BASE)
+    return bool(along_y >= FLAT_BASE and down < STANDS * along_y and upright)
+
+
 def _axis(name: str) -> np.ndarray:
     s = name.strip().lower()
     sign = -1.0 if s.startswith("-") else 1.0
@@ -315,7 +407,8 @@ def read_mesh(path: str | Path, max_faces: int | None = None) -> trimesh.Trimesh
     Raises, each naming the file: :class:`~beo_bench.errors.MeshLoadError` for a missing,
     unreadable or unparseable file; :class:`~beo_bench.errors.NonFiniteMeshError` for NaN
     or infinite coordinates; :class:`~beo_bench.errors.TruncatedMeshError` for an OBJ that
-    was cut off (its last line is incomplete, or unterminated while the surface is open);
+    was cut off (its last line is incomplete, or unterminated while the surface is open) or
+    an STL (shorter than its header's triangle count, or a text one without ``endsolid``);
     :class:`~beo_bench.errors.EmptyMeshError` for one without faces;
     :class:`~beo_bench.errors.TooManyFacesError` for one with more than ``max_faces``
     faces (None: no budget), counted before parsing where the format allows
@@ -340,6 +433,8 @@ def read_mesh(path: str | Path, max_faces: int | None = None) -> trimesh.Trimesh
     cut = _obj_unterminated_line(data) if suffix == ".obj" else None
     if cut is not None and not _obj_line_ok(cut):
         _raise_truncated(p, cut, "which is incomplete")
+    if suffix == ".stl":
+        _check_stl_length(p, data)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # e.g. missing texture images: irrelevant here
@@ -404,7 +499,7 @@ def count_faces(data: bytes, suffix: str) -> int | None:
     if suffix == ".obj":
         return len(_OBJ_FACE.findall(data))
     if suffix == ".stl":
-        if data[:5].lower() == b"solid" and b"endfacet" in data[:4096]:
+        if _stl_is_text(data):
             return data.count(b"endfacet")
         if len(data) >= 84:
             n = int.from_bytes(data[80:84], "little")
@@ -445,6 +540,43 @@ def _raise_truncated(p: Path, tokens: list[bytes], why: str) -> NoReturn:
         f"{p}: the file is truncated: it ends in the middle of a line ({shown!r}, {why}); "
         f"re-download or re-export it (a complete file ends with a line break)"
     )
+
+
+def _stl_is_text(data: bytes) -> bool:
+    """Whether STL bytes are the text form (binary files may also start with ``solid``:
+    some exporters write it into the 80-byte header, so a facet must follow)."""
+    return data[:5].lower() == b"solid" and b"endfacet" in data[:4096]
+
+
+def _check_stl_length(p: Path, data: bytes) -> None:
+    """A :class:`~beo_bench.errors.TruncatedMeshError` for an STL cut short: a binary one
+    holds fewer bytes than the 84 + 50 per triangle its header declares, a text one does not
+    end with ``endsolid``. Checked before parsing: a cut binary file was otherwise read as
+    text and refused as having no faces (or, without charset-normalizer, as a missing
+    module), which sends the user after the wrong problem."""
+    if _stl_is_text(data):
+        last = data.rstrip().rsplit(b"\n", 1)[-1].strip()
+        if not last.lower().startswith(b"endsolid"):
+            shown = last[:60].decode("utf-8", errors="replace")
+            raise TruncatedMeshError(
+                f"{p}: the file is truncated: a text STL ends with an endsolid line and this "
+                f"one ends with {shown!r}; re-download or re-export it"
+            )
+        return
+    if len(data) < 84:
+        if data.strip():
+            raise TruncatedMeshError(
+                f"{p}: the file is truncated: a binary STL has an 84-byte header and this "
+                f"file has {len(data)} bytes; re-download or re-export it"
+            )
+        return  # empty: the no-faces error says it
+    declared = int.from_bytes(data[80:84], "little")
+    if len(data) < 84 + 50 * declared:
+        raise TruncatedMeshError(
+            f"{p}: the file is truncated: its header declares {declared:,} triangles "
+            f"({84 + 50 * declared:,} bytes) but it has {len(data):,} bytes; re-download or "
+            f"re-export it"
+        )
 
 
 def _obj_line_ok(tokens: list[bytes]) -> bool:
