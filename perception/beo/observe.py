@@ -116,24 +116,28 @@ def voxelise(
     return filled, empty
 
 
-def distance_transform(mask: torch.Tensor, chunk: int = 16) -> torch.Tensor:
+def distance_transform(mask: torch.Tensor, chunk: int = 64) -> torch.Tensor:
     """Exact Euclidean distance (in voxels) from every voxel of (B, D, D, D) ``mask`` to the
     nearest True voxel; a grid without any True voxel gets D * sqrt(3) everywhere.
 
     Separable squared-distance transform (Felzenszwalb & Huttenlocher 2012): three 1-D
-    lower-envelope passes, each computed as a batched min over all D positions (O(D) per
-    voxel, exact, vectorised over the hypotheses)."""
+    lower-envelope passes, each an exact min over all D input positions (O(D) per voxel,
+    vectorised over the hypotheses). The min is taken as D elementwise minima over whole
+    planes rather than one broadcast (.., D_out, D_in) tensor reduced over its short last
+    axis: the same sums and minima (bit-identical), six times faster on one core."""
     B, D = mask.shape[0], mask.shape[1]
     big = float(3 * D * D)
     i = torch.arange(D, dtype=torch.float32)
-    sq = (i[:, None] - i[None, :]) ** 2  # (D_out, D_in)
+    sq = ((i[:, None] - i[None, :]) ** 2).reshape(D, D, 1, 1, 1)  # (D_out, D_in, 1, 1, 1)
     out = torch.empty(mask.shape, dtype=torch.float32)
     for s in range(0, B, chunk):
         f = torch.where(mask[s : s + chunk], 0.0, big)
         for axis in (1, 2, 3):
-            g = f.movedim(axis, -1)  # (b, ., ., D_in)
-            g = (g[..., None, :] + sq).amin(dim=-1)  # (b, ., ., D_out)
-            f = g.movedim(-1, axis)
+            g = f.movedim(axis, 0)  # (D_in, b, ., .)
+            acc = g[0][None] + sq[:, 0]  # (D_out, b, ., .)
+            for y in range(1, D):
+                torch.minimum(acc, g[y][None] + sq[:, y], out=acc)
+            f = acc.movedim(0, axis)
         out[s : s + chunk] = torch.sqrt(torch.clamp(f, max=big))
     return out
 

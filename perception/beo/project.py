@@ -48,6 +48,9 @@ class Subspace:
     rows: torch.Tensor
     """(d + 1, k + 1) [W, mu] with a zero row appended: one gather of a voxel's row gives
     its basis row and mean, and padding (index d) gathers zeros."""
+    gram: torch.Tensor
+    """(k + 1, k + 1) [W, mu]^T [W, mu] over the whole grid, assembled from ``WtW`` and
+    ``Wmu`` (so that a Gram matrix subtracted from it is what subtracting from those gave)."""
 
     @classmethod
     def from_model(
@@ -68,14 +71,18 @@ class Subspace:
             W, mu = pooled[:k].T.contiguous(), pooled[k].contiguous()
         WtW = W.T @ W
         rows = torch.cat([torch.cat([W, mu[:, None]], 1), torch.zeros(1, W.shape[1] + 1)])
+        Wmu = W.T @ mu
+        gram = torch.empty(W.shape[1] + 1, W.shape[1] + 1)
+        gram[:-1, :-1], gram[:-1, -1], gram[-1, :-1], gram[-1, -1] = WtW, Wmu, Wmu, mu @ mu
         return cls(
             D=D // factor,
             W=W,
             mu=mu,
             WtW=WtW,
-            Wmu=W.T @ mu,
+            Wmu=Wmu,
             lipschitz=float(torch.linalg.eigvalsh(WtW)[-1]),
             rows=rows.contiguous(),
+            gram=gram,
         )
 
     @property
@@ -101,23 +108,51 @@ def padded_indices(mask: torch.Tensor, pad: int) -> torch.Tensor:
     return idx
 
 
-def normal_equations(
-    sub: Subspace, filled: torch.Tensor, empty: torch.Tensor
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """G (B, k, k) = W^T S W and c (B, k) = W^T S (o - mu) of the hypotheses' observations,
-    gathered over whichever of the unknown or the known voxels are fewer (a view from far
+def known_gram(sub: Subspace, known: torch.Tensor) -> torch.Tensor:
+    """(B, k + 1, k + 1) ``[W, mu]_K^T [W, mu]_K`` over each hypothesis's known voxels
+    (``known`` (B, d)): its [:k, :k] block is G = W^T S W and its [:k, k] column W^T S mu.
+    Gathered over whichever of the unknown or the known voxels are fewer (a view from far
     away, or an occluded one, leaves most of the cube unknown)."""
-    d, k = sub.W.shape
-    known = filled | empty
+    d = sub.W.shape[0]
     if int(known.sum(dim=1).max()) < int((~known).sum(dim=1).max()):
         Rk = sub.rows[padded_indices(known, d)]  # (B, n_k, k + 1): [W_K, mu_K]
-        Gk = Rk.transpose(1, 2) @ Rk
-        G, W_mu = Gk[:, :k, :k], Gk[:, :k, k]
-    else:
-        Ru = sub.rows[padded_indices(~known, d)]  # (B, n_u, k + 1): [W_U, mu_U]
-        Gu = Ru.transpose(1, 2) @ Ru
-        G, W_mu = sub.WtW - Gu[:, :k, :k], sub.Wmu - Gu[:, :k, k]
-    Wf = sub.rows[padded_indices(filled, d)][..., :k].sum(dim=1)
+        return Rk.transpose(1, 2) @ Rk
+    Ru = sub.rows[padded_indices(~known, d)]  # (B, n_u, k + 1): [W_U, mu_U]
+    return sub.gram - Ru.transpose(1, 2) @ Ru
+
+
+def update_gram(
+    sub: Subspace, gram: torch.Tensor, known_from: torch.Tensor, known_to: torch.Tensor
+) -> torch.Tensor | None:
+    """:func:`known_gram` of ``known_to`` from that of ``known_from`` (each (B, d); ``gram``
+    (B, k + 1, k + 1)): plus the rows of the voxels that became known, minus those of the
+    voxels no longer known. A hypothesis turned a few degrees from another sees nearly the
+    same voxels (the fine step's pattern search: 2-10% of them change), so this gathers a
+    tenth of the rows or fewer. Equal to :func:`known_gram` up to float32 rounding (a sum
+    in another order). None where the change is not smaller than what :func:`known_gram`
+    gathers (then call it)."""
+    d = sub.W.shape[0]
+    gained = known_to & ~known_from
+    lost = known_from & ~known_to
+    changed = int((gained.sum(dim=1) + lost.sum(dim=1)).max())
+    direct = min(int(known_to.sum(dim=1).max()), int((~known_to).sum(dim=1).max()))
+    if changed >= direct:
+        return None
+    Rg = sub.rows[padded_indices(gained, d)]
+    Rl = sub.rows[padded_indices(lost, d)]
+    return gram + Rg.transpose(1, 2) @ Rg - Rl.transpose(1, 2) @ Rl
+
+
+def normal_equations(
+    sub: Subspace, filled: torch.Tensor, empty: torch.Tensor, gram: torch.Tensor | None = None
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """G (B, k, k) = W^T S W and c (B, k) = W^T S (o - mu) of the hypotheses' observations,
+    from their :func:`known_gram` (computed here where ``gram`` is None)."""
+    k = sub.k
+    if gram is None:
+        gram = known_gram(sub, filled | empty)
+    G, W_mu = gram[:, :k, :k], gram[:, :k, k]
+    Wf = sub.rows[padded_indices(filled, sub.W.shape[0])][..., :k].sum(dim=1)
     return G, Wf - W_mu
 
 
@@ -146,7 +181,14 @@ def _spd_solve(G: torch.Tensor, diag: torch.Tensor, c: torch.Tensor) -> torch.Te
     return torch.cholesky_solve(c[..., None], L)[..., 0]
 
 
-def project(sub: Subspace, filled: torch.Tensor, empty: torch.Tensor, lasso: float) -> torch.Tensor:
-    """(B, k) codes of B partially observed grids (filled and known-empty masks (B, d))."""
-    G, c = normal_equations(sub, filled, empty)
+def project(
+    sub: Subspace,
+    filled: torch.Tensor,
+    empty: torch.Tensor,
+    lasso: float,
+    gram: torch.Tensor | None = None,
+) -> torch.Tensor:
+    """(B, k) codes of B partially observed grids (filled and known-empty masks (B, d));
+    ``gram``: their :func:`known_gram` where the caller has it."""
+    G, c = normal_equations(sub, filled, empty, gram)
     return solve_lasso(G, c, lasso, sub.lipschitz)
