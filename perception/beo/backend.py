@@ -119,7 +119,8 @@ class Completion:
     codes: torch.Tensor
     """(B, k)."""
     grids: torch.Tensor
-    """(B, d) back-projections W o' + mu (not clipped)."""
+    """(B, d) back-projections W o' + mu (not clipped); (B, 0) where not asked for (the
+    fine step's scores need only the codes)."""
     known: torch.Tensor
     """(B, d) the hypotheses' known voxels (filled or known empty)."""
     gram: torch.Tensor
@@ -340,13 +341,15 @@ class BEOBackend(Backend):
         sub: Subspace,
         hyp: Hypotheses,
         near: tuple[Completion, torch.Tensor] | None = None,
+        grids: bool = True,
     ) -> Completion:
-        """Codes and back-projections of the hypotheses at full resolution. ``near``: the
+        """Codes and back-projections (``grids``; else none) of the hypotheses at full
+        resolution. ``near``: the
         completion of hypotheses with the same cubes, nearly the same rotations, and the
         row of it each hypothesis is near (the fine step's pattern search): each Gram
         matrix is then updated from its neighbour's (:func:`~.beo_project.update_gram`)
         rather than gathered again."""
-        codes, grids, knowns, grams = [], [], [], []
+        codes, backs, knowns, grams = [], [], [], []
         for s in self._chunks(len(hyp)):
             rows = torch.arange(len(hyp))[s]
             h = hyp.take(rows)
@@ -360,10 +363,10 @@ class BEOBackend(Backend):
                 gram = known_gram(sub, known)
             x = project(sub, filled, empty, self.options.lasso, gram)
             codes.append(x)
-            grids.append(sub.decode(x))
+            backs.append(sub.decode(x) if grids else x[:, :0])
             knowns.append(known)
             grams.append(gram)
-        return Completion(torch.cat(codes), torch.cat(grids), torch.cat(knowns), torch.cat(grams))
+        return Completion(torch.cat(codes), torch.cat(backs), torch.cat(knowns), torch.cat(grams))
 
     def joint_scores(
         self, model: BEOModel, codes: torch.Tensor, classes: list[int]
@@ -415,7 +418,7 @@ class BEOBackend(Backend):
     ) -> tuple[torch.Tensor, Completion]:
         """:meth:`class_scores` and the completion they came from (``near``: see
         :meth:`complete`)."""
-        comp = self.complete(obs, sub, hyp, near if self.gram_updates else None)
+        comp = self.complete(obs, sub, hyp, near if self.gram_updates else None, grids=False)
         logp = self.joint_scores(model, comp.codes, classes)[1]
         allowed = torch.full((logp.shape[1],), -math.inf, dtype=logp.dtype)
         allowed[classes] = 0.0
