@@ -97,15 +97,22 @@ class Subspace:
 def padded_indices(mask: torch.Tensor, pad: int) -> torch.Tensor:
     """The True positions of each row of (B, d) ``mask`` as (B, n_max) indices, rows with
     fewer than n_max True padded with ``pad``."""
-    B = mask.shape[0]
+    B, d = mask.shape
     counts = mask.sum(dim=1)
     n_max = max(int(counts.max()), 1)
-    rows, cols = mask.nonzero(as_tuple=True)
-    start = torch.cumsum(counts, 0) - counts
-    pos = torch.arange(len(rows)) - start[rows]
-    idx = torch.full((B, n_max), pad, dtype=torch.long)
-    idx[rows, pos] = cols
-    return idx
+    # each True position goes to its rank among its row's True; the False to a spare slot
+    slot = torch.where(mask, torch.cumsum(mask, dim=1) - 1, n_max)
+    idx = torch.full((B, n_max + 1), pad, dtype=torch.long)
+    idx.scatter_(1, slot, torch.arange(d).expand(B, d))
+    return idx[:, :n_max]
+
+
+def gather_rows(sub: Subspace, mask: torch.Tensor) -> torch.Tensor:
+    """(B, n_max, k + 1) the rows [W, mu] of each hypothesis's True voxels of (B, d)
+    ``mask``, padded with zero rows (one index_select of :attr:`Subspace.rows`: three times
+    faster than advanced indexing, the same copy)."""
+    idx = padded_indices(mask, sub.W.shape[0])
+    return sub.rows.index_select(0, idx.reshape(-1)).reshape(*idx.shape, -1)
 
 
 def known_gram(sub: Subspace, known: torch.Tensor) -> torch.Tensor:
@@ -113,11 +120,10 @@ def known_gram(sub: Subspace, known: torch.Tensor) -> torch.Tensor:
     (``known`` (B, d)): its [:k, :k] block is G = W^T S W and its [:k, k] column W^T S mu.
     Gathered over whichever of the unknown or the known voxels are fewer (a view from far
     away, or an occluded one, leaves most of the cube unknown)."""
-    d = sub.W.shape[0]
     if int(known.sum(dim=1).max()) < int((~known).sum(dim=1).max()):
-        Rk = sub.rows[padded_indices(known, d)]  # (B, n_k, k + 1): [W_K, mu_K]
+        Rk = gather_rows(sub, known)  # (B, n_k, k + 1): [W_K, mu_K]
         return Rk.transpose(1, 2) @ Rk
-    Ru = sub.rows[padded_indices(~known, d)]  # (B, n_u, k + 1): [W_U, mu_U]
+    Ru = gather_rows(sub, ~known)  # (B, n_u, k + 1): [W_U, mu_U]
     return sub.gram - Ru.transpose(1, 2) @ Ru
 
 
@@ -131,15 +137,14 @@ def update_gram(
     tenth of the rows or fewer. Equal to :func:`known_gram` up to float32 rounding (a sum
     in another order). None where the change is not smaller than what :func:`known_gram`
     gathers (then call it)."""
-    d = sub.W.shape[0]
     gained = known_to & ~known_from
     lost = known_from & ~known_to
     changed = int((gained.sum(dim=1) + lost.sum(dim=1)).max())
     direct = min(int(known_to.sum(dim=1).max()), int((~known_to).sum(dim=1).max()))
     if changed >= direct:
         return None
-    Rg = sub.rows[padded_indices(gained, d)]
-    Rl = sub.rows[padded_indices(lost, d)]
+    Rg = gather_rows(sub, gained)
+    Rl = gather_rows(sub, lost)
     return gram + Rg.transpose(1, 2) @ Rg - Rl.transpose(1, 2) @ Rl
 
 
@@ -152,7 +157,7 @@ def normal_equations(
     if gram is None:
         gram = known_gram(sub, filled | empty)
     G, W_mu = gram[:, :k, :k], gram[:, :k, k]
-    Wf = sub.rows[padded_indices(filled, sub.W.shape[0])][..., :k].sum(dim=1)
+    Wf = gather_rows(sub, filled)[..., :k].sum(dim=1)
     return G, Wf - W_mu
 
 
