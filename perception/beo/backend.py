@@ -526,6 +526,7 @@ class BEOBackend(Backend):
         seeds = self.fit_box(obs, full, hyp.take(keep), self.options.size_rounds)
         # the seeds' completions (density score): their neighbours' Gram matrices start there
         state: Completion | None = None
+        seed_scores: torch.Tensor | None = None
         if self.options.fine == "density":
             seed_scores, state = self._class_scores(obs, model, full, seeds, classes, prior)
             score = seed_scores.amax(dim=1)
@@ -534,7 +535,7 @@ class BEOBackend(Backend):
         n_fine = len(seeds)
         if self.options.twins and len(classes) == 1:
             seeds, score, state = self._better_twins(
-                obs, model, full, seeds, score, classes, prior
+                obs, model, full, seeds, score, classes, prior, seed_scores, state
             )
             n_fine += len(seeds)
         if up is not None:
@@ -602,6 +603,8 @@ class BEOBackend(Backend):
         score: torch.Tensor,
         classes: list[int],
         prior: PosePrior | None,
+        seed_scores: torch.Tensor | None = None,
+        seed_comp: Completion | None = None,
     ) -> tuple[Hypotheses, torch.Tensor, Completion | None]:
         """Each seed, or its twin turned 180 degrees about its own up (canonical +z) when
         the twin scores higher under the seed's best class. A partial view of a car or an
@@ -612,7 +615,10 @@ class BEOBackend(Backend):
         the class estimated, a misclassified view's density cannot tell front from back,
         and twins made the class-free estimates worse (110 views, mean rotation error 44 ->
         55 degrees in 3-DOF, 33 -> 40 in 1-DOF, nearly all of it on misclassified chairs
-        and sofas), while given the class they made them better (44 -> 33, 23 -> 21)."""
+        and sofas), while given the class they made them better (44 -> 33, 23 -> 21).
+        ``seed_scores`` and ``seed_comp``: the seeds' :meth:`class_scores` and completion
+        where the caller has them (else computed here); the completion returned is the
+        chosen hypotheses' (density score; None with the EDT score)."""
         flip = torch.diag(torch.tensor([-1.0, -1.0, 1.0]))
         turned = Hypotheses(seeds.R @ flip, seeds.t, seeds.e)
         twins = self.fit_box(obs, sub, turned, self.options.size_rounds)
@@ -621,7 +627,9 @@ class BEOBackend(Backend):
             twin_score = self.fine_scores(obs, model, sub, twins, classes, prior)
             better = twin_score > score
         else:
-            mine, comp = self._class_scores(obs, model, sub, seeds, classes, prior)
+            if seed_scores is None or seed_comp is None:
+                seed_scores, seed_comp = self._class_scores(obs, model, sub, seeds, classes, prior)
+            mine, comp = seed_scores, seed_comp
             theirs, twin_comp = self._class_scores(obs, model, sub, twins, classes, prior)
             rows = torch.arange(len(seeds))
             c = mine.argmax(dim=1)
