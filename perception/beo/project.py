@@ -12,6 +12,9 @@ saw through), so both are computed from the few *unknown* and *filled* voxels:
 ``G_b = W^T W - W_U^T W_U`` and ``c_b = W_F^T 1 - (W^T mu - W_U^T mu_U)`` (or directly
 from the known voxels when those are fewer): gathers of the basis rows at padded index
 lists, one batched matmul, O(min(|U|, |K|) k^2) per hypothesis instead of O(d k^2).
+A hypothesis a few degrees from one already projected (the fine step's pattern search)
+starts from that one's Gram matrix instead (:func:`update_gram`): only the voxels whose
+state changed, 2-10% of them, are gathered.
 The lasso problem is then solved in k dimensions for all hypotheses at once by iteratively
 reweighted ridge steps (batched Cholesky solves). The lasso keeps the directions that the
 visible part does not constrain at the mean, which is what the dissertation adds it for.
