@@ -103,13 +103,17 @@ def voxelise(
     # known empty: voxel centres in front of what the camera saw along their pixel's ray
     X = torch.einsum("bij,vj->bvi", R, grid_centres(D)) * e[:, None, None] + t[:, None, :]
     z = X[..., 2]
-    zs = torch.where(z > 1e-6, z, torch.ones_like(z))
+    zs = torch.where(z > 1e-6, z, 1.0)
     K = obs.K
-    u = torch.floor(K[0, 0] * X[..., 0] / zs + K[0, 2] + 0.5).long()
-    v = torch.floor(K[1, 1] * X[..., 1] / zs + K[1, 2] + 0.5).long()
+    # pixel coordinates stay float32 (integers after the floor; a pixel index v W + u of
+    # an image of up to 2^24 pixels is exact): no int64 copies of the (B, D^3) grids
+    u = torch.floor(K[0, 0] * X[..., 0] / zs + K[0, 2] + 0.5)
+    v = torch.floor(K[1, 1] * X[..., 1] / zs + K[1, 2] + 0.5)
     H, W = obs.free_depth.shape
+    if H * W > 2**24:  # beyond float32's integers
+        u, v = u.double(), v.double()
     seen = (z > 1e-6) & (u >= 0) & (u < W) & (v >= 0) & (v < H)
-    pix = torch.where(seen, v * W + u, torch.zeros_like(u))
+    pix = torch.where(seen, v * W + u, 0.0).long()
     fd = obs.free_depth.reshape(-1)[pix]
     margin = CARVE_MARGIN * e[:, None] / D
     empty = seen & (z < fd - margin) & ~filled

@@ -11,7 +11,7 @@ import torch
 
 from beo_bench.backend import sample_views
 from beo_bench.errors import CheckpointError, InvalidNameError, ViewError
-from beo_bench.geometry import yaw_starts
+from beo_bench.geometry import super_fibonacci, yaw_starts
 from beo_bench.metrics import rotation_error, voxel_iou
 from beo_bench.objects import ObjectSet, instance_from_key
 from beo_bench.perception.beo.backend import BEOBackend, Hypotheses
@@ -225,6 +225,30 @@ def _plain_distance_transform(mask: torch.Tensor) -> torch.Tensor:
     return torch.sqrt(torch.clamp(f, max=big))
 
 
+def _plain_voxelise(
+    obs: Observation, R: torch.Tensor, t: torch.Tensor, e: torch.Tensor, D: int
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The voxelisation as BEO computed it before (int64 pixel coordinates)."""
+    from beo_bench.perception.beo.observe import CARVE_MARGIN, grid_centres
+
+    q = torch.einsum("bji,bnj->bni", R, obs.points[None] - t[:, None, :]) / e[:, None, None]
+    ijk = torch.floor((q + 0.5) * D).long()
+    inside = ((ijk >= 0) & (ijk < D)).all(dim=2)
+    flat = (ijk[..., 0] * D + ijk[..., 1]) * D + ijk[..., 2]
+    filled = torch.zeros(len(R), D**3 + 1, dtype=torch.bool)
+    filled.scatter_(1, torch.where(inside, flat, D**3), True)
+    filled = filled[:, : D**3]
+    X = torch.einsum("bij,vj->bvi", R, grid_centres(D)) * e[:, None, None] + t[:, None, :]
+    z = X[..., 2]
+    zs = torch.where(z > 1e-6, z, torch.ones_like(z))
+    u = torch.floor(obs.K[0, 0] * X[..., 0] / zs + obs.K[0, 2] + 0.5).long()
+    v = torch.floor(obs.K[1, 1] * X[..., 1] / zs + obs.K[1, 2] + 0.5).long()
+    H, W = obs.free_depth.shape
+    seen = (z > 1e-6) & (u >= 0) & (u < W) & (v >= 0) & (v < H)
+    fd = obs.free_depth.reshape(-1)[torch.where(seen, v * W + u, torch.zeros_like(u))]
+    return filled, seen & (z < fd - CARVE_MARGIN * e[:, None] / D) & ~filled
+
+
 def _plain_padded_indices(mask: torch.Tensor, pad: int) -> torch.Tensor:
     n = max(int(mask.sum(dim=1).max()), 1)
     out = torch.full((mask.shape[0], n), pad, dtype=torch.long)
@@ -236,9 +260,9 @@ def _plain_padded_indices(mask: torch.Tensor, pad: int) -> torch.Tensor:
 
 def test_the_fast_kernels_equal_their_plain_references(model_name) -> None:
     """The search's kernels against straightforward versions: the EDT, the box refit's
-    quantiles and the padded indices bit-identical; a Gram matrix updated from a
-    neighbour's (update_gram) equal to the one gathered afresh up to float32 rounding
-    (1e-5 of its largest entry)."""
+    quantiles, the padded indices and the voxelisation bit-identical; a Gram matrix updated
+    from a neighbour's (update_gram) equal to the one gathered afresh up to float32
+    rounding (1e-5 of its largest entry)."""
     from beo_bench.perception.beo.backend import _quantiles
     from beo_bench.perception.beo.observe import distance_transform, voxelise
     from beo_bench.perception.beo.project import known_gram, padded_indices, update_gram
@@ -262,6 +286,11 @@ def test_the_fast_kernels_equal_their_plain_references(model_name) -> None:
     obs = Observation.from_view(view)
     t0, e0 = b.start_box(obs)
     seed = b.fit_box(obs, full, Hypotheses.of(view.ground_truth.R_cam[None], t0, e0), 2)
+    R_any = torch.as_tensor(super_fibonacci(24), dtype=torch.float32)
+    for D in (16, 32):
+        args = (obs, R_any, t0.expand(24, 3), e0.expand(24), D)
+        for got, want in zip(voxelise(*args), _plain_voxelise(*args), strict=True):
+            assert torch.equal(got, want)
     turns = torch.linalg.matrix_exp(
         torch.stack(
             [
