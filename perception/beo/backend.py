@@ -73,12 +73,20 @@ from beo_bench.perception.beo.model import BEOModel, load_model
 from beo_bench.perception.beo.observe import (
     Observation,
     distance_transform,
-    grid_centres,
+    occupied_box,
     prior_rotations,
+    quantiles,
+    recentre,
     so3_spacing,
     voxelise,
 )
-from beo_bench.perception.beo.project import Subspace, known_gram, project, update_gram
+from beo_bench.perception.beo.project import (
+    Completion,
+    Subspace,
+    known_gram,
+    project,
+    update_gram,
+)
 from beo_bench.perception.digest import state_digest
 from beo_bench.types import Estimate, PosePrior, View
 
@@ -110,38 +118,6 @@ class Hypotheses:
         R = torch.as_tensor(np.asarray(R), dtype=torch.float32)
         B = R.shape[0]
         return cls(R, t.reshape(-1, 3).expand(B, 3).clone(), e.reshape(-1).expand(B).clone())
-
-
-@dataclass
-class Completion:
-    """Codes and back-projections of hypotheses at full resolution."""
-
-    codes: torch.Tensor
-    """(B, k)."""
-    grids: torch.Tensor
-    """(B, d) back-projections W o' + mu (not clipped); (B, 0) where not asked for (the
-    fine step's scores need only the codes)."""
-    known: torch.Tensor
-    """(B, d) the hypotheses' known voxels (filled or known empty)."""
-    gram: torch.Tensor
-    """(B, k + 1, k + 1) their :func:`~.beo_project.known_gram`: what a hypothesis a few
-    degrees away starts from (:meth:`BEOBackend.complete`'s ``near``)."""
-
-    def take(self, idx: torch.Tensor) -> Completion:
-        return Completion(self.codes[idx], self.grids[idx], self.known[idx], self.gram[idx])
-
-    def where(self, moved: torch.Tensor, other: Completion) -> Completion:
-        """``other``'s rows where ``moved`` (B,), these elsewhere."""
-
-        def pick(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
-            return torch.where(moved.reshape(-1, *([1] * (a.dim() - 1))), b, a)
-
-        return Completion(
-            pick(self.codes, other.codes),
-            pick(self.grids, other.grids),
-            pick(self.known, other.known),
-            pick(self.gram, other.gram),
-        )
 
 
 @dataclass(frozen=True)
@@ -218,10 +194,8 @@ class BEOBackend(Backend):
     capabilities = Capabilities(class_hint=ClassHint.OPTIONAL, model="beo")
     options: BEOOptions
     gram_updates = True
-    """The fine step's pattern search updates each neighbour's Gram matrix from its seed's
-    (:meth:`complete`'s ``near``); False gathers every one afresh (the same estimates up to
-    float32 rounding, 4x slower there: what the equivalence test and the benchmark compare
-    against)."""
+    """The fine step updates each neighbour's Gram matrix from its seed's (:meth:`complete`'s
+    ``near``); False gathers each afresh (the reference the tests and benchmark compare to)."""
 
     def __init__(self, options: BEOOptions | None = None, **kwargs: Any) -> None:
         super().__init__(options, **kwargs)
@@ -343,12 +317,10 @@ class BEOBackend(Backend):
         near: tuple[Completion, torch.Tensor] | None = None,
         grids: bool = True,
     ) -> Completion:
-        """Codes and back-projections (``grids``; else none) of the hypotheses at full
-        resolution. ``near``: the
-        completion of hypotheses with the same cubes, nearly the same rotations, and the
-        row of it each hypothesis is near (the fine step's pattern search): each Gram
-        matrix is then updated from its neighbour's (:func:`~.beo_project.update_gram`)
-        rather than gathered again."""
+        """Codes and back-projections (where ``grids``) of the hypotheses. ``near``: the
+        completion of hypotheses with the same cubes and nearly the same rotations, and the
+        row of it each hypothesis is near (the fine step's pattern search): each Gram matrix
+        is then updated from its neighbour's (:func:`~.beo_project.update_gram`)."""
         codes, backs, knowns, grams = [], [], [], []
         for s in self._chunks(len(hyp)):
             rows = torch.arange(len(hyp))[s]
@@ -416,8 +388,7 @@ class BEOBackend(Backend):
         prior: PosePrior | None,
         near: tuple[Completion, torch.Tensor] | None = None,
     ) -> tuple[torch.Tensor, Completion]:
-        """:meth:`class_scores` and the completion they came from (``near``: see
-        :meth:`complete`)."""
+        """:meth:`class_scores` and their completion (``near``: see :meth:`complete`)."""
         comp = self.complete(obs, sub, hyp, near if self.gram_updates else None, grids=False)
         logp = self.joint_scores(model, comp.codes, classes)[1]
         allowed = torch.full((logp.shape[1],), -math.inf, dtype=logp.dtype)
@@ -437,9 +408,9 @@ class BEOBackend(Backend):
         above 0.5 together with the observed points (their 1-99% range), and its edge is
         that box's largest extent. The points fix the extents the camera sees across; the
         completion supplies the hidden depth. A round or two settle it."""
-        lo_f, hi_f = _occupied_box(grids, D)  # (B, 3) unit-cube units
+        lo_f, hi_f = occupied_box(grids, D)  # (B, 3) unit-cube units
         q = torch.einsum("bji,bnj->bni", hyp.R, obs.points[None] - hyp.t[:, None, :])
-        qlo, qhi = _quantiles(q, (0.01, 0.99))
+        qlo, qhi = quantiles(q, (0.01, 0.99))
         e = hyp.e[:, None]
         lo = torch.minimum(lo_f * e, qlo)
         hi = torch.maximum(hi_f * e, qhi)
@@ -681,13 +652,13 @@ class BEOBackend(Backend):
             best, info = self.search(obs, cats, classes, up, prior)
             best = self.fit_box(obs, full, best, 1)
             comp = self.complete(obs, full, best)
-            flo, fhi = _occupied_box(comp.grids, model.D)
+            flo, fhi = occupied_box(comp.grids, model.D)
             lo, hi = flo[0].double().numpy(), fhi[0].double().numpy()
             e = float(best.e[0])
             est_size = np.maximum((hi - lo) * e, 1e-3)
             R = best.R[0].double().numpy()
             t_out = best.t[0].double().numpy() + R @ (0.5 * (lo + hi) * e)
-            grid = _recentre(comp.grids[0].reshape((model.D,) * 3).clamp(0, 1), lo, hi)
+            grid = recentre(comp.grids[0].reshape((model.D,) * 3).clamp(0, 1), lo, hi)
             protocol = "1dof" if up is not None else "3dof"
         logp = torch.from_numpy(model.log_density(comp.codes.numpy()))[0].double()
         probs = np.zeros(len(cats))
@@ -704,49 +675,6 @@ class BEOBackend(Backend):
         )
 
 
-def _occupied_box(grids: torch.Tensor, D: int) -> tuple[torch.Tensor, torch.Tensor]:
-    """Corners (B, 3) lo and hi, in unit-cube coordinates, of the voxels of each (B, d)
-    grid above 0.5 (above half its maximum when fewer than 8 are: thin shapes); the whole
-    cube for an empty grid."""
-    few = (grids > 0.5).sum(dim=1) < 8
-    thr = torch.where(few, 0.5 * grids.amax(dim=1), torch.full_like(grids[:, 0], 0.5))
-    occ = (grids >= thr[:, None]).reshape(-1, D, D, D) & (grids.reshape(-1, D, D, D) > 0)
-    c = torch.arange(D, dtype=torch.float32)
-    lo, hi = [], []
-    for axis in range(3):
-        other = tuple(a for a in (1, 2, 3) if a != axis + 1)
-        present = occ.any(dim=other)  # (B, D)
-        lo.append(torch.where(present, c, torch.full_like(c, D)).amin(dim=1) / D - 0.5)
-        hi.append((torch.where(present, c, torch.full_like(c, -1)).amax(dim=1) + 1) / D - 0.5)
-    lo_t, hi_t = torch.stack(lo, 1), torch.stack(hi, 1)
-    empty = ~occ.flatten(1).any(dim=1)
-    lo_t = torch.where(empty[:, None], torch.full_like(lo_t, -0.5), lo_t)
-    hi_t = torch.where(empty[:, None], torch.full_like(hi_t, 0.5), hi_t)
-    return lo_t, hi_t
-
-
-def _quantiles(x: torch.Tensor, qs: tuple[float, ...]) -> list[torch.Tensor]:
-    """``torch.quantile(x, q, dim=1)`` (linear interpolation) of (B, n, c) ``x`` for each
-    q of ``qs``, bit-identical, by partial selection: a top-k of the q n smallest (or
-    largest) values instead of a full sort of every column (17x faster for the coarse
-    step's 1% and 99% quantiles)."""
-    n = x.shape[1]
-    cols = x.transpose(1, 2)  # (B, c, n)
-    out = []
-    for q in qs:
-        # torch.quantile's rank, in the input's dtype, and its two neighbours
-        rank = torch.tensor(q, dtype=x.dtype) * (n - 1)
-        lo, hi = int(rank.floor()), int(rank.ceil())
-        if q < 0.5:
-            v = torch.topk(cols, hi + 1, dim=2, largest=False).values  # ascending
-            below, above = v[..., lo], v[..., hi]
-        else:
-            v = torch.topk(cols, n - lo, dim=2, largest=True).values  # descending
-            below, above = v[..., n - 1 - lo], v[..., n - 1 - hi]
-        out.append(torch.lerp(below, above, rank - lo))
-    return out
-
-
 def _rotvec(w: torch.Tensor) -> torch.Tensor:
     """(n, 3) rotation vectors -> (n, 3, 3) matrices."""
     return torch.linalg.matrix_exp(
@@ -759,19 +687,3 @@ def _rotvec(w: torch.Tensor) -> torch.Tensor:
             1,
         )
     )
-
-
-def _recentre(grid: torch.Tensor, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Resample a (D, D, D) grid over the cube [-0.5, 0.5]^3 into the unit cube of the box
-    [lo, hi] (cube units): centred on the box, edge = its largest extent (the
-    ``Estimate.shape`` convention), trilinearly."""
-    D = grid.shape[0]
-    edge = float(np.max(hi - lo))
-    centre = 0.5 * (lo + hi)
-    pts = grid_centres(D) * edge + torch.from_numpy(centre).float()  # old cube coords
-    # grid_sample's (x, y, z) index the last three dims (W, H, D) in [-1, 1]
-    g = (pts * 2).flip(-1).reshape(1, D, D, D, 3)
-    out = torch.nn.functional.grid_sample(
-        grid[None, None].float(), g, mode="bilinear", padding_mode="zeros", align_corners=False
-    )
-    return out[0, 0].numpy()

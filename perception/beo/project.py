@@ -97,6 +97,36 @@ class Subspace:
         return torch.addmm(self.mu, codes, self.W.T)
 
 
+@dataclass
+class Completion:
+    """Codes and back-projections of hypotheses at full resolution."""
+
+    codes: torch.Tensor
+    """(B, k)."""
+    grids: torch.Tensor
+    """(B, d) back-projections W o' + mu (not clipped); (B, 0) where not asked for (the
+    fine step's scores need only the codes)."""
+    known: torch.Tensor
+    """(B, d) the hypotheses' known voxels (filled or known empty)."""
+    gram: torch.Tensor
+    """(B, k + 1, k + 1) their :func:`known_gram`: what a hypothesis a few
+    degrees away starts from (:meth:`BEOBackend.complete`'s ``near``)."""
+
+    def take(self, idx: torch.Tensor) -> Completion:
+        return Completion(self.codes[idx], self.grids[idx], self.known[idx], self.gram[idx])
+
+    def where(self, moved: torch.Tensor, other: Completion) -> Completion:
+        """``other``'s rows where ``moved`` (B,), these elsewhere."""
+        mine = (self.codes, self.grids, self.known, self.gram)
+        theirs = (other.codes, other.grids, other.known, other.gram)
+        return Completion(
+            *(
+                torch.where(moved.reshape(-1, *[1] * (a.dim() - 1)), b, a)
+                for a, b in zip(mine, theirs, strict=True)
+            )
+        )
+
+
 def padded_indices(mask: torch.Tensor, pad: int) -> torch.Tensor:
     """The True positions of each row of (B, d) ``mask`` as (B, n_max) indices, rows with
     fewer than n_max True padded with ``pad``."""

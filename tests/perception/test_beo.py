@@ -263,8 +263,7 @@ def test_the_fast_kernels_equal_their_plain_references(model_name) -> None:
     quantiles, the padded indices and the voxelisation bit-identical; a Gram matrix updated
     from a neighbour's (update_gram) equal to the one gathered afresh up to float32
     rounding (1e-5 of its largest entry)."""
-    from beo_bench.perception.beo.backend import _quantiles
-    from beo_bench.perception.beo.observe import distance_transform, voxelise
+    from beo_bench.perception.beo.observe import distance_transform, quantiles, voxelise
     from beo_bench.perception.beo.project import known_gram, padded_indices, update_gram
 
     gen = torch.Generator().manual_seed(0)
@@ -276,7 +275,7 @@ def test_the_fast_kernels_equal_their_plain_references(model_name) -> None:
         assert torch.equal(padded_indices(flat, D**3), _plain_padded_indices(flat, D**3))
     for n in (1, 2, 7, 100, 301, 4096):
         x = torch.randn(3, n, 3, generator=gen)
-        lo, hi = _quantiles(x, (0.01, 0.99))
+        lo, hi = quantiles(x, (0.01, 0.99))
         assert torch.equal(lo, torch.quantile(x, 0.01, dim=1))
         assert torch.equal(hi, torch.quantile(x, 0.99, dim=1))
 
