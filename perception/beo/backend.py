@@ -74,12 +74,20 @@ from beo_bench.perception.beo.model import BEOModel, load_model
 from beo_bench.perception.beo.observe import (
     Observation,
     distance_transform,
-    grid_centres,
+    occupied_box,
     prior_rotations,
+    quantiles,
+    recentre,
     so3_spacing,
     voxelise,
 )
-from beo_bench.perception.beo.project import Subspace, project
+from beo_bench.perception.beo.project import (
+    Completion,
+    Subspace,
+    known_gram,
+    project,
+    update_gram,
+)
 from beo_bench.perception.digest import state_digest
 from beo_bench.types import Estimate, PosePrior, View
 
@@ -111,16 +119,6 @@ class Hypotheses:
         R = torch.as_tensor(np.asarray(R), dtype=torch.float32)
         B = R.shape[0]
         return cls(R, t.reshape(-1, 3).expand(B, 3).clone(), e.reshape(-1).expand(B).clone())
-
-
-@dataclass
-class Completion:
-    """Codes and back-projections of hypotheses at full resolution."""
-
-    codes: torch.Tensor
-    """(B, k)."""
-    grids: torch.Tensor
-    """(B, d) back-projections W o' + mu (not clipped)."""
 
 
 @dataclass(frozen=True)
@@ -196,6 +194,9 @@ class BEOBackend(Backend):
     Options = BEOOptions
     capabilities = Capabilities(class_hint=ClassHint.OPTIONAL, model="beo")
     options: BEOOptions
+    gram_updates = True
+    """The fine step updates each neighbour's Gram matrix from its seed's (:meth:`complete`'s
+    ``near``); False gathers each afresh (the reference the tests and benchmark compare to)."""
 
     def __init__(self, options: BEOOptions | None = None, **kwargs: Any) -> None:
         super().__init__(options, **kwargs)
@@ -320,16 +321,36 @@ class BEOBackend(Backend):
             out.append(err)
         return torch.cat(out)
 
-    def complete(self, obs: Observation, sub: Subspace, hyp: Hypotheses) -> Completion:
-        """Codes and back-projections of the hypotheses at full resolution."""
-        codes, grids = [], []
+    def complete(
+        self,
+        obs: Observation,
+        sub: Subspace,
+        hyp: Hypotheses,
+        near: tuple[Completion, torch.Tensor] | None = None,
+        grids: bool = True,
+    ) -> Completion:
+        """Codes and back-projections (where ``grids``) of the hypotheses. ``near``: the
+        completion of hypotheses with the same cubes and nearly the same rotations, and the
+        row of it each hypothesis is near (the fine step's pattern search): each Gram matrix
+        is then updated from its neighbour's (:func:`~.beo_project.update_gram`)."""
+        codes, backs, knowns, grams = [], [], [], []
         for s in self._chunks(len(hyp)):
-            h = hyp.take(torch.arange(len(hyp))[s])
+            rows = torch.arange(len(hyp))[s]
+            h = hyp.take(rows)
             filled, empty = voxelise(obs, h.R, h.t, h.e, sub.D)
-            x = project(sub, filled, empty, self.options.lasso)
+            known = filled | empty
+            gram = None
+            if near is not None:
+                base = near[0].take(near[1][rows])
+                gram = update_gram(sub, base.gram, base.known, known)
+            if gram is None:
+                gram = known_gram(sub, known)
+            x = project(sub, filled, empty, self.options.lasso, gram)
             codes.append(x)
-            grids.append(sub.decode(x))
-        return Completion(torch.cat(codes), torch.cat(grids))
+            backs.append(sub.decode(x) if grids else x[:, :0])
+            knowns.append(known)
+            grams.append(gram)
+        return Completion(torch.cat(codes), torch.cat(backs), torch.cat(knowns), torch.cat(grams))
 
     def joint_scores(
         self, model: BEOModel, codes: torch.Tensor, classes: list[int]
@@ -367,7 +388,20 @@ class BEOBackend(Backend):
     ) -> torch.Tensor:
         """(B, C) log p(o'_R | c) + log p(c) + log P(R) per class (-inf for the classes
         not in ``classes``): the terms of eq. 3.22 before the max over classes."""
-        comp = self.complete(obs, sub, hyp)
+        return self._class_scores(obs, model, sub, hyp, classes, prior)[0]
+
+    def _class_scores(
+        self,
+        obs: Observation,
+        model: BEOModel,
+        sub: Subspace,
+        hyp: Hypotheses,
+        classes: list[int],
+        prior: PosePrior | None,
+        near: tuple[Completion, torch.Tensor] | None = None,
+    ) -> tuple[torch.Tensor, Completion]:
+        """:meth:`class_scores` and their completion (``near``: see :meth:`complete`)."""
+        comp = self.complete(obs, sub, hyp, near if self.gram_updates else None, grids=False)
         logp = self.joint_scores(model, comp.codes, classes)[1]
         allowed = torch.full((logp.shape[1],), -math.inf, dtype=logp.dtype)
         allowed[classes] = 0.0
@@ -375,7 +409,7 @@ class BEOBackend(Backend):
         if prior is not None:
             log_p = prior.log_prob(hyp.R.double().numpy(), soft_deg=PRIOR_SOFT_DEG)
             score = score + torch.from_numpy(log_p).to(score.dtype)[:, None]
-        return score
+        return score, comp
 
     # -- translation and size -------------------------------------------------------------
     def refine_box(
@@ -386,10 +420,9 @@ class BEOBackend(Backend):
         above 0.5 together with the observed points (their 1-99% range), and its edge is
         that box's largest extent. The points fix the extents the camera sees across; the
         completion supplies the hidden depth. A round or two settle it."""
-        lo_f, hi_f = _occupied_box(grids, D)  # (B, 3) unit-cube units
+        lo_f, hi_f = occupied_box(grids, D)  # (B, 3) unit-cube units
         q = torch.einsum("bji,bnj->bni", hyp.R, obs.points[None] - hyp.t[:, None, :])
-        qlo = torch.quantile(q, 0.01, dim=1)
-        qhi = torch.quantile(q, 0.99, dim=1)
+        qlo, qhi = quantiles(q, (0.01, 0.99))
         e = hyp.e[:, None]
         lo = torch.minimum(lo_f * e, qlo)
         hi = torch.maximum(hi_f * e, qhi)
@@ -474,10 +507,19 @@ class BEOBackend(Backend):
         errors = self.coarse_errors(obs, coarse, hyp)
         keep = self._top(errors, hyp.R, 1.5 * spacing)
         seeds = self.fit_box(obs, full, hyp.take(keep), self.options.size_rounds)
-        score = self.fine_scores(obs, model, full, seeds, classes, prior)
+        # the seeds' completions (density score): their neighbours' Gram matrices start there
+        state: Completion | None = None
+        seed_scores: torch.Tensor | None = None
+        if self.options.fine == "density":
+            seed_scores, state = self._class_scores(obs, model, full, seeds, classes, prior)
+            score = seed_scores.amax(dim=1)
+        else:
+            score = self.fine_scores(obs, model, full, seeds, classes, prior)
         n_fine = len(seeds)
         if self.options.twins and len(classes) == 1:
-            seeds, score = self._better_twins(obs, model, full, seeds, score, classes, prior)
+            seeds, score, state = self._better_twins(
+                obs, model, full, seeds, score, classes, prior, seed_scores, state
+            )
             n_fine += len(seeds)
         if up is not None:
             # yaw steps of 3^j * fine_deg within half a coarse step, then fine_deg: a
@@ -505,7 +547,13 @@ class BEOBackend(Backend):
                 cand_R = (dR[None] @ seeds.R[:, None]).reshape(-1, 3, 3)
             parent = torch.arange(len(seeds)).repeat_interleave(len(mv))
             cand = Hypotheses(cand_R, seeds.t[parent], seeds.e[parent])
-            cand_score = self.fine_scores(obs, model, full, cand, classes, prior)
+            if state is not None:
+                cand_scores, cand_comp = self._class_scores(
+                    obs, model, full, cand, classes, prior, near=(state, parent)
+                )
+                cand_score = cand_scores.amax(dim=1)
+            else:
+                cand_score = self.fine_scores(obs, model, full, cand, classes, prior)
             n_fine += len(cand)
             # each seed moves to its best neighbour if that beats it (eq. 3.22)
             per = torch.cat([score[:, None], cand_score.reshape(len(seeds), len(mv))], 1)
@@ -518,6 +566,8 @@ class BEOBackend(Backend):
                 torch.where(moved[:, None], new.t, seeds.t),
                 torch.where(moved, new.e, seeds.e),
             )
+            if state is not None:
+                state = state.where(moved, cand_comp.take(pick))
             score = per.amax(dim=1)
         best = seeds.take(torch.argmax(score).reshape(1))
         stats = {
@@ -536,7 +586,9 @@ class BEOBackend(Backend):
         score: torch.Tensor,
         classes: list[int],
         prior: PosePrior | None,
-    ) -> tuple[Hypotheses, torch.Tensor]:
+        seed_scores: torch.Tensor | None = None,
+        seed_comp: Completion | None = None,
+    ) -> tuple[Hypotheses, torch.Tensor, Completion | None]:
         """Each seed, or its twin turned 180 degrees about its own up (canonical +z) when
         the twin scores higher under the seed's best class. A partial view of a car or an
         airplane fits its front-back twin nearly as well, so the coarse EDT error often
@@ -546,26 +598,33 @@ class BEOBackend(Backend):
         the class estimated, a misclassified view's density cannot tell front from back,
         and twins made the class-free estimates worse (110 views, mean rotation error 44 ->
         55 degrees in 3-DOF, 33 -> 40 in 1-DOF, nearly all of it on misclassified chairs
-        and sofas), while given the class they made them better (44 -> 33, 23 -> 21)."""
+        and sofas), while given the class they made them better (44 -> 33, 23 -> 21).
+        ``seed_scores`` and ``seed_comp``: the seeds' :meth:`class_scores` and completion
+        where the caller has them (else computed here); the completion returned is the
+        chosen hypotheses' (density score; None with the EDT score)."""
         flip = torch.diag(torch.tensor([-1.0, -1.0, 1.0]))
         turned = Hypotheses(seeds.R @ flip, seeds.t, seeds.e)
         twins = self.fit_box(obs, sub, turned, self.options.size_rounds)
+        comp: Completion | None = None
         if self.options.fine == "edt":
             twin_score = self.fine_scores(obs, model, sub, twins, classes, prior)
             better = twin_score > score
         else:
-            mine = self.class_scores(obs, model, sub, seeds, classes, prior)
-            theirs = self.class_scores(obs, model, sub, twins, classes, prior)
+            if seed_scores is None or seed_comp is None:
+                seed_scores, seed_comp = self._class_scores(obs, model, sub, seeds, classes, prior)
+            mine, comp = seed_scores, seed_comp
+            theirs, twin_comp = self._class_scores(obs, model, sub, twins, classes, prior)
             rows = torch.arange(len(seeds))
             c = mine.argmax(dim=1)
             better = theirs[rows, c] > mine[rows, c]
             twin_score = theirs.amax(dim=1)
+            comp = comp.where(better, twin_comp)
         out = Hypotheses(
             torch.where(better[:, None, None], twins.R, seeds.R),
             torch.where(better[:, None], twins.t, seeds.t),
             torch.where(better, twins.e, seeds.e),
         )
-        return out, torch.where(better, twin_score, score)
+        return out, torch.where(better, twin_score, score), comp
 
     # -- predict --------------------------------------------------------------------------
     @staticmethod
@@ -605,13 +664,13 @@ class BEOBackend(Backend):
             best, info = self.search(obs, cats, classes, up, prior)
             best = self.fit_box(obs, full, best, 1)
             comp = self.complete(obs, full, best)
-            flo, fhi = _occupied_box(comp.grids, model.D)
+            flo, fhi = occupied_box(comp.grids, model.D)
             lo, hi = flo[0].double().numpy(), fhi[0].double().numpy()
             e = float(best.e[0])
             est_size = np.maximum((hi - lo) * e, 1e-3)
             R = best.R[0].double().numpy()
             t_out = best.t[0].double().numpy() + R @ (0.5 * (lo + hi) * e)
-            grid = _recentre(comp.grids[0].reshape((model.D,) * 3).clamp(0, 1), lo, hi)
+            grid = recentre(comp.grids[0].reshape((model.D,) * 3).clamp(0, 1), lo, hi)
             protocol = "1dof" if up is not None else "3dof"
         logp = torch.from_numpy(model.log_density(comp.codes.numpy()))[0].double()
         probs = np.zeros(len(cats))
@@ -628,27 +687,6 @@ class BEOBackend(Backend):
         )
 
 
-def _occupied_box(grids: torch.Tensor, D: int) -> tuple[torch.Tensor, torch.Tensor]:
-    """Corners (B, 3) lo and hi, in unit-cube coordinates, of the voxels of each (B, d)
-    grid above 0.5 (above half its maximum when fewer than 8 are: thin shapes); the whole
-    cube for an empty grid."""
-    few = (grids > 0.5).sum(dim=1) < 8
-    thr = torch.where(few, 0.5 * grids.amax(dim=1), torch.full_like(grids[:, 0], 0.5))
-    occ = (grids >= thr[:, None]).reshape(-1, D, D, D) & (grids.reshape(-1, D, D, D) > 0)
-    c = torch.arange(D, dtype=torch.float32)
-    lo, hi = [], []
-    for axis in range(3):
-        other = tuple(a for a in (1, 2, 3) if a != axis + 1)
-        present = occ.any(dim=other)  # (B, D)
-        lo.append(torch.where(present, c, torch.full_like(c, D)).amin(dim=1) / D - 0.5)
-        hi.append((torch.where(present, c, torch.full_like(c, -1)).amax(dim=1) + 1) / D - 0.5)
-    lo_t, hi_t = torch.stack(lo, 1), torch.stack(hi, 1)
-    empty = ~occ.flatten(1).any(dim=1)
-    lo_t = torch.where(empty[:, None], torch.full_like(lo_t, -0.5), lo_t)
-    hi_t = torch.where(empty[:, None], torch.full_like(hi_t, 0.5), hi_t)
-    return lo_t, hi_t
-
-
 def _rotvec(w: torch.Tensor) -> torch.Tensor:
     """(n, 3) rotation vectors -> (n, 3, 3) matrices."""
     return torch.linalg.matrix_exp(
@@ -661,19 +699,3 @@ def _rotvec(w: torch.Tensor) -> torch.Tensor:
             1,
         )
     )
-
-
-def _recentre(grid: torch.Tensor, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Resample a (D, D, D) grid over the cube [-0.5, 0.5]^3 into the unit cube of the box
-    [lo, hi] (cube units): centred on the box, edge = its largest extent (the
-    ``Estimate.shape`` convention), trilinearly."""
-    D = grid.shape[0]
-    edge = float(np.max(hi - lo))
-    centre = 0.5 * (lo + hi)
-    pts = grid_centres(D) * edge + torch.from_numpy(centre).float()  # old cube coords
-    # grid_sample's (x, y, z) index the last three dims (W, H, D) in [-1, 1]
-    g = (pts * 2).flip(-1).reshape(1, D, D, D, 3)
-    out = torch.nn.functional.grid_sample(
-        grid[None, None].float(), g, mode="bilinear", padding_mode="zeros", align_corners=False
-    )
-    return out[0, 0].numpy()

