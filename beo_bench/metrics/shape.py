@@ -369,7 +369,9 @@ def posed_iou(
     axes = [lo[i] + (np.arange(res) + 0.5) * (hi[i] - lo[i]) / res for i in range(3)]
     X = np.empty((res, res, res, 3))  # the sample points, [x, y, z] in C order
     X[..., 0], X[..., 1], X[..., 2] = (
-        axes[0][:, None, None], axes[1][None, :, None], axes[2][None, None, :]
+        axes[0][:, None, None],
+        axes[1][None, :, None],
+        axes[2][None, None, :],
     )
     X = X.reshape(-1, 3)
     inside = []

@@ -22,7 +22,9 @@ REFERENCE = Path(__file__).parent / "data" / "scoring_reference.json"
 ITEMS = {"pose-3dof": (0, 1, 2, 3, 4, 5, 6, 7), "known-pose": (0, 1)}
 
 
-def estimates(gt: Any, voxels: np.ndarray, other: np.ndarray, seed: int) -> Iterator[tuple[str, Any]]:
+def estimates(
+    gt: Any, voxels: np.ndarray, other: np.ndarray, seed: int
+) -> Iterator[tuple[str, Any]]:
     """The estimates scored for one view (name, Estimate)."""
     from beo_bench.types import Estimate
 
@@ -45,8 +47,8 @@ def rows() -> dict[str, dict[str, Any]]:
     """Every case's scored row, by ``suite/item/estimate``."""
     from beo_bench.bench import scoring as S
     from beo_bench.bench.evaluate import ItemViews
-    from beo_bench.bench.suites import get_suite
     from beo_bench.bench.pool import clean_row
+    from beo_bench.bench.suites import get_suite
 
     out: dict[str, dict[str, Any]] = {}
     for name, items in ITEMS.items():
