@@ -202,11 +202,34 @@ def truth_shape(
 ) -> TruthShape:
     """The true shape of instance ``key`` (of ``dataset``, for a dataset's key; voxels
     disk-cached at ``cache_root``, default the environment's; the rest kept per process)."""
+    from beo_bench.objects import cache
+
     inst = instance_from_key(key, dataset, cache_root)
     v = inst.voxels(D)
     hull = np.array(inst.mesh.convex_hull.vertices, dtype=float)
-    out = TruthShape(v, grid_surface(v), hull, grid_edt(v))
-    for a in (out.voxels, out.model_points):
+
+    def compute() -> dict[str, np.ndarray]:
+        # squared distances are integers (an EDT is sqrt of a sum of three integer squares):
+        # kept exactly, and their float square roots are the EDT's values to the bit
+        return {
+            "samples": grid_surface(v).samples,
+            "edt2": np.rint(grid_edt(v) ** 2).astype(np.int32),
+        }
+
+    # the samples and the EDT (half of an instance's cost to score) are kept on disk, by the
+    # grid they are of: a suite's instance is mostly new to a worker process
+    grid = hashlib.sha256(np.packbits(v).tobytes()).hexdigest()[:32]
+    kept = cache.cached(
+        "truth", grid, {"D": int(D), "n": SURFACE_POINTS, "v": 1}, compute, cache_root
+    )
+    mesh = grid_mesh(v, mirror_outside=True)
+    if mesh is None:  # no true surface (an empty grid): as grid_surface has it
+        surface = grid_surface(v)
+    else:
+        surface = metrics.Surface(mesh.vertices, mesh.faces, kept["samples"]).freeze()
+    edt = np.sqrt(kept["edt2"].astype(np.float64))
+    out = TruthShape(v, surface, hull, edt)
+    for a in (out.voxels, out.model_points, out.edt):
         a.setflags(write=False)
     return out
 
