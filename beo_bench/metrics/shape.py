@@ -101,6 +101,16 @@ class Surface:
         if len(self.samples) and not len(self.triangles):
             raise ValueError("a Surface with samples needs its triangles")
         self._centroids = cKDTree(_centroids(self.triangles)) if len(self.triangles) else None
+        self._own: NDArray[np.float64] | None = None
+
+    def keep_own_distances(self, distances: ArrayLike) -> None:
+        """Keep ``distances(self.samples)`` (computed earlier, e.g. stored with the surface),
+        handed out when the surface is measured against its own samples (the same values)."""
+        d = np.array(distances, dtype=np.float64)
+        if d.shape != (len(self.samples),):
+            raise ValueError(f"distances must have shape ({len(self.samples)},), got {d.shape}")
+        d.setflags(write=False)
+        self._own = d
 
     def __len__(self) -> int:
         return len(self.samples)
@@ -123,6 +133,8 @@ class Surface:
         for 0.035%. Coarse meshes are split evenly first (:func:`_even`); near their sharp
         edges a point can still miss its own triangle (a 12-triangle box sampled twice
         scored F = 0.9995 against itself). ``inf`` for an empty surface."""
+        if points is self.samples and self._own is not None and k == NEAREST_TRIANGLES:
+            return self._own.copy()
         q = _points(points, "points")
         if self._centroids is None:
             return np.full(len(q), np.inf)

@@ -286,7 +286,7 @@ _SHAPES: dict[str, Callable[[dict[str, Any]], dict[str, tuple[int | None, ...]]]
         "shape": (len(s["categories"]), *(int(s["D"]),) * 3),
         "size": (len(s["categories"]), 3),
     },
-    "truth": lambda s: {"samples": (None, 3), "edt2": (int(s["D"]),) * 3},
+    "truth": lambda s: {"samples": (None, 3), "edt2": (int(s["D"]),) * 3, "own": (None,)},
 }
 _KINDS: dict[str, dict[str, str]] = {
     "voxels": {"occ": "u"},
