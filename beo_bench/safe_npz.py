@@ -92,7 +92,7 @@ def _read(
     as ``np.lib.format.read_array`` gives it (writable; Fortran order kept)."""
     f.read(offset)
     out = np.empty(math.prod(shape), dtype=dtype)
-    view = memoryview(out).cast("B")
+    view = out.data.cast("B")
     got = 0
     while got < len(view):  # a zip stream may return less than asked
         k = f.readinto(view[got:])  # type: ignore[attr-defined]

@@ -379,13 +379,13 @@ def posed_iou(
     placed = np.concatenate([corners * s @ R.T + t for _, R, t, s in shapes])
     lo, hi = placed.min(axis=0), placed.max(axis=0)
     axes = [lo[i] + (np.arange(res) + 0.5) * (hi[i] - lo[i]) / res for i in range(3)]
-    X = np.empty((res, res, res, 3))  # the sample points, [x, y, z] in C order
-    X[..., 0], X[..., 1], X[..., 2] = (
+    cells = np.empty((res, res, res, 3))  # the sample points, [x, y, z] in C order
+    cells[..., 0], cells[..., 1], cells[..., 2] = (
         axes[0][:, None, None],
         axes[1][None, :, None],
         axes[2][None, None, :],
     )
-    X = X.reshape(-1, 3)
+    X = cells.reshape(-1, 3)
     inside = []
     local = np.empty_like(X)
     for g, R, t, s in shapes:
