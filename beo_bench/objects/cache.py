@@ -69,7 +69,7 @@ KINDS: dict[str, str] = {
     "symmetry": "estimated rotational symmetry of loaded meshes",
     "rest": "each instance's stable resting pose on the table",
     "classmeans": "per-class mean shapes (icp, random)",
-    "truth": "what scoring measures estimates against: each true grid's surface samples and EDT",
+    "truth": "the true grids' surface samples and EDTs that scoring uses",
     "models": "trained BEO / HBEO / HBEO-MDN models",
     "datasets": "rendered HBEO training crops",
 }
