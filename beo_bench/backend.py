@@ -390,14 +390,22 @@ def _ensure_in_tree() -> None:
     global _loaded_in_tree
     if not _loaded_in_tree:
         _loaded_in_tree = True
-        for name, b in IN_TREE.items():
-            module, _, qualname = b.target.partition(":")
-            cls = getattr(importlib.import_module(module), qualname)
-            if cls.name != name:
-                raise BackendError(
-                    f"IN_TREE[{name!r}] names {b.target}, whose name is {cls.name!r}"
-                )
-            _add(BackendSpec(name, cls, b.role, b.description))
+        for name in IN_TREE:
+            _ensure_one(name)
+
+
+def _ensure_one(name: str) -> None:
+    """Import and register in-tree backend ``name`` alone: a run of one backend imports
+    only its module (the bounds' and ICP's need no torch, whose import took 2-6 s of every
+    worker's start, the methods' modules importing it)."""
+    if name in _REGISTRY:
+        return
+    b = IN_TREE[name]
+    module, _, qualname = b.target.partition(":")
+    cls = getattr(importlib.import_module(module), qualname)
+    if cls.name != name:
+        raise BackendError(f"IN_TREE[{name!r}] names {b.target}, whose name is {cls.name!r}")
+    _add(BackendSpec(name, cls, b.role, b.description))
 
 
 def load_plugins() -> list[str]:
@@ -506,7 +514,10 @@ def describe_backend(name: str) -> str:
 def get_spec(name: str) -> BackendSpec:
     """The registered spec of backend ``name`` (importing the in-tree backends first); a
     :class:`BackendError` listing the registered names for an unknown one."""
-    _ensure_in_tree()
+    if name in IN_TREE:
+        _ensure_one(name)
+    else:
+        _ensure_in_tree()
     if name not in _REGISTRY:
         raise _unknown_backend(name)
     return _REGISTRY[name]

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import io
 import math
+import re
+import struct
 import zipfile
 from collections.abc import Collection, Mapping
 from pathlib import Path
@@ -48,14 +50,58 @@ class UnsafeArrayError(CorruptDataError):
     """An ``.npz`` member whose header declares something the reader does not expect."""
 
 
+MAX_HEADER = 10_000
+"""The longest ``.npy`` header read (numpy's own limit for headers it parses safely)."""
+_CANONICAL = re.compile(
+    r"\{'descr': '([<>|=][a-zA-Z][0-9]{0,4})', 'fortran_order': (True|False), "
+    r"'shape': \(((?:[0-9]{1,19}, )*[0-9]{1,19},?)?\), \} *\n?"
+)
+"""The header numpy writes for a plain dtype (``{'descr': '<f8', 'fortran_order': False,
+'shape': (3, 4), }`` padded with spaces): read by this pattern, a few microseconds; any
+other header is left to numpy's parser (``ast.literal_eval``, a millisecond each, which the
+cache's many-member entries paid on every read)."""
+
+
 def _header(f: IO[bytes]) -> tuple[tuple[int, ...], bool, np.dtype]:
     version = np.lib.format.read_magic(f)
-    if version == (1, 0):
-        return np.lib.format.read_array_header_1_0(f)
-    if version == (2, 0):
-        return np.lib.format.read_array_header_2_0(f)
-    # 3.0 exists only for structured dtypes with non-ASCII field names: none of ours
-    raise UnsafeArrayError(f"npy format version {version} is not one this package writes")
+    if version not in ((1, 0), (2, 0)):
+        # 3.0 exists only for structured dtypes with non-ASCII field names: none of ours
+        raise UnsafeArrayError(f"npy format version {version} is not one this package writes")
+    size = f.read(2 if version == (1, 0) else 4)
+    (n,) = (
+        struct.unpack("<H" if version == (1, 0) else "<I", size) if len(size) in (2, 4) else (-1,)
+    )
+    if not 0 <= n <= MAX_HEADER:
+        raise UnsafeArrayError(f"npy header of {n} bytes: not one this package writes")
+    raw = f.read(n)
+    m = _CANONICAL.fullmatch(raw.decode("latin1"))
+    if m is None:  # numpy's parser, on the same bytes: its answer, or its refusal
+        parse = np.lib.format.read_array_header_1_0
+        if version == (2, 0):
+            parse = np.lib.format.read_array_header_2_0
+        return parse(io.BytesIO(size + raw))
+    descr, fortran, dims = m.groups()
+    shape = tuple(int(d) for d in dims.replace(",", " ").split()) if dims else ()
+    return shape, fortran == "True", np.dtype(descr)
+
+
+def _read(
+    f: IO[bytes], offset: int, shape: tuple[int, ...], fortran: bool, dtype: np.dtype
+) -> np.ndarray:
+    """A member's array, its header (``offset`` bytes, checked by the first pass) skipped,
+    as ``np.lib.format.read_array`` gives it (writable; Fortran order kept)."""
+    f.read(offset)
+    out = np.empty(math.prod(shape), dtype=dtype)
+    view = out.data.cast("B")
+    got = 0
+    while got < len(view):  # a zip stream may return less than asked
+        k = f.readinto(view[got:])  # type: ignore[attr-defined]
+        if not k:
+            raise UnsafeArrayError(f"member ends after {got} of {len(view)} array bytes")
+        got += k
+    if fortran:
+        return out.reshape(shape[::-1]).transpose()
+    return out.reshape(shape)
 
 
 def read_npz(
@@ -79,11 +125,13 @@ def read_npz(
             raise UnsafeArrayError(f"{len(infos)} members, more than {MAX_MEMBERS}")
         seen: set[str] = set()
         total = 0
+        headers = []
         for info in infos:  # every header first: nothing is unpacked from a refused file
             key = _key(info, seen, names)
             with zf.open(info) as f:
-                shape, _, dtype = _header(f)
+                shape, fortran, dtype = _header(f)
                 offset = f.tell()
+            headers.append((offset, shape, fortran, dtype))
             _check_dtype(key, dtype, kinds if isinstance(kinds, str) else kinds.get(key, REAL))
             want = None if shapes is None else shapes.get(key)
             if want is not None and not _fits(shape, want):
@@ -101,9 +149,9 @@ def read_npz(
                     f"declares {offset + size}"
                 )
         out = {}
-        for info in infos:
+        for info, header in zip(infos, headers, strict=True):
             with zf.open(info) as f:
-                out[info.filename[: -len(".npy")]] = np.lib.format.read_array(f, allow_pickle=False)
+                out[info.filename[: -len(".npy")]] = _read(f, *header)
     return out
 
 

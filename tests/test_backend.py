@@ -284,3 +284,18 @@ def test_the_damaged_oracle_errs_by_exactly_the_amount_asked(views) -> None:
     np.testing.assert_array_equal(e.rotation, views[0].ground_truth.R_cam)
     with pytest.raises(UsageError, match="rot_deg"):
         B.get_backend("oracle", rot_deg=200.0)
+
+
+def test_an_in_tree_backend_imports_only_its_own_module() -> None:
+    """Getting ``oracle`` (what a run's driver and each worker do) imports its module
+    alone, not the methods' modules, which import torch (seconds of every worker's start)."""
+    import subprocess
+
+    code = (
+        "import sys; from beo_bench.backend import get_spec, list_backends; "
+        "get_spec('oracle'); assert 'torch' not in sys.modules, 'torch imported'; "
+        "assert 'beo_bench.perception.beo.backend' not in sys.modules; "
+        "assert get_spec('hbeo').name == 'hbeo' and 'oracle' in list_backends()"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]

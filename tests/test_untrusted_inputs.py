@@ -162,6 +162,41 @@ def test_a_shape_other_than_expected_is_refused(tmp_path) -> None:
     assert read_npz(buf.getvalue(), budget=1 << 20, shapes={"occ": (4, None)})["occ"].shape
 
 
+def test_members_read_as_numpy_reads_them_whatever_their_header(tmp_path) -> None:
+    """read_npz parses numpy's own headers itself (a pattern, not ``ast.literal_eval``) and
+    reads the bytes after them: every dtype, shape and order comes back as ``np.load`` gives
+    it, writable; a header in another form (keys reordered) goes to numpy's parser, whose
+    answer is the same; one that is no header at all is refused."""
+    arrays = {
+        "scalar": np.float32(3.5),
+        "empty": np.zeros((0, 3)),
+        "fortran": np.asfortranarray(np.arange(12.0).reshape(3, 4)),
+        "text": np.array(["ab", "c"]),
+        "bools": np.array([True, False, True]),
+        "big_endian": np.arange(5, dtype=">i4"),
+        "one": np.arange(1),
+        "cube": np.arange(24, dtype=np.uint8).reshape(2, 3, 4),
+    }
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **arrays)
+    got = read_npz(buf.getvalue(), budget=1 << 20, kinds="biufUS")
+    with np.load(io.BytesIO(buf.getvalue())) as z:
+        for name in arrays:
+            want, have = z[name], got[name]
+            assert (have.dtype, have.shape) == (want.dtype, want.shape), name
+            np.testing.assert_array_equal(have, want)
+            assert have.flags.f_contiguous == want.flags.f_contiguous and have.flags.writeable
+    # the same header with its keys in another order: not numpy's form, read by numpy
+    body = np.arange(3, dtype="<f4").tobytes()
+    text = "{'shape': (3,), 'fortran_order': False, 'descr': '<f4', }".ljust(117) + "\n"
+    odd = b"\x93NUMPY\x01\x00" + len(text).to_bytes(2, "little") + text.encode() + body
+    f = _crafted_npz(tmp_path / "odd.npz", {"x": odd})
+    np.testing.assert_array_equal(read_npz(f, budget=1 << 20)["x"], [0.0, 1.0, 2.0])
+    junk = b"\x93NUMPY\x01\x00" + (8).to_bytes(2, "little") + b"not dict" + body
+    with pytest.raises((UnsafeArrayError, ValueError)):
+        read_npz(_crafted_npz(tmp_path / "junk.npz", {"x": junk}), budget=1 << 20)
+
+
 def test_a_zip_bomb_as_cache_entry_costs_no_memory_and_is_rebuilt(tmp_path) -> None:
     settings = {"D": 8, "v": 2}
     path = cache.entry_path("voxels", "bomb" + "0" * 28, settings)

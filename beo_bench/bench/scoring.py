@@ -33,6 +33,9 @@ estimates as BOP does (:mod:`.bopscore`).
 from __future__ import annotations
 
 import functools
+import hashlib
+from collections import OrderedDict
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -105,25 +108,80 @@ def surface_points(grid: np.ndarray, n: int = SURFACE_POINTS) -> np.ndarray:
     return grid_surface(grid, n).samples
 
 
+class _ByContent:
+    """The last ``size`` values of a function of a grid, by the grid's content (a digest of
+    its bytes, dtype and shape): a grid scored again (the oracle's, which is its truth's; a
+    class mean, which ``random`` hands out for every view of its class) costs a look-up.
+    Values are read-only; the same grid gives the same value, so nothing scored changes."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self._values: OrderedDict[Hashable, Any] = OrderedDict()
+
+    @staticmethod
+    def key(grid: np.ndarray, *extra: Hashable) -> Hashable:
+        a = np.ascontiguousarray(grid)
+        h = hashlib.blake2b(a.data, digest_size=16)
+        return (h.digest(), a.dtype.str, a.shape, *extra)
+
+    def get(self, key: Hashable, make: Callable[[], Any]) -> Any:
+        if key in self._values:
+            self._values.move_to_end(key)
+            return self._values[key]
+        value = self._values[key] = make()
+        if len(self._values) > self.size:
+            self._values.popitem(last=False)
+        return value
+
+    def clear(self) -> None:
+        self._values.clear()
+
+
+_SURFACES = _ByContent(32)
+"""Surfaces by grid (about 0.5 MB each at 32^3): the truths of the instances being scored
+and the class means of a run fit."""
+_EDTS = _ByContent(32)
+"""EDTs by binarised grid (256 KB each at 32^3)."""
+
+
 def grid_surface(grid: np.ndarray, n: int = SURFACE_POINTS) -> metrics.Surface:
     """A grid's 0.5 iso-surface (:func:`grid_mesh` with the outside mirrored, in the unit
     cube; a 0/1 grid's is the same either way) with ``n`` area-uniform samples of it
     (seeded), ready for exact distances (:class:`~beo_bench.metrics.Surface`) [Tatarchenko:
-    F-score on surfaces]; empty when the grid is."""
+    F-score on surfaces]; empty when the grid is. Kept by content (the last few grids'):
+    its arrays are read-only."""
+    g = np.asarray(grid, dtype=np.float32)
+    return _SURFACES.get(_ByContent.key(g, int(n)), lambda: _grid_surface(g, n))
+
+
+def _grid_surface(grid: np.ndarray, n: int) -> metrics.Surface:
     import trimesh
 
     mesh = grid_mesh(grid, mirror_outside=True)
     if mesh is None:
-        return metrics.Surface(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), np.zeros((0, 3)))
-    points, _ = trimesh.sample.sample_surface(mesh, n, seed=0)
-    return metrics.Surface(mesh.vertices, mesh.faces, np.asarray(points, dtype=np.float64))
+        out = metrics.Surface(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), np.zeros((0, 3)))
+    else:
+        points, _ = trimesh.sample.sample_surface(mesh, n, seed=0)
+        out = metrics.Surface(mesh.vertices, mesh.faces, np.asarray(points, dtype=np.float64))
+    out.freeze()
+    return out
+
+
+def grid_edt(occupied: np.ndarray) -> np.ndarray:
+    """:func:`beo_bench.metrics.edt` of a bool grid, kept by content (read-only)."""
+
+    def make() -> np.ndarray:
+        e = metrics.edt(occupied)
+        e.setflags(write=False)
+        return e
+
+    return _EDTS.get(_ByContent.key(np.packbits(occupied), occupied.shape), make)
 
 
 @dataclass(frozen=True)
 class TruthShape:
     """What scoring needs of one instance's true shape at resolution D, computed once per
-    process (0.1-1 MB at 32^3, mostly the surface's triangles; its EDT, 4x the voxels, is
-    recomputed per view instead)."""
+    process (0.4-1.3 MB at 32^3: the surface's triangles, and the EDT, 8 bytes a voxel)."""
 
     voxels: np.ndarray
     """(D, D, D) bool occupancy."""
@@ -133,6 +191,9 @@ class TruthShape:
     """(H, 3) the vertices of the true mesh's convex hull (canonical frame, metres): the
     model points of MSSD and MSPD (a distance affine in the point is largest at one of
     them, so they stand for the whole surface)."""
+    edt: np.ndarray
+    """(D, D, D) its EDT (:func:`beo_bench.metrics.edt`): the truth's side of every view's
+    EDT error."""
 
 
 @functools.lru_cache(maxsize=256)
@@ -141,10 +202,38 @@ def truth_shape(
 ) -> TruthShape:
     """The true shape of instance ``key`` (of ``dataset``, for a dataset's key; voxels
     disk-cached at ``cache_root``, default the environment's; the rest kept per process)."""
+    from beo_bench.objects import cache
+
     inst = instance_from_key(key, dataset, cache_root)
     v = inst.voxels(D)
-    out = TruthShape(v, grid_surface(v), np.array(inst.mesh.convex_hull.vertices, dtype=float))
-    for a in (out.voxels, out.surface.triangles, out.surface.samples, out.model_points):
+    hull = np.array(inst.mesh.convex_hull.vertices, dtype=float)
+
+    def compute() -> dict[str, np.ndarray]:
+        # squared distances are integers (an EDT is sqrt of a sum of three integer squares):
+        # kept exactly, and their float square roots are the EDT's values to the bit
+        surface = grid_surface(v)
+        return {
+            "samples": surface.samples,
+            "edt2": np.rint(grid_edt(v) ** 2).astype(np.int32),
+            # the samples' distances to their own surface: what the oracle's view measures
+            "own": surface.distances(surface.samples),
+        }
+
+    # the samples and the EDT (half of an instance's cost to score) are kept on disk, by the
+    # grid they are of: a suite's instance is mostly new to a worker process
+    grid = hashlib.sha256(np.packbits(v).tobytes()).hexdigest()[:32]
+    kept = cache.cached(
+        "truth", grid, {"D": int(D), "n": SURFACE_POINTS, "v": 2}, compute, cache_root
+    )
+    mesh = grid_mesh(v, mirror_outside=True)
+    if mesh is None:  # no true surface (an empty grid): as grid_surface has it
+        surface = grid_surface(v)
+    else:
+        surface = metrics.Surface(mesh.vertices, mesh.faces, kept["samples"]).freeze()
+        surface.keep_own_distances(kept["own"])
+    edt = np.sqrt(kept["edt2"].astype(np.float64))
+    out = TruthShape(v, surface, hull, edt)
+    for a in (out.voxels, out.model_points, out.edt):
         a.setflags(write=False)
     return out
 
@@ -160,17 +249,29 @@ def score_shape(
     D = truth.voxels.shape[0]
     pred = resample(est.shape, D)
     out: dict[str, Any] = {"iou": metrics.voxel_iou(pred, truth.voxels)}
-    out["iou_cam"] = metrics.camera_frame_iou(
-        pred,
-        (est.rotation, est.translation),
-        est.size,
-        truth.voxels,
-        (gt.R_cam, gt.t_cam),
-        gt.size,
-        resolution=D,
-    )
-    out["edt_err"] = metrics.edt_error(pred, truth.voxels)
-    surf = metrics.surface_scores(grid_surface(pred), truth.surface, tau)
+    # the truth's own grid (the oracle's estimate) has the truth's surface and EDT: the same
+    # values as computing them again from the estimate
+    exact = bool(np.array_equal(pred, truth.voxels))
+    posed = [(est.rotation, est.translation, est.size), (gt.R_cam, gt.t_cam, gt.size)]
+    if exact and all(np.array_equal(a, b) for a, b in zip(*posed, strict=True)):
+        # the same grid at the same pose and size: the same samples inside both, IoU 1
+        out["iou_cam"] = 1.0
+    else:
+        out["iou_cam"] = metrics.camera_frame_iou(
+            pred,
+            (est.rotation, est.translation),
+            est.size,
+            truth.voxels,
+            (gt.R_cam, gt.t_cam),
+            gt.size,
+            resolution=D,
+        )
+    # metrics.edt_error(pred, truth.voxels), with the truth's EDT made once
+    occupied = np.asarray(pred, dtype=np.float64) >= 0.5
+    pred_edt = truth.edt if exact else grid_edt(occupied)
+    out["edt_err"] = float(np.linalg.norm(truth.edt - pred_edt))
+    pred_surface = truth.surface if exact else grid_surface(pred)
+    surf = metrics.surface_scores(pred_surface, truth.surface, tau)
     out["fscore"] = surf["fscore"]
     out["chamfer_l1"] = surf["chamfer_l1"] if np.isfinite(surf["chamfer_l1"]) else None
     return out
@@ -435,7 +536,8 @@ def score_bop(
     if est is None:
         return out
     R, t = np.asarray(est.rotation), np.asarray(est.translation)
-    d_est = model.renderer.depth(R, t, K, w, h)
+    same_pose = np.array_equal(R, gt.R_cam) and np.array_equal(t, gt.t_cam)
+    d_est = d_gt if same_pose else model.renderer.depth(R, t, K, w, h)  # the same render
     crop, Kc = _crop(d_est, d_gt, K)
     out["bop_vsd"] = [
         float(e)

@@ -100,10 +100,26 @@ class Surface:
         """(N, 3) points on the surface (the queries when it is measured against another)."""
         if len(self.samples) and not len(self.triangles):
             raise ValueError("a Surface with samples needs its triangles")
-        self._centroids = cKDTree(self.triangles.mean(axis=1)) if len(self.triangles) else None
+        self._centroids = cKDTree(_centroids(self.triangles)) if len(self.triangles) else None
+        self._own: NDArray[np.float64] | None = None
+
+    def keep_own_distances(self, distances: ArrayLike) -> None:
+        """Keep ``distances(self.samples)`` (computed earlier, e.g. stored with the surface),
+        handed out when the surface is measured against its own samples (the same values)."""
+        d = np.array(distances, dtype=np.float64)
+        if d.shape != (len(self.samples),):
+            raise ValueError(f"distances must have shape ({len(self.samples)},), got {d.shape}")
+        d.setflags(write=False)
+        self._own = d
 
     def __len__(self) -> int:
         return len(self.samples)
+
+    def freeze(self) -> Surface:
+        """Make its arrays read-only (a surface kept and shared between callers); itself."""
+        self.triangles.setflags(write=False)
+        self.samples.setflags(write=False)
+        return self
 
     def distances(self, points: ArrayLike, k: int = NEAREST_TRIANGLES) -> NDArray[np.float64]:
         """(M,) distance of each point to the surface: the least exact point-to-triangle
@@ -117,6 +133,8 @@ class Surface:
         for 0.035%. Coarse meshes are split evenly first (:func:`_even`); near their sharp
         edges a point can still miss its own triangle (a 12-triangle box sampled twice
         scored F = 0.9995 against itself). ``inf`` for an empty surface."""
+        if points is self.samples and self._own is not None and k == NEAREST_TRIANGLES:
+            return self._own.copy()
         q = _points(points, "points")
         if self._centroids is None:
             return np.full(len(q), np.inf)
@@ -132,9 +150,37 @@ EVEN_TRIANGLES = 250
 (see :func:`_even`)."""
 
 
+# The per-triangle figures below are taken a coordinate at a time: the same operations, in
+# the same order, as numpy's ``mean(axis=1)`` and ``linalg.norm(axis=-1)`` over (F, 3[, 3])
+# (a sum of three is added left to right either way), so the same values to the bit, without
+# a broadcast over rows of three, several times slower.
+def _centroids(tri: np.ndarray) -> np.ndarray:
+    """(F, 3) each triangle's centroid (``tri.mean(axis=1)``)."""
+    out = np.empty((len(tri), 3))
+    for i in range(3):
+        np.add(tri[:, 0, i], tri[:, 1, i], out=out[:, i])
+        out[:, i] += tri[:, 2, i]
+    out /= 3.0
+    return out
+
+
+def _norms(x: np.ndarray) -> np.ndarray:
+    """(F,) ``np.linalg.norm(x, axis=1)`` of (F, 3) vectors."""
+    s = x[:, 0] * x[:, 0]
+    s += x[:, 1] * x[:, 1]
+    s += x[:, 2] * x[:, 2]
+    return np.sqrt(s, out=s)
+
+
 def _radii(tri: np.ndarray) -> np.ndarray:
     """Each triangle's largest corner-to-centroid distance."""
-    return np.linalg.norm(tri - tri.mean(axis=1, keepdims=True), axis=2).max(axis=1)
+    c = _centroids(tri)
+    return np.maximum.reduce([_norms(tri[:, j] - c) for j in range(3)])
+
+
+def _areas(tri: np.ndarray) -> np.ndarray:
+    """Each triangle's area."""
+    return 0.5 * _norms(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))
 
 
 def _even(tri: np.ndarray, max_triangles: int = 200_000) -> np.ndarray:
@@ -146,7 +192,7 @@ def _even(tri: np.ndarray, max_triangles: int = 200_000) -> np.ndarray:
     (radius < 0.03 of the cube for surfaces of area 0.37-4.5): it is left as it is."""
     if len(tri) == 0:
         return tri
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    area = _areas(tri)
     rho = _radii(tri)
     target = float(np.sqrt(area.sum() / EVEN_TRIANGLES))
     while target > 0 and len(tri) < max_triangles:
@@ -266,7 +312,7 @@ def surface_scores(
             "recall": 1.0 if same else 0.0,
         }
     d_pg = _to(gt, p)
-    d_gp = _to(pred, g)
+    d_gp = d_pg if pred is gt else _to(pred, g)  # one surface against itself: once
     precision, recall = float(np.mean(d_pg < tau)), float(np.mean(d_gp < tau))
     f = 2.0 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
     return {
@@ -333,14 +379,31 @@ def posed_iou(
     placed = np.concatenate([corners * s @ R.T + t for _, R, t, s in shapes])
     lo, hi = placed.min(axis=0), placed.max(axis=0)
     axes = [lo[i] + (np.arange(res) + 0.5) * (hi[i] - lo[i]) / res for i in range(3)]
-    X = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    cells = np.empty((res, res, res, 3))  # the sample points, [x, y, z] in C order
+    cells[..., 0], cells[..., 1], cells[..., 2] = (
+        axes[0][:, None, None],
+        axes[1][None, :, None],
+        axes[2][None, None, :],
+    )
+    X = cells.reshape(-1, 3)
     inside = []
+    local = np.empty_like(X)
     for g, R, t, s in shapes:
-        D = np.array(g.shape)
-        idx = np.floor(((X - t) @ R / s + 0.5) * D).astype(np.int64)
-        ok = np.all((idx >= 0) & (idx < D), axis=1)
+        # p = R^T (x - t), then the voxel index floor((p / s + 0.5) D): the same operations
+        # as on (N, 3) rows, done a coordinate at a time (a broadcast over rows of 3 is
+        # many times slower), with the grid read through flat indices
+        for i in range(3):
+            np.subtract(X[:, i], t[i], out=local[:, i])
+        P = local @ R
+        flat = np.zeros(len(X), dtype=np.int64)
+        ok = np.ones(len(X), dtype=bool)
+        for i, n in enumerate(g.shape):
+            c = np.floor((P[:, i] / s + 0.5) * float(n))
+            ok &= (c >= 0) & (c < n)
+            flat *= n
+            flat += np.where(ok, c, 0).astype(np.int64)
         occ = np.zeros(len(X), dtype=bool)
-        occ[ok] = g[idx[ok, 0], idx[ok, 1], idx[ok, 2]]
+        occ[ok] = g.reshape(-1)[flat[ok]]
         inside.append(occ)
     union = np.count_nonzero(inside[0] | inside[1])
     return float(np.count_nonzero(inside[0] & inside[1]) / union) if union else 1.0

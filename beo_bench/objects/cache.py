@@ -70,6 +70,7 @@ KINDS: dict[str, str] = {
     "symmetry": "estimated rotational symmetry of loaded meshes",
     "rest": "each instance's stable resting pose on the table",
     "classmeans": "per-class mean shapes (icp, random)",
+    "truth": "the true grids' surface samples and EDTs that scoring uses",
     "models": "trained BEO / HBEO / HBEO-MDN models",
     "datasets": "rendered HBEO training crops",
 }
@@ -287,9 +288,11 @@ _SHAPES: dict[str, Callable[[dict[str, Any]], dict[str, tuple[int | None, ...]]]
         "shape": (len(s["categories"]), *(int(s["D"]),) * 3),
         "size": (len(s["categories"]), 3),
     },
+    "truth": lambda s: {"samples": (None, 3), "edt2": (int(s["D"]),) * 3, "own": (None,)},
 }
 _KINDS: dict[str, dict[str, str]] = {
     "voxels": {"occ": "u"},
+    "truth": {"edt2": "i"},
     "generated": {"symmetry": "U", "faces": "i", "part_counts": "i", "part_faces": "i"},
     "coacd": {"counts": "i", "faces": "i", "face_counts": "i"},
     "loaded": {"faces": "i"},
@@ -321,6 +324,12 @@ def entry_problem(kind: str, arrays: Mapping[str, np.ndarray]) -> str | None:
         norms = np.linalg.norm(arrays["normals"], axis=1)
         if len(norms) and np.abs(norms - 1).max() > 1e-3:
             return "normals that are not unit vectors"
+    if kind == "truth":
+        edt2, D = arrays["edt2"], len(arrays["edt2"])
+        if len(arrays["samples"]) > 1 << 20 or (
+            edt2.size and (edt2.min() < 0 or edt2.max() > 3 * D * D)
+        ):
+            return "more samples than scoring takes, or squared distances outside the grid"
     if kind == "classmeans":
         shape, size = arrays["shape"], arrays["size"]
         if (shape.size and (shape.min() < 0 or shape.max() > 1)) or (size <= 0).any():

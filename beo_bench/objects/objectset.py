@@ -258,9 +258,18 @@ class ObjectSet:
             )
 
 
-@functools.lru_cache(maxsize=1024)
 def _cached_procedural(
     category: str, index: int, split: str, cache_root: Path | None = None
 ) -> ObjectInstance:
-    # one instance object per key and cache in a process, so its built mesh is shared
+    """The process's one instance object of a key and cache, so its built mesh, voxels and
+    content hash are shared. Its callers pass the arguments by position or by keyword
+    (``ObjectSet``'s partial, ``instance_from_key``), which ``lru_cache`` would key apart:
+    two objects, each loading the mesh again; the cached function gets them by position."""
+    return _procedural_once(category, int(index), split, cache_root)
+
+
+@functools.lru_cache(maxsize=1024)
+def _procedural_once(
+    category: str, index: int, split: str, cache_root: Path | None
+) -> ObjectInstance:
     return procedural_instance(category, split, index, cache_root)
