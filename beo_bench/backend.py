@@ -343,7 +343,6 @@ class BackendSpec:
 _REGISTRY: dict[str, BackendSpec] = {}
 _BROKEN: dict[tuple[str, str], str] = {}  # (entry-point name, value) -> why it was skipped
 _ENTRY: dict[str, EntryPoint] = {}  # a plugin's name -> its entry point (its code digest)
-_loaded_in_tree = False
 
 
 class PluginWarning(UserWarning):
@@ -387,21 +386,16 @@ def _add(spec: BackendSpec) -> None:
 
 
 def _ensure_in_tree() -> None:
-    global _loaded_in_tree
-    if not _loaded_in_tree:
-        _loaded_in_tree = True
-        for name in IN_TREE:
-            _ensure_one(name)
+    for name in IN_TREE:  # each imported once (a registered name returns at once)
+        _ensure_one(name)
 
 
 def _ensure_one(name: str) -> None:
-    """Import and register in-tree backend ``name`` alone: a run of one backend imports
-    only its module (the bounds' and ICP's need no torch, whose import took 2-6 s of every
-    worker's start, the methods' modules importing it)."""
+    """Import and register in-tree backend ``name`` alone: the bounds and ICP need no torch,
+    whose import cost 2-6 s of each worker's start."""
     if name in _REGISTRY:
         return
-    b = IN_TREE[name]
-    module, _, qualname = b.target.partition(":")
+    module, _, qualname = (b := IN_TREE[name]).target.partition(":")
     cls = getattr(importlib.import_module(module), qualname)
     if cls.name != name:
         raise BackendError(f"IN_TREE[{name!r}] names {b.target}, whose name is {cls.name!r}")
@@ -514,10 +508,7 @@ def describe_backend(name: str) -> str:
 def get_spec(name: str) -> BackendSpec:
     """The registered spec of backend ``name`` (importing the in-tree backends first); a
     :class:`BackendError` listing the registered names for an unknown one."""
-    if name in IN_TREE:
-        _ensure_one(name)
-    else:
-        _ensure_in_tree()
+    _ensure_one(name) if name in IN_TREE else _ensure_in_tree()
     if name not in _REGISTRY:
         raise _unknown_backend(name)
     return _REGISTRY[name]

@@ -51,7 +51,6 @@ def test_the_in_tree_catalogue_names_each_class_under_its_own_name() -> None:
 
 
 def test_a_catalogue_line_naming_a_class_of_another_name_is_refused(monkeypatch) -> None:
-    monkeypatch.setattr(B, "_loaded_in_tree", False)
     monkeypatch.setitem(B.IN_TREE, "icp", B.IN_TREE["icp-plain"])
     monkeypatch.setattr(B, "_REGISTRY", {})
     with pytest.raises(BackendError, match="whose name is 'icp-plain'"):

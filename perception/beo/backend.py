@@ -279,16 +279,9 @@ class BEOBackend(Backend):
         given: dict[str, object] = dict(self._training_options())
         if not given or self.options.model is not None or self._dataset is not None:
             return
-        if (
-            model_dir(
-                None,
-                cats,
-                self.options.resolution,
-                self.options.instances,
-                cache_root=self._cache_root,
-            )
-            / "config.json"
-        ).exists():
+        o = self.options
+        path = model_dir(None, cats, o.resolution, o.instances, None, self._cache_root)
+        if (path / "config.json").exists():
             return
         how = train_command(
             "beo",
