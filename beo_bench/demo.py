@@ -149,7 +149,7 @@ def run_demo(
     long += [f"## The ground-truth grasp ceiling on {DEMO_PICK_EPISODES} episodes", ""]
     long += [pick.text(), ""]
     say(
-        f"grasp ceiling: the ground-truth planner lifts {pick.result.success_rate():.0%} of "
+        f"grasp ceiling: the ground-truth planner lifts {pick.result.success_rate:.0%} of "
         f"{pick.episodes} episodes ({pick.wall_s:.0f} s)"
     )
 
