@@ -173,7 +173,7 @@ def publish_class_means(
         "D": resolution,
         "split": "train",
     }
-    arrays = {"counts": counts, "n": n, "size": size}
+    arrays: dict[str, np.ndarray] = {"counts": counts, "n": n, "size": size}
     sha = published.write(CLASS_MEANS_STEM, meta, arrays, root or published.PUBLISHED_DIR)
     _published_means.cache_clear()
     return sha
