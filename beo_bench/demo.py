@@ -223,6 +223,7 @@ def headline(out: Path, backends: list[str]) -> str:
             if key in r["metrics"]:
                 cells.setdefault((suite, r["backend"]), spec(key).format(r["metrics"][key]))
     suites = list(DEMO_FIGURES)
+    scenes = sorted(out.glob("scene_*.png"))
     w0 = max(len(b) for b in [*backends, "backend"])
     widths = [max(len(s), 9) for s in suites]
     figs = [
@@ -231,9 +232,10 @@ def headline(out: Path, backends: list[str]) -> str:
     ]
     lines = [
         "",
-        "beo-bench demo: headline (short suites: "
+        "beo-bench demo: each backend's main figure on each short suite (rot med: degrees)",
+        "items: "
         + ", ".join(f"{s} {DEMO_SIZES[s]}" for s in suites)
-        + " items; class-free track)",
+        + "; a suite's class-free track (class-given: on its page)",
         "",
         f"{'backend':<{w0}}  "
         + "  ".join(f"{s:>{w}}" for s, w in zip(suites, widths, strict=True)),
@@ -250,7 +252,9 @@ def headline(out: Path, backends: list[str]) -> str:
         "",
         f"full pages:  {boards}/<suite>.md (every metric, tracks, intervals, plots)",
         f"long tables: {out / DEMO_REPORT} (object library, grasp ceiling, suite tables, cache)",
-        f"images:      {out / 'objects.png'}, {out}/scene_<seed>.png (.rrd: `rerun` it)",
+        f"images:      {out / 'objects.png'}, "
+        + (", ".join(str(p) for p in scenes) or f"{out}/scene_<seed>.png")
+        + " (.rrd beside it: `rerun` it)",
         f"runs:        {out / 'runs'}/ (resumed by the next `beo-bench demo`)",
     ]
     return "\n".join(lines)
