@@ -195,7 +195,7 @@ def demo_suites(out: Path, workers: int | None, say: Callable[[str], None] = pri
 
 
 def run_line(label: str, backend: str, run: Path, wall_s: float) -> str:
-    """One line for a finished run: its items, failures and main figure (a log reads one
+    """One line for a finished run: its views (episodes), failures and main figure (a log reads one
     line per run; the progress bars draw only on a terminal)."""
     summary = json.loads((run / SUMMARY_NAME).read_text())
     key = DEMO_FIGURES.get(summary["suite"], "")
@@ -203,8 +203,9 @@ def run_line(label: str, backend: str, run: Path, wall_s: float) -> str:
     if key in summary["metrics"]:
         m = spec(key)
         fig = f", {m.short} {m.format(summary['metrics'][key])}"
+    unit = "episodes" if summary["suite"] == "pick" else "views"  # a scene has several
     return (
-        f"  {label} / {backend}: {summary['n']} items, {summary['failures']} failed{fig} "
+        f"  {label} / {backend}: {summary['n']} {unit}, {summary['failures']} failed{fig} "
         f"({wall_s:.0f} s)"
     )
 

@@ -198,7 +198,7 @@ def test_a_finished_run_is_one_line(tmp_path) -> None:
     ctx = RunContext.of(RunConfig(get_suite("known-pose").with_overrides(size=2), "oracle", {}))
     run(ctx, tmp_path / "r", workers=1, progress=False)
     line = demo.run_line("known-pose", "oracle", tmp_path / "r", 3.2)
-    assert "\n" not in line and line.startswith("  known-pose / oracle: 2 items, 0 failed, IoU ")
+    assert "\n" not in line and line.startswith("  known-pose / oracle: 2 views, 0 failed, IoU ")
     assert line.endswith("(3 s)")
 
 
