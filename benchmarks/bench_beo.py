@@ -105,9 +105,10 @@ def main() -> None:
         diagnose(suite)
 
 
-def one_core(suite: str, n: int) -> None:
+def one_core(suite: str, n: int, quiet: bool = False) -> float:
     """Median time per view of ``n`` views of ``suite`` on one core, and the speedup of the
-    fine step's Gram updates measured alongside (alternating per view)."""
+    fine step's Gram updates measured alongside (alternating per view), which it returns
+    (``quiet``: nothing reported)."""
     import torch
 
     cpus, threads = os.sched_getaffinity(0), torch.get_num_threads()
@@ -133,6 +134,8 @@ def one_core(suite: str, n: int) -> None:
         torch.set_num_threads(threads)
     s = statistics.median(fast)
     ratio = statistics.median(p / f for p, f in zip(plain, fast, strict=True))
+    if quiet:
+        return ratio
     report(
         f"beo {suite}: median per view on one core ({n} views)",
         s,
@@ -142,6 +145,7 @@ def one_core(suite: str, n: int) -> None:
         f"with every Gram matrix gathered afresh: {statistics.median(plain):.2f} s "
         f"({ratio:.2f}x; the same estimates)",
     )
+    return ratio
 
 
 def diagnose(suite: str) -> None:

@@ -95,6 +95,24 @@ def grasp_outline(grasp: Any, obs: dict[str, Any]) -> list[np.ndarray]:
     return lines
 
 
+DEPTH_PERCENTILES = (2.0, 98.0)
+DEPTH_MARGIN_M = 0.05
+
+
+def depth_range(depth: np.ndarray, seg: np.ndarray) -> tuple[float, float]:
+    """The depth panel's colour range: the objects' depths (segmented pixels, robust
+    percentiles :data:`DEPTH_PERCENTILES`), widened by :data:`DEPTH_MARGIN_M` so the table
+    around them shows too. The whole image's range would be the floor's (0.7-2.75 m on
+    BEOPick-v0), in which the objects are one colour. Without object pixels: every hit's."""
+    hit = depth > 0
+    objects = depth[hit & (seg > 0)]
+    values = objects if objects.size >= 20 else depth[hit]
+    if values.size == 0:
+        return 0.0, 1.0
+    lo, hi = np.percentile(values, DEPTH_PERCENTILES)
+    return float(lo) - DEPTH_MARGIN_M, float(hi) + DEPTH_MARGIN_M
+
+
 def _write_png(
     path: Path, obs: dict[str, Any], rgb: np.ndarray, title: str, grasp: Any = None
 ) -> None:
@@ -105,8 +123,15 @@ def _write_png(
 
     depth = np.where(obs["depth"] > 0, obs["depth"], np.nan)
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.2), constrained_layout=True)
-    im = axes[0].imshow(depth, cmap="viridis")
-    fig.colorbar(im, ax=axes[0], label="depth (m); white = no hit", shrink=0.85)
+    lo, hi = depth_range(obs["depth"], obs["segmentation"])
+    im = axes[0].imshow(depth, cmap="viridis", vmin=lo, vmax=hi)
+    fig.colorbar(
+        im,
+        ax=axes[0],
+        label="depth (m), the objects' range; white = no hit",
+        shrink=0.85,
+        extend="both",
+    )
     axes[1].imshow(colour_segmentation(obs["segmentation"]), interpolation="nearest")
     axes[2].imshow(rgb)
     if grasp is not None:

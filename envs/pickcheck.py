@@ -80,7 +80,9 @@ def ground_truth_pick_check(
     u = cast("BEOPickEnv", env.unwrapped)
     result = PickCheck()
     try:
-        for s in tqdm(range(seed, seed + episodes), desc="pick-check", disable=not progress):
+        for s in tqdm(
+            range(seed, seed + episodes), desc="pick-check", disable=None if progress else True
+        ):
             _, info = env.reset(seed=s, options=reset_options)
             assert u.scene is not None  # reset built it
             target = u.scene.instances[u.target_label - 1]

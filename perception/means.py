@@ -91,8 +91,92 @@ def class_means(
             "size": np.asarray([sizes[c].mean(axis=0) for c in categories], dtype=np.float64),
         }
 
+    if dataset is None and per_category is None:
+        # the library's every training instance: the published means, when they hold these
+        # classes at this resolution (bitwise what ``compute`` gives: no training voxels)
+        got = published_class_means(tuple(categories), resolution)
+        if got is not None:
+            return got
     arrays = cache.cached("classmeans", key, settings, compute, cache_root)
     return ClassMeans(tuple(categories), arrays["shape"], arrays["size"])
+
+
+CLASS_MEANS_STEM = "class-means"
+"""The published means of every library class over all its ``train`` instances
+(``perception/published/class-means``; ``beo-bench publish class-means`` refits them)."""
+
+
+def means_arrays(counts: np.ndarray, n: np.ndarray, size: np.ndarray) -> ClassMeans:
+    """The means from their lossless storage: per class the (D, D, D) count of training
+    instances filling each cell (uint8: at most 255 instances) and the instance count ``n``.
+    ``count / n`` in float64, cast to float32, is bitwise ``grids.mean(axis=0)`` cast to
+    float32 (a bool array's mean is its exact integer sum over n)."""
+    shape = (counts.astype(np.float64) / n.astype(np.float64)[:, None, None, None]).astype(
+        np.float32
+    )
+    return ClassMeans((), shape, np.asarray(size, dtype=np.float64))
+
+
+@functools.lru_cache(maxsize=1)
+def _published_means() -> tuple[dict[str, object], dict[str, np.ndarray]] | None:
+    from beo_bench.objects import LIBRARY_VERSION
+    from beo_bench.perception import published
+
+    if f"{CLASS_MEANS_STEM}.npz" not in published.manifest():
+        return None
+    meta, arrays = published.read(CLASS_MEANS_STEM)
+    if meta.get("library_version") != LIBRARY_VERSION or meta.get("version") != MEANS_VERSION:
+        return None  # made for another object library or means format: computed instead
+    return meta, arrays
+
+
+def published_class_means(categories: tuple[str, ...], resolution: int) -> ClassMeans | None:
+    """The published means of ``categories`` at ``resolution`` over every ``train``
+    instance of the library, or None when they are not published so (computed then)."""
+    got = _published_means()
+    if got is None:
+        return None
+    meta, arrays = got
+    names = list(meta["categories"])  # type: ignore[call-overload]
+    if meta.get("D") != resolution or not set(categories) <= set(names):
+        return None
+    idx = [names.index(c) for c in categories]
+    m = means_arrays(arrays["counts"][idx], arrays["n"][idx], arrays["size"][idx])
+    return ClassMeans(tuple(categories), m.shape, m.size)
+
+
+def publish_class_means(
+    root: Path | None = None, resolution: int = 32, progress: bool = False
+) -> str:
+    """Compute the means of every library class over all its ``train`` instances (cached
+    in the asset cache) and publish them, stored losslessly (:func:`means_arrays`); returns
+    the npz's SHA-256. Refuses to write means that would not read back bitwise."""
+    from beo_bench.objects import LIBRARY_VERSION, categories
+    from beo_bench.perception import published
+
+    cats = tuple(categories())
+    grids, sizes = training_voxels(cats, resolution, None, progress)
+    n = np.asarray([len(grids[c]) for c in cats], dtype=np.int64)
+    if n.max() > 255:
+        raise ValueError(f"{n.max()} training instances of a class: uint8 counts hold 255")
+    counts = np.stack([grids[c].sum(axis=0) for c in cats]).astype(np.uint8)
+    size = np.stack([sizes[c].mean(axis=0) for c in cats]).astype(np.float64)
+    back = means_arrays(counts, n, size)
+    want = np.asarray([grids[c].mean(axis=0) for c in cats], dtype=np.float32)
+    if not np.array_equal(back.shape, want):  # the storage's promise, checked on the data
+        raise AssertionError("the published class means would not read back bitwise")
+    meta = {
+        "format": 1,
+        "version": MEANS_VERSION,
+        "library_version": LIBRARY_VERSION,
+        "categories": list(cats),
+        "D": resolution,
+        "split": "train",
+    }
+    arrays: dict[str, np.ndarray] = {"counts": counts, "n": n, "size": size}
+    sha = published.write(CLASS_MEANS_STEM, meta, arrays, root or published.PUBLISHED_DIR)
+    _published_means.cache_clear()
+    return sha
 
 
 def training_voxels(
@@ -139,7 +223,7 @@ def fit_rest_prior(
     tables = TabletopScenes(PickConfig(split="train"))  # BEOPick-v0's default classes
     tilts: list[float] = []
     try:
-        for i in tqdm(range(scenes), desc="rest prior", disable=not progress):
+        for i in tqdm(range(scenes), desc="rest prior", disable=None if progress else True):
             _, truth = tables.reset(seed=seed + i)
             for g in truth:
                 cos = float(np.clip(np.asarray(g.R_world)[2, 2], -1.0, 1.0))

@@ -13,6 +13,10 @@ every file. The stems:
 - ``rest-prior``: how objects rest on a table, learned from the training split's tabletop
   scenes (:func:`~beo_bench.perception.means.fit_rest_prior`): ``beo``'s pose prior and
   ``icp``'s starts on the ``tabletop`` and ``pick`` views;
+- ``class-means``: the ``random`` and ``icp`` baselines' class means (every library class's
+  mean occupancy and size over all its ``train`` instances,
+  :func:`~beo_bench.perception.means.published_class_means`), stored losslessly as uint8
+  counts, so that no run builds the 3,600 training instances for them;
 - ``hbeo`` and ``hbeo-mdn``: the small networks of the ``reference`` recipe
   (:data:`~beo_bench.perception.hbeo.model.RECIPES`), weights stored in float16 (they are
   used in float32; ``make bench`` measures what the rounding costs: nothing measurable);
@@ -46,7 +50,7 @@ from beo_bench.errors import CheckpointError, UsageError
 
 PUBLISHED_DIR = Path(__file__).resolve().parent / "published"
 MANIFEST = "MANIFEST.json"
-STEMS: tuple[str, ...] = ("beo", "hbeo", "hbeo-mdn", "rest-prior")
+STEMS: tuple[str, ...] = ("beo", "hbeo", "hbeo-mdn", "rest-prior", "class-means")
 PER_CATEGORY: tuple[str, ...] = ("car", "airplane", "sofa")
 """The classes whose one-class networks (``<kind>-<class>``) may be published: chapter 5's
 Tables 5.1/5.2 (car, plane, couch)."""

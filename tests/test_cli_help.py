@@ -130,7 +130,7 @@ def test_help_builds_nothing_and_commands_do_not_import_the_backends(tmp_path) -
         (["view"], {"seed": 0, "out": Path("out/view"), "split": "test"}),
         (["pick-check"], {"seed": 0, "episodes": 100, "split": "test"}),
         (["objects"], {"workers": 2, "per_category": None, "split": "test"}),
-        (["demo"], {"workers": None, "per_category": 20, "out": "out/demo"}),
+        (["demo"], {"workers": None, "per_category": 6, "out": "out/demo"}),
         (
             ["run", "--suite", "s", "--backend", "b"],
             {"seed": None, "episodes": None, "workers": None, "out": None, "ray": False},

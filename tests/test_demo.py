@@ -4,6 +4,8 @@
 
 from __future__ import annotations
 
+import json
+import sys
 from pathlib import Path
 
 import matplotlib.image as mpimg
@@ -108,9 +110,10 @@ def test_cache_report_lists_kinds_and_models(tmp_path, monkeypatch) -> None:
     assert "voxels" in r.text() and "2.0 KB" in r.text() and "models (content digest):" in r.text()
 
 
-def test_run_demo_calls_the_pieces_in_order(chosen, tmp_path, monkeypatch, capsys) -> None:
+def test_run_demo_calls_the_pieces_in_order(chosen, tmp_path, monkeypatch) -> None:
     """The whole demo but the suites (minutes; the campaign has its own tests), on small
-    sizes: the objects, the picked scene, the pick check, the cache."""
+    sizes: the objects, the picked scene, the pick check, the cache; a line each on the
+    terminal, the long tables in OUT/demo.md, the headline last."""
     seen: dict[str, object] = {}
 
     def small_pick_check(episodes, seed, split, progress=True):
@@ -126,17 +129,94 @@ def test_run_demo_calls_the_pieces_in_order(chosen, tmp_path, monkeypatch, capsy
     monkeypatch.setattr(demo, "demo_suites", suites)
     monkeypatch.setattr(demo, "picked_seed", lambda split: chosen)
     lines: list[str] = []
-    demo.run_demo(tmp_path, per_category=1, workers=1, say=lines.append)
+    report = demo.run_demo(tmp_path, per_category=1, workers=1, say=lines.append)
     text = "\n".join(lines)
     assert (tmp_path / "objects.png").exists() and (tmp_path / f"scene_{chosen.seed}.png").exists()
     assert (tmp_path / f"scene_{chosen.seed}.rrd").exists()
-    assert f"seed {chosen.seed}: the first seed whose target ({chosen.target})" in text
     assert seen == {
         "pick_check": (demo.DEMO_PICK_EPISODES, 0, "test"),
         "suites": (Path(tmp_path), 1),
     }
-    order = [text.index(s) for s in ("object library", "one BEOPick-v0 scene", "ceiling", "cache:")]
+    # the long texts are in the report, in order; the terminal has a line for each step
+    assert report == tmp_path / demo.DEMO_REPORT
+    long = report.read_text()
+    assert f"seed {chosen.seed}" in long and f"target ({chosen.target})" in long
+    order = [long.index(s) for s in ("object library", "BEOPick-v0 scene", "ceiling", "cache:")]
     assert order == sorted(order)
+    assert "| category | episodes |" in long and "| category |" not in text
+    assert "category    train/val/test" in long and "train/val/test" not in text
+    for step in ("objects:", "scene:", "grasp ceiling:", "cache:"):
+        assert sum(line.startswith(step) for line in lines) == 1, step
+    assert lines[-1] == demo.headline(tmp_path, inspection.every_backend())
+
+
+def _board(out: Path, suite: str, rows: list[tuple[str, str | None, dict]]) -> None:
+    boards = out / "leaderboards"
+    boards.mkdir(parents=True, exist_ok=True)
+    data = [{"backend": b, "track": t, "metrics": m} for b, t, m in rows]
+    (boards / f"{suite}.json").write_text(json.dumps(data))
+
+
+def test_the_headline_shows_every_backend_on_every_suite_on_one_screen(tmp_path) -> None:
+    backends = inspection.every_backend()
+    for i, (suite, key) in enumerate(demo.DEMO_FIGURES.items()):
+        rows = [(b, None, {key: 0.25 + 0.01 * j + i}) for j, b in enumerate(backends)]
+        if suite == "pose-3dof":  # a tracked suite: the class-free row is the one shown
+            rows = [(b, "class-given", {key: 99.0}) for b in backends] + [
+                (b, "class-free", {key: 0.5 + j}) for j, b in enumerate(backends)
+            ]
+        _board(tmp_path, suite, rows)
+    text = demo.headline(tmp_path, backends)
+    lines = text.splitlines()
+    assert len(lines) <= demo.HEADLINE_MAX_LINES
+    head = next(line for line in lines if line.startswith("backend"))
+    assert all(s in head for s in demo.DEMO_SIZES) and set(demo.DEMO_FIGURES) == set(
+        demo.DEMO_SIZES
+    )
+    for j, b in enumerate(backends):
+        row = next(line for line in lines if line.split()[:1] == [b])
+        cells = row.split()[1:]
+        assert len(cells) == len(demo.DEMO_FIGURES) and "-" not in cells, row
+        assert cells[list(demo.DEMO_FIGURES).index("pose-3dof")] == f"{0.5 + j:.1f}"
+    for path in ("leaderboards", demo.DEMO_REPORT, "objects.png", "scene_<seed>.png", "runs"):
+        assert str(tmp_path / path) in text, path
+
+
+def test_the_headline_marks_what_did_not_run(tmp_path) -> None:
+    _board(tmp_path, "pick", [("oracle", None, {"pick_success": 0.8})])
+    lines = demo.headline(tmp_path, ["oracle", "random"]).splitlines()
+    oracle = next(line for line in lines if line.startswith("oracle")).split()
+    assert oracle[-1] == "80.0%" and set(oracle[1:-1]) == {"-"}
+    assert set(next(line for line in lines if line.startswith("random")).split()[1:]) == {"-"}
+
+
+def test_a_finished_run_is_one_line(tmp_path) -> None:
+    from beo_bench.bench.runner import run
+    from beo_bench.bench.runs import RunConfig, RunContext
+    from beo_bench.bench.suites import get_suite
+
+    ctx = RunContext.of(RunConfig(get_suite("known-pose").with_overrides(size=2), "oracle", {}))
+    run(ctx, tmp_path / "r", workers=1, progress=False)
+    line = demo.run_line("known-pose", "oracle", tmp_path / "r", 3.2)
+    assert "\n" not in line and line.startswith("  known-pose / oracle: 2 views, 0 failed, IoU ")
+    assert line.endswith("(3 s)")
+
+
+def test_no_progress_bar_draws_off_a_terminal(tmp_path, capfd) -> None:
+    """With progress on, a run's bar draws only on a terminal: here stdout and stderr are
+    pipes (pytest's capture), so nothing of the bar reaches them."""
+    from beo_bench.bench.runner import run
+    from beo_bench.bench.runs import RunConfig, RunContext
+    from beo_bench.bench.suites import get_suite
+    from beo_bench.objects.prepare import prepare
+
+    assert not sys.stdout.isatty() and not sys.stderr.isatty()
+    ctx = RunContext.of(RunConfig(get_suite("known-pose").with_overrides(size=2), "oracle", {}))
+    run(ctx, tmp_path / "r", workers=1, progress=True)
+    objects, _ = inspection.select_objects("test", ["box"], per_category=1)
+    prepare(objects, D=8, workers=1, progress=True)
+    out, err = capfd.readouterr()
+    assert "it/s" not in out + err and "item/s" not in out + err and "%|" not in out + err
 
 
 def test_demo_command_forwards_its_options(monkeypatch, tmp_path) -> None:

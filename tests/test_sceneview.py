@@ -26,3 +26,18 @@ def test_segmentation_colours_keep_background_black() -> None:
     assert c.shape == (2, 2, 3) and c.dtype == np.uint8
     assert (c[0, 0] == 0).all() and (c[0, 1] > 0).any() and not (c[0, 1] == c[1, 0]).all()
     np.testing.assert_array_equal(c[1, 1], c[0, 1])  # labels wrap around the 8 colours
+
+
+def test_depth_colour_range_is_the_objects_not_the_floors() -> None:
+    """The depth panel's colours span the objects' depths (and a margin for the table
+    around them), not the floor's far-away pixels, which would flatten the objects."""
+    from beo_bench.sceneview import DEPTH_MARGIN_M, depth_range
+
+    depth = np.full((60, 80), 2.7)  # the floor
+    depth[:, :10] = 0.0  # no hit
+    seg = np.zeros((60, 80), dtype=np.int32)
+    depth[20:40, 20:40], seg[20:40, 20:40] = np.linspace(1.0, 1.2, 20)[None, :], 1
+    lo, hi = depth_range(depth, seg)
+    assert 1.0 - DEPTH_MARGIN_M - 0.01 <= lo < 1.0 and 1.2 < hi <= 1.2 + DEPTH_MARGIN_M + 0.01
+    # without object pixels: every hit's depths (the floor here), never the no-hit zeros
+    assert depth_range(depth, np.zeros_like(seg))[0] > 0.5

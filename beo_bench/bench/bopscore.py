@@ -219,7 +219,9 @@ def score_rows(
     for e in estimates:
         by_image.setdefault((e.scene_id, e.im_id, e.obj_id), []).append(e)
     rows: list[dict[str, Any]] = []
-    for index in tqdm(range(suite.size), disable=not progress, desc=f"score {suite.label}"):
+    for index in tqdm(
+        range(suite.size), disable=None if progress else True, desc=f"score {suite.label}"
+    ):
         scene_id, im_id = image_of(index)
         views = items.views(index)
         truths = items.truths(index, views)

@@ -192,3 +192,143 @@ def check_prepared(contexts: list[tuple[RunContext, Path]], force_rerun: bool = 
             f"nothing was run: {len(problems)} of the runs cannot start, each with what it "
             "misses and the command that makes it: " + "; ".join(problems)
         )
+
+
+# -- what a campaign costs (``make bench``'s campaign figure) ---------------------------------
+@dataclass(frozen=True)
+class RowCost:
+    """One committed leaderboard row's predict time: its items times its median time per
+    unit (a view; a pick episode's decision), in CPU-seconds."""
+
+    suite: str
+    backend: str
+    track: str | None
+    sensor: str | None
+    n: int
+    ms_per_unit: float
+    unit: str
+    """``view`` or ``decision`` (a pick episode's: its views and its grasp choice)."""
+
+    @property
+    def cpu_s(self) -> float:
+        return self.n * self.ms_per_unit / 1000.0
+
+
+@dataclass(frozen=True)
+class CampaignCost:
+    """The predict CPU time of a set of leaderboard rows, the runs a campaign makes.
+
+    Only predict time is recorded in a row (``ms_per_view_median``,
+    ``ms_per_decision_median``): a run's rendering, scoring and physics are not, so these
+    are the backends' share of a campaign, and ``n * median`` is an estimate of it (the mean
+    of a skewed time is above its median)."""
+
+    rows: tuple[RowCost, ...]
+
+    @property
+    def cpu_hours(self) -> float:
+        return sum(r.cpu_s for r in self.rows) / 3600.0
+
+    def wall_hours(self, cores: int = 2) -> float:
+        """Its wall time with one worker per core (each run's items spread over them)."""
+        return self.cpu_hours / cores
+
+    def hours_by(self) -> dict[tuple[str, str], float]:
+        """(suite, backend) -> CPU-hours, summed over tracks and sensors."""
+        out: dict[tuple[str, str], float] = {}
+        for r in self.rows:
+            out[(r.suite, r.backend)] = out.get((r.suite, r.backend), 0.0) + r.cpu_s / 3600.0
+        return out
+
+    def projected(self, speedups: dict[str, float]) -> CampaignCost:
+        """The same rows with each named backend's times divided by its speed-up (a
+        measured ratio of old to new time per view): a projection, not a run."""
+        return CampaignCost(
+            tuple(
+                RowCost(
+                    r.suite,
+                    r.backend,
+                    r.track,
+                    r.sensor,
+                    r.n,
+                    r.ms_per_unit / speedups.get(r.backend, 1.0),
+                    r.unit,
+                )
+                for r in self.rows
+            )
+        )
+
+    def text(self, cores: int = 2) -> str:
+        """CPU-hours by suite (rows) and backend (columns), the totals, the wall time."""
+        cells = self.hours_by()
+        suites = sorted({s for s, _ in cells})
+        backends = sorted({b for _, b in cells})
+        w0 = max(len(s) for s in [*suites, "suite", "all"])
+        widths = [max(len(b), 6) for b in backends]
+        head = f"{'suite':<{w0}} " + " ".join(
+            f"{b:>{w}}" for b, w in zip(backends, widths, strict=True)
+        )
+        lines = [head + f" {'all':>7}"]
+        for s in suites:
+            row = [cells.get((s, b), 0.0) for b in backends]
+            lines.append(
+                f"{s:<{w0}} "
+                + " ".join(f"{v:>{w}.2f}" for v, w in zip(row, widths, strict=True))
+                + f" {sum(row):>7.2f}"
+            )
+        per_b = [sum(cells.get((s, b), 0.0) for s in suites) for b in backends]
+        lines.append(
+            f"{'all':<{w0}} "
+            + " ".join(f"{v:>{w}.2f}" for v, w in zip(per_b, widths, strict=True))
+            + f" {self.cpu_hours:>7.2f}"
+        )
+        lines.append(
+            f"{len(self.rows)} runs: {self.cpu_hours:.2f} CPU-hours of predict time (items x "
+            f"median ms per view or pick decision), {self.wall_hours(cores):.2f} h of wall "
+            f"time on {cores} cores; rendering, scoring and physics are not recorded in a row"
+        )
+        return "\n".join(lines)
+
+
+def campaign_cost(leaderboards: Path = Path("leaderboards")) -> CampaignCost:
+    """The predict time of every run on the leaderboard pages under ``leaderboards`` (its
+    ``<suite>.json`` files and ``ablations/``'s; each run once, though pages may share it)."""
+    import json
+
+    seen: set[tuple[Any, ...]] = set()
+    rows = []
+    pages = sorted(leaderboards.glob("*.json")) + sorted(leaderboards.glob("ablations/*.json"))
+    for page in pages:
+        if page.name.endswith("_paired.json"):
+            continue
+        for r in json.loads(page.read_text()):
+            prov = r.get("provenance", {})
+            key = (
+                r["suite"],
+                r.get("track"),
+                r.get("sensor"),
+                r["backend"],
+                r.get("seed"),
+                r["n"],
+                json.dumps(prov.get("backend_kwargs"), sort_keys=True),
+            )
+            if key in seen:
+                continue
+            seen.add(key)
+            m = r["metrics"]
+            unit = "decision" if m.get("ms_per_decision_median") is not None else "view"
+            ms = m.get(f"ms_per_{unit}_median")
+            if ms is None or ms != ms:  # no timed view (every item failed): no time known
+                continue
+            rows.append(
+                RowCost(
+                    r["suite"],
+                    r["backend"],
+                    r.get("track"),
+                    r.get("sensor"),
+                    int(r["n"]),
+                    float(ms),
+                    unit,
+                )
+            )
+    return CampaignCost(tuple(rows))

@@ -240,7 +240,7 @@ def _write_split(
         bar = tqdm(
             images(suite, items, range(suite.size)),
             total=suite.size,
-            disable=not progress,
+            disable=None if progress else True,
             desc=f"export {suite.label} ({folder})",
             unit="image",
         )

@@ -277,7 +277,7 @@ def _run_locked(
     bar = tqdm(
         total=ctx.suite.size,
         initial=len(done),
-        disable=not progress,
+        disable=None if progress else True,
         desc=f"{ctx.suite.label} / {ctx.backend.name}",
         unit="item",
     )

@@ -66,7 +66,8 @@ COMMANDS = (
         "publish",
         "publish",
         "write a trained model into the published models the backends load "
-        "(rest-prior: fit the training split's rest prior and publish it)",
+        "(rest-prior: fit the training split's rest prior and publish it; class-means: the "
+        "baselines' class means over the training split)",
     ),
     Command("render-dataset", "render_dataset", "render HBEO's training crops (cached shards)"),
     Command("cache", "cache", "inspect or clear the asset cache"),

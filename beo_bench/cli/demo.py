@@ -15,7 +15,9 @@ def add(sub: Any, help: str) -> None:
         help=help,
         parents=[
             out_parent("out/demo", "where images and results go"),
-            per_category_parent(20, "test-split instances per category to process and summarise"),
+            per_category_parent(
+                demo.DEMO_PER_CATEGORY, "test-split instances per category to process and summarise"
+            ),
             workers_parent(),
         ],
     )

@@ -25,7 +25,7 @@ def add(sub: Any, help: str) -> None:
         "publish",
         help=help,
         parents=[
-            option_parent("model", choices=[*MODELS, "rest-prior"]),
+            option_parent("model", choices=[*MODELS, "rest-prior", "class-means"]),
             model_name_parent("the trained model (beo: default model)"),
             categories_parent("classes or sets (beo default: library)"),
             out_parent(None, "default: the package's perception/published"),
@@ -47,6 +47,10 @@ def run(args: argparse.Namespace) -> int:
         from beo_bench.perception.means import publish_rest_prior
 
         sha = publish_rest_prior(out, progress=True)
+    elif args.model == "class-means":  # computed here: the 3,600 training instances' voxels
+        from beo_bench.perception.means import publish_class_means
+
+        sha = publish_class_means(out, progress=True)
     elif args.model == "beo":
         from beo_bench.perception.beo.model import BEOModel, model_dir, publish_beo
 

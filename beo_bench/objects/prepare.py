@@ -125,7 +125,9 @@ def prepare(
     """
     insts = list(instances)
     workers = (os.cpu_count() or 1) if workers is None else workers
-    bar = tqdm(total=len(insts), desc="processing objects", unit="obj", disable=not progress)
+    bar = tqdm(
+        total=len(insts), desc="processing objects", unit="obj", disable=None if progress else True
+    )
     out: list[InstanceStats] = []
     failed: list[tuple[str, BeoBenchError]] = []
     if workers <= 1 or len(insts) <= 1:

@@ -17,6 +17,10 @@ from beo_bench.objects.objectset import ObjectSet
 _LIGHT = np.array([0.4, -0.3, 0.85]) / np.linalg.norm([0.4, -0.3, 0.85])
 
 
+HEAD_IN = 0.9
+"""Inches above the first row of pictures: the title's band and the row's size labels."""
+
+
 def contact_sheet(
     path: str | Path,
     objects: ObjectSet,
@@ -70,13 +74,20 @@ def contact_sheet(
                     fontsize=11,
                     weight="bold",
                 )
+    # The title and the first row's size labels in inches from the top, whatever the
+    # figure's height: the title's band (0.2-0.5 in) ends above the labels, which sit just
+    # over the first row of axes (at HEAD_IN); suptitle's default y, a fraction of a tall
+    # sheet's height, put it on them.
+    height = 1.9 * nrows
     fig.suptitle(
         f"beo-bench object library: split {objects.split!r}, first {per_category} instances "
         "per category",
         fontsize=12,
+        y=1 - 0.35 / height,
+        va="center",
     )
     fig.subplots_adjust(
-        left=0.04, right=0.99, top=1 - 0.8 / (1.9 * nrows), bottom=0.01, wspace=0.02, hspace=0.15
+        left=0.04, right=0.99, top=1 - HEAD_IN / height, bottom=0.01, wspace=0.02, hspace=0.15
     )
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

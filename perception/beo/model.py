@@ -342,7 +342,7 @@ def train_beo(
         max_iter=config.max_iter,
     )
     columns, comps, fits = [], [], {}
-    for c in tqdm(config.categories, desc="VBPCA per class", disable=not progress):
+    for c in tqdm(config.categories, desc="VBPCA per class", disable=None if progress else True):
         X = grids[c].reshape(len(grids[c]), -1).astype(np.float64)
         fit = fit_vbpca(X, vb)
         fits[c] = fit

@@ -538,7 +538,10 @@ def render_dataset(
     t0 = time.perf_counter()
     images = 0
     bar = tqdm(
-        total=len(todo), desc="rendering training shards", unit="shard", disable=not progress
+        total=len(todo),
+        desc="rendering training shards",
+        unit="shard",
+        disable=None if progress else True,
     )
     if workers == 1:
         for split, i, kind, n in todo:

@@ -430,7 +430,9 @@ def _train_epoch(
     order = torch.randperm(len(tr), generator=g)
     nb = len(tr) // config.batch_size  # drop the ragged last batch (BatchNorm)
     bar = tqdm(
-        range(nb), desc=f"{config.kind} epoch {epoch + 1}/{config.epochs}", disable=not progress
+        range(nb),
+        desc=f"{config.kind} epoch {epoch + 1}/{config.epochs}",
+        disable=None if progress else True,
     )
     loss_avg = 0.0
     for b in bar:

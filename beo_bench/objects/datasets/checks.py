@@ -357,7 +357,7 @@ def _run(
         total=len(todo),
         desc="checking dataset files",
         unit="file",
-        disable=not progress or len(todo) < PARALLEL_FROM,
+        disable=None if progress and len(todo) >= PARALLEL_FROM else True,
     )
     workers = (mp.cpu_count() or 1) if workers is None else workers
     out: list[tuple[FileCheck, list[str]]] = []
