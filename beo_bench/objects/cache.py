@@ -63,7 +63,7 @@ _log = logging.getLogger(__name__)
 
 KINDS: dict[str, str] = {
     "generated": "procedural meshes of the built-in categories",
-    "loaded": "dataset meshes as built from their files (read, repaired, scaled)",
+    "loaded": "dataset meshes as built from their files",
     "voxels": "solid occupancy grids of each instance",
     "surface": "surface samples of each instance",
     "coacd": "convex collision parts (CoACD) of each instance",
