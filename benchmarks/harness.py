@@ -5,11 +5,12 @@ Benchmarks measure; they never fail the build. ``make bench`` runs them all.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import statistics
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +23,28 @@ def use_fresh_cache() -> Path:
     root = Path(tempfile.mkdtemp(prefix="beo_bench_bench_"))
     os.environ["BEO_BENCH_CACHE"] = str(root)
     return root
+
+
+@contextlib.contextmanager
+def one_core() -> Iterator[None]:
+    """This process on one core with one BLAS/torch thread, for the figures whose target is
+    per core: CPU time summed over threads on two cores is not one core's time."""
+    from threadpoolctl import threadpool_limits
+
+    cpus = os.sched_getaffinity(0)
+    os.sched_setaffinity(0, {min(cpus)})
+    try:
+        import torch
+
+        threads = torch.get_num_threads()
+        torch.set_num_threads(1)
+        try:
+            with threadpool_limits(limits=1):
+                yield
+        finally:
+            torch.set_num_threads(threads)
+    finally:
+        os.sched_setaffinity(0, cpus)
 
 
 def median_time(
