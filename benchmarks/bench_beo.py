@@ -17,11 +17,10 @@ tests/perception/test_beo.py)."""
 
 from __future__ import annotations
 
-import os
 import statistics
 import time
 
-from harness import median_ms_per_item, report
+from harness import median_ms_per_item, pinned_one_core, report
 
 from beo_bench.bench.evaluate import Evaluator
 from beo_bench.bench.suites import get_suite
@@ -109,12 +108,7 @@ def one_core(suite: str, n: int, quiet: bool = False) -> float:
     """Median time per view of ``n`` views of ``suite`` on one core, and the speedup of the
     fine step's Gram updates measured alongside (alternating per view), which it returns
     (``quiet``: nothing reported)."""
-    import torch
-
-    cpus, threads = os.sched_getaffinity(0), torch.get_num_threads()
-    os.sched_setaffinity(0, {min(cpus)})
-    torch.set_num_threads(1)
-    try:
+    with pinned_one_core():
         ev = Evaluator.of(get_suite(suite), "beo")
         views = [ev.items.isolated_view(i)[0] for i in range(n)]
         ev.close()
@@ -129,9 +123,6 @@ def one_core(suite: str, n: int, quiet: bool = False) -> float:
                 t0 = time.perf_counter()
                 backend.predict(view)
                 times.append(time.perf_counter() - t0)
-    finally:
-        os.sched_setaffinity(0, cpus)
-        torch.set_num_threads(threads)
     s = statistics.median(fast)
     ratio = statistics.median(p / f for p, f in zip(plain, fast, strict=True))
     if quiet:

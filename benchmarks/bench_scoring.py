@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 import trimesh
-from harness import one_core, report
+from harness import pinned_one_core, report
 
 from beo_bench import metrics
 from beo_bench.bench import evaluate as E
@@ -179,7 +179,7 @@ def oracle_item(n: int = 60, start: int = 500) -> None:
 
 
 def main() -> None:
-    with one_core():  # the targets are one core's
+    with pinned_one_core():  # the targets are one core's
         scoring_alone()
         oracle_item()
     per_view()

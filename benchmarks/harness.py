@@ -26,7 +26,7 @@ def use_fresh_cache() -> Path:
 
 
 @contextlib.contextmanager
-def one_core() -> Iterator[None]:
+def pinned_one_core() -> Iterator[None]:
     """This process on one core with one BLAS/torch thread, for the figures whose target is
     per core: CPU time summed over threads on two cores is not one core's time."""
     from threadpoolctl import threadpool_limits

@@ -185,6 +185,14 @@ class BEOOptions:
             raise ValueError(f"fine_deg={self.fine_deg} must be in (0, yaw_step_deg]")
 
 
+def _class_mask(logp: torch.Tensor, classes: list[int]) -> torch.Tensor:
+    """(C,) 0 for the classes in ``classes``, -inf for the others: added to the (B, C) log
+    densities ``logp``, it restricts eq. 3.22's max to the classes a view may be."""
+    allowed = torch.full((logp.shape[1],), -math.inf, dtype=logp.dtype)
+    allowed[classes] = 0.0
+    return allowed
+
+
 class BEOBackend(Backend):
     """Bayesian Eigenobjects: joint class, pose and completion by search (module docstring;
     options: :class:`BEOOptions`). It uses ``View.class_hint`` (given in the
@@ -351,9 +359,7 @@ class BEOBackend(Backend):
         """(B,) best joint log density max_c log p(o'|c) + log p(c) (uniform prior) over
         ``classes``, and the (B, C) log densities (eq. 3.10, 3.22)."""
         logp = torch.from_numpy(model.log_density(codes.numpy()))
-        allowed = torch.full((logp.shape[1],), -math.inf)
-        allowed[classes] = 0.0
-        return (logp + allowed).amax(dim=1), logp
+        return (logp + _class_mask(logp, classes)).amax(dim=1), logp
 
     def fine_scores(
         self,
@@ -395,10 +401,8 @@ class BEOBackend(Backend):
     ) -> tuple[torch.Tensor, Completion]:
         """:meth:`class_scores` and their completion (``near``: see :meth:`complete`)."""
         comp = self.complete(obs, sub, hyp, near if self.gram_updates else None, grids=False)
-        logp = self.joint_scores(model, comp.codes, classes)[1]
-        allowed = torch.full((logp.shape[1],), -math.inf, dtype=logp.dtype)
-        allowed[classes] = 0.0
-        score = logp + allowed
+        logp = torch.from_numpy(model.log_density(comp.codes.numpy()))
+        score = logp + _class_mask(logp, classes)
         if prior is not None:
             log_p = prior.log_prob(hyp.R.double().numpy(), soft_deg=PRIOR_SOFT_DEG)
             score = score + torch.from_numpy(log_p).to(score.dtype)[:, None]
